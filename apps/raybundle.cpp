@@ -1,0 +1,253 @@
+// raybundle: the command line. Thin: parse into an options struct, check it, then
+// load -> solve -> render -> write, inside one try/catch.
+#include "progress.h"
+#include "stats.h"
+
+#include "render/camera.h"
+#include "render/gbuffer.h"
+#include "render/image_io.h"
+#include "render/patch_io.h"
+#include "render/shade.h"
+#include "scenes/builtin.h"
+#include "scenes/loader.h"
+#include "scenes/ray_caster.h"
+#include "scenes/scene_error.h"
+#include "solver/stochastic_iteration.h"
+#include "visibility/backend.h"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace rb = raybundle;
+using json = nlohmann::json;
+
+namespace {
+
+constexpr int kExitBadInput = 2;
+constexpr int kExitFailure = 1;
+
+struct SolveOptions {
+    std::string scene_file;
+    std::string builtin;
+    std::optional<double> patch_size;
+    std::string exr = "out.exr";
+    std::string png, stats, csv, patches_csv, ply;
+    long iterations = 1000;
+    int resolution = 0;
+    std::string visibility = "painter";
+    std::uint64_t seed = 1;
+    int threads = 1;
+    std::string shading = "smooth";
+    double exposure = 0.0;
+    long csv_every = 0;
+};
+
+// An error in what the user gave us: reported as one line, exit code 2.
+struct UsageError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+void check_output_dir(const std::string& path, const char* flag) {
+    if (path.empty()) return;
+    const auto slash = path.find_last_of('/');
+    const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+    struct stat st {};
+    if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+        throw UsageError(std::string(flag) + " " + path + ": directory '" + dir + "' does not exist");
+}
+
+int run_solve(const SolveOptions& o) {
+    using Clock = std::chrono::steady_clock;
+    const auto t_start = Clock::now();
+
+    if (o.scene_file.empty() == o.builtin.empty())
+        throw UsageError("solve: give exactly one of SCENE.json or --builtin NAME");
+    for (const auto& [path, flag] : {std::pair{o.exr, "-o"}, {o.png, "--png"}, {o.stats, "--stats"},
+                                     {o.csv, "--csv"}, {o.patches_csv, "--patches"}, {o.ply, "--ply"}})
+        check_output_dir(path, flag);
+
+    rb::scenes::Scene scene = o.builtin.empty() ? rb::scenes::load_scene(o.scene_file, o.patch_size)
+                                                : rb::scenes::make_builtin(o.builtin, o.patch_size);
+    if (scene.dropped_degenerate > 0)
+        std::cerr << "raybundle: warning: " << scene.name << ": dropped " << scene.dropped_degenerate
+                  << " zero-area triangles\n";
+    const auto shading = rb::render::parse_shading(o.shading);
+
+    rb::visibility::BackendOptions bopt;
+    bopt.resolution = o.resolution;
+    auto backend = rb::visibility::make_backend(o.visibility, scene, bopt);
+
+    rb::solver::IterationOptions sopt;
+    sopt.iterations = o.iterations;
+    sopt.seed = o.seed;
+    sopt.progress_every = o.csv_every;
+    rb::solver::StochasticIteration solver(scene, *backend, sopt);
+
+    // Convergence rows every k steps; the bar on a terminal.
+    struct Row {
+        long iteration;
+        double seconds;
+        std::optional<double> error;
+        double mean;
+    };
+    std::vector<Row> rows;
+    rb::apps::ProgressBar bar("solve");
+    const auto t_solve = Clock::now();
+    solver.run([&](const rb::solver::Progress& p) {
+        bar.update(p.iteration, p.total, p.seconds);
+        if (o.csv.empty()) return;
+        const auto field = solver.field();
+        std::optional<double> err;
+        if (scene.exact_radiance) err = field.relative_l1_error(scene, *scene.exact_radiance);
+        rows.push_back({p.iteration, p.seconds, err, field.mean_radiance(scene)});
+    });
+    bar.finish();
+    const double seconds_solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
+    const auto field = solver.field();
+
+    const auto t_render = Clock::now();
+    rb::scenes::RayCaster caster(scene);
+    const rb::render::PinholeCamera camera(scene.camera);
+    const auto gbuffer = rb::render::make_gbuffer(scene, caster, camera);
+    const auto image = rb::render::shade(scene, field, gbuffer, shading);
+    const double seconds_render = std::chrono::duration<double>(Clock::now() - t_render).count();
+
+    if (!o.exr.empty()) rb::render::write_exr(o.exr, image);
+    if (!o.png.empty()) rb::render::write_png(o.png, image, o.exposure);
+    if (!o.patches_csv.empty()) rb::render::write_patch_csv(o.patches_csv, scene, field);
+    if (!o.ply.empty()) rb::render::write_patch_ply(o.ply, scene, field, o.exposure);
+    if (!o.csv.empty()) {
+        rb::render::write_atomically(o.csv, [&](const std::string& tmp) {
+            std::ofstream out(tmp);
+            out << "iteration,seconds,relative_l1_error,mean_radiance\n";
+            out.precision(9);
+            for (const auto& r : rows) {
+                out << r.iteration << ',' << r.seconds << ',';
+                if (r.error) out << *r.error;
+                out << ',' << r.mean << '\n';
+            }
+            out.close();
+            if (!out) throw std::runtime_error(o.csv + ": write failed");
+        });
+    }
+
+    const auto& st = solver.stats();
+    const double mean = field.mean_radiance(scene);
+    json stats = {
+        {"scene", scene.name},
+        {"patches", scene.patch_count()},
+        {"dropped_degenerate_triangles", scene.dropped_degenerate},
+        {"method", "iteration"},
+        {"iterations", st.iterations},
+        {"directions", st.directions},
+        {"visibility", backend->name()},
+        {"resolution", backend->resolution()},
+        {"seed", o.seed},
+        {"threads", 1},
+        {"threads_requested", o.threads},
+        {"image", {{"width", camera.width()}, {"height", camera.height()}, {"shading", o.shading}}},
+        {"seconds_total", std::chrono::duration<double>(Clock::now() - t_start).count()},
+        {"seconds_solve", seconds_solve},
+        {"seconds_per_iteration", st.iterations > 0 ? seconds_solve / st.iterations : 0.0},
+        {"seconds_visibility", st.seconds_visibility},
+        {"seconds_transport", st.seconds_transport},
+        {"seconds_render", seconds_render},
+        {"geometry_entries_per_direction",
+         st.directions > 0 ? static_cast<double>(st.entries_total) / st.directions : 0.0},
+        {"mean_radiance", mean},
+        {"decisions",
+         {{"shading", st.shading},
+          {"first_shot", "skipped: no point lights (not supported yet)"},
+          {"sky", "none: the scene has no sky"},
+          {"threads", "1: the solver runs on one thread"}}},
+    };
+    if (scene.exact_radiance) {
+        stats["exact_radiance"] = *scene.exact_radiance;
+        stats["relative_l1_error"] = field.relative_l1_error(scene, *scene.exact_radiance);
+    }
+    if (!o.stats.empty()) rb::apps::write_json(o.stats, stats);
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"raybundle: global ray-bundle radiance solver"};
+    app.require_subcommand(1);
+    SolveOptions o;
+
+    auto* solve = app.add_subcommand("solve", "solve a scene's radiance by global ray-bundle stochastic iteration");
+    solve->add_option("scene", o.scene_file, "scene file (JSON, see docs/scene-format.md)");
+    solve->add_option("--builtin", o.builtin, "a built-in scene instead of a file (see `raybundle scenes`)");
+    solve->add_option("--patch-size", o.patch_size, "refine until no patch edge is longer (scene units)");
+    solve->add_option("-o,--output", o.exr, "linear EXR image")->capture_default_str();
+    solve->add_option("--png", o.png, "sRGB PNG image (tone map: see --exposure)");
+    solve->add_option("--exposure", o.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")
+        ->capture_default_str();
+    solve->add_option("--shading", o.shading, "image from the patch radiance: smooth | flat")->capture_default_str();
+    solve->add_option("--iterations", o.iterations, "stochastic iteration steps (global directions)")
+        ->capture_default_str()
+        ->check(CLI::Range(1L, 1000000000L));
+    solve->add_option("--resolution", o.resolution, "visibility map pixels per side (default: from the scene)")
+        ->check(CLI::Range(1, 16384));
+    solve->add_option("--visibility", o.visibility, "visibility backend (see `raybundle backends`)")
+        ->capture_default_str();
+    solve->add_option("--seed", o.seed, "random seed; the same seed gives bit-identical output")
+        ->capture_default_str();
+    solve->add_option("--threads", o.threads, "worker threads (the solver runs on one for now)")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1024));
+    solve->add_option("--stats", o.stats, "run statistics (JSON)");
+    solve->add_option("--csv", o.csv, "convergence table: iteration,seconds,relative_l1_error,mean_radiance");
+    solve->add_option("--csv-every", o.csv_every, "convergence row every k iterations (default: 100 rows)")
+        ->check(CLI::Range(1L, 1000000000L));
+    solve->add_option("--patches", o.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
+    solve->add_option("--ply", o.ply, "per-patch PLY with radiance colours (MeshLab)");
+
+    auto* scenes_cmd = app.add_subcommand("scenes", "list the built-in scenes");
+    auto* backends_cmd = app.add_subcommand("backends", "list the visibility backends");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitBadInput;
+    }
+
+    try {
+        if (scenes_cmd->parsed()) {
+            for (const auto& s : rb::scenes::builtin_scenes())
+                std::printf("%-16s %s (default patch size %g)\n", s.name.c_str(), s.description.c_str(),
+                            s.default_patch_size);
+            return 0;
+        }
+        if (backends_cmd->parsed()) {
+            for (const auto& n : rb::visibility::backend_names()) std::printf("%s\n", n.c_str());
+            return 0;
+        }
+        return run_solve(o);
+    } catch (const rb::scenes::SceneError& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const UsageError& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const std::exception& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitFailure;
+    }
+}

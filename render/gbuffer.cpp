@@ -1,0 +1,27 @@
+#include "render/gbuffer.h"
+
+namespace raybundle::render {
+
+GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera) {
+    GBuffer g;
+    g.width = camera.width();
+    g.height = camera.height();
+    g.samples.resize(static_cast<std::size_t>(g.width) * g.height);
+    const auto& patches = scene.patch_list();
+    for (int y = 0; y < g.height; ++y)
+        for (int x = 0; x < g.width; ++x) {
+            const scenes::Vec3 d = camera.direction(x + 0.5, y + 0.5);
+            const scenes::RayHit hit = caster.intersect(camera.eye(), d);
+            GSample& s = g.samples[static_cast<std::size_t>(y) * g.width + x];
+            if (!hit.valid()) continue;
+            s.patch = hit.patch;
+            s.point = camera.eye() + hit.t * d;
+            s.normal = patches[hit.patch].normal;
+            s.depth = hit.t;
+            s.b1 = hit.b1;
+            s.b2 = hit.b2;
+        }
+    return g;
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,117 @@
+#include "render/image_io.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include <unistd.h>
+
+namespace raybundle::render {
+
+void write_atomically(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
+    const std::string tmp = path + ".partial-" + std::to_string(::getpid());
+    try {
+        write(tmp);
+    } catch (...) {
+        std::remove(tmp.c_str());
+        throw;
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        const std::string why = std::strerror(errno);
+        std::remove(tmp.c_str());
+        throw std::runtime_error(path + ": cannot write (" + why + ")");
+    }
+}
+
+void write_exr(const std::string& path, const Image& image) {
+    write_atomically(path, [&](const std::string& tmp) {
+        try {
+            Imf::Header header(image.width, image.height);
+            header.channels().insert("R", Imf::Channel(Imf::FLOAT));
+            header.channels().insert("G", Imf::Channel(Imf::FLOAT));
+            header.channels().insert("B", Imf::Channel(Imf::FLOAT));
+            Imf::OutputFile file(tmp.c_str(), header);
+            Imf::FrameBuffer fb;
+            char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
+            const std::size_t xs = 3 * sizeof(float), ys = xs * image.width;
+            fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
+            fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
+            fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+            file.setFrameBuffer(fb);
+            file.writePixels(image.height);
+        } catch (const std::exception& e) {
+            throw std::runtime_error(path + ": cannot write EXR (" + e.what() + ")");
+        }
+    });
+}
+
+Image read_exr(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        const auto dw = file.header().dataWindow();
+        Image image(dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1);
+        Imf::FrameBuffer fb;
+        char* base = reinterpret_cast<char*>(image.rgb.data());
+        const std::size_t xs = 3 * sizeof(float), ys = xs * image.width;
+        base -= (dw.min.x * xs + dw.min.y * ys);
+        fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
+        fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
+        fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        return image;
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": cannot read EXR (" + e.what() + ")");
+    }
+}
+
+unsigned char tone_map(double linear, double exposure) {
+    double v = std::clamp(linear * std::exp2(exposure), 0.0, 1.0);
+    v = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+    return static_cast<unsigned char>(std::lround(v * 255.0));
+}
+
+void write_png(const std::string& path, const Image& image, double exposure) {
+    write_atomically(path, [&](const std::string& tmp) {
+        std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+        if (!fp) throw std::runtime_error(path + ": cannot write PNG (" + std::strerror(errno) + ")");
+        png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+        png_infop info = png ? png_create_info_struct(png) : nullptr;
+        if (!png || !info) {
+            png_destroy_write_struct(&png, &info);
+            throw std::runtime_error(path + ": cannot write PNG (libpng setup failed)");
+        }
+        std::vector<unsigned char> row(static_cast<std::size_t>(3) * image.width);
+        if (setjmp(png_jmpbuf(png))) {
+            png_destroy_write_struct(&png, &info);
+            throw std::runtime_error(path + ": cannot write PNG (libpng error)");
+        }
+        png_init_io(png, fp.get());
+        png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+        png_write_info(png, info);
+        for (int y = 0; y < image.height; ++y) {
+            const float* src = image.at(0, y);
+            for (std::size_t k = 0; k < row.size(); ++k) row[k] = tone_map(src[k], exposure);
+            png_write_row(png, row.data());
+        }
+        png_write_end(png, nullptr);
+        png_destroy_write_struct(&png, &info);
+        if (std::fflush(fp.get()) != 0) throw std::runtime_error(path + ": cannot write PNG (flush failed)");
+    });
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,27 @@
+#pragma once
+// Image files. Every writer writes to a temporary file beside the target and renames
+// it into place only when complete: a failure never leaves a half-written file.
+#include "render/image.h"
+
+#include <functional>
+#include <string>
+
+namespace raybundle::render {
+
+// Runs write(tmp) for a temporary path next to `path`, then renames tmp to path.
+// On any exception the temporary file is removed and the exception propagates.
+void write_atomically(const std::string& path, const std::function<void(const std::string& tmp)>& write);
+
+// Linear RGB as 32-bit float channels R, G, B (OpenEXR).
+void write_exr(const std::string& path, const Image& image);
+Image read_exr(const std::string& path);
+
+// sRGB PNG, 8 bits. Tone map: v = clamp(2^exposure * L, 0, 1) per channel, then the
+// sRGB transfer curve. exposure in stops (0: radiance 1 maps to white).
+void write_png(const std::string& path, const Image& image, double exposure);
+
+// The 8-bit sRGB code of a linear value after exposure (the PNG tone map, shared with
+// the PLY colours).
+unsigned char tone_map(double linear, double exposure);
+
+}  // namespace raybundle::render

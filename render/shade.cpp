@@ -1,0 +1,68 @@
+#include "render/shade.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace raybundle::render {
+
+using scenes::Rgb;
+
+Shading parse_shading(const std::string& name) {
+    if (name == "flat") return Shading::Flat;
+    if (name == "smooth") return Shading::Smooth;
+    throw std::invalid_argument("unknown shading '" + name + "' (known: flat, smooth)");
+}
+
+std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field) {
+    const auto& patches = scene.patch_list();
+    const std::size_t n = patches.size();
+    // Vertex -> incident patches, as a compressed row list.
+    std::vector<std::size_t> start(scene.vertex_positions().size() + 1, 0);
+    for (const auto& p : patches)
+        for (int v : p.v) ++start[v + 1];
+    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+    std::vector<std::uint32_t> incident(start.back());
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int v : patches[i].v) incident[fill[v]++] = static_cast<std::uint32_t>(i);
+
+    const double crease = std::cos(30.0 * M_PI / 180.0);
+    std::vector<std::array<Rgb, 3>> corners(n);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const int v = patches[i].v[k];
+            Rgb sum = Rgb::Zero();
+            double weight = 0.0;
+            for (std::size_t e = start[v]; e < start[v + 1]; ++e) {
+                const auto& q = patches[incident[e]];
+                if (q.material != patches[i].material || q.normal.dot(patches[i].normal) < crease) continue;
+                sum += q.area * field.radiance[incident[e]];
+                weight += q.area;
+            }
+            corners[i][k] = sum / weight;  // weight > 0: patch i itself always qualifies
+        }
+    return corners;
+}
+
+Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& g, Shading mode) {
+    Image img(g.width, g.height);
+    std::vector<std::array<Rgb, 3>> corners;
+    if (mode == Shading::Smooth) corners = corner_radiance(scene, field);
+    for (int y = 0; y < g.height; ++y)
+        for (int x = 0; x < g.width; ++x) {
+            const GSample& s = g.at(x, y);
+            if (s.patch < 0) continue;
+            Rgb L;
+            if (mode == Shading::Flat) {
+                L = field.radiance[s.patch];
+            } else {
+                const auto& c = corners[s.patch];
+                L = (1.0 - s.b1 - s.b2) * c[0] + s.b1 * c[1] + s.b2 * c[2];
+            }
+            float* px = img.at(x, y);
+            for (int k = 0; k < 3; ++k) px[k] = static_cast<float>(L[k]);
+        }
+    return img;
+}
+
+}  // namespace raybundle::render

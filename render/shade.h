@@ -1,0 +1,28 @@
+#pragma once
+// Images from a radiance field: flat (one value per patch) and smooth (values at
+// patch corners, interpolated barycentrically).
+#include "render/gbuffer.h"
+#include "render/image.h"
+#include "solver/radiance_field.h"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace raybundle::render {
+
+enum class Shading { Flat, Smooth };
+
+// Parses "flat" or "smooth"; throws std::invalid_argument otherwise.
+Shading parse_shading(const std::string& name);
+
+// Per patch, the radiance at its three corners: the area-weighted mean over the
+// patches around the corner's vertex that share the patch's material and whose
+// normals lie within 30 degrees of its own (so walls meeting at a crease keep their
+// own colours, and light does not bleed across materials).
+std::vector<std::array<scenes::Rgb, 3>> corner_radiance(const scenes::Scene& scene,
+                                                        const solver::RadianceField& field);
+
+Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& gbuffer, Shading mode);
+
+}  // namespace raybundle::render

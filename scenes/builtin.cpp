@@ -1,0 +1,177 @@
+#include "scenes/builtin.h"
+
+#include "scenes/scene_error.h"
+#include "scenes/subdivide.h"
+
+#include <cmath>
+
+namespace raybundle::scenes {
+namespace {
+
+Material make_material(const std::string& name, Rgb albedo, Rgb emission = Rgb::Zero()) {
+    Material m;
+    m.name = name;
+    m.albedo = albedo;
+    m.emission = emission;
+    return m;
+}
+
+// The unit cube as one welded, closed mesh with inward-facing triangles.
+Scene homogeneous_box() {
+    Scene s;
+    s.name = "homogeneous-box";
+    const int mat = s.add_material(make_material("homogeneous", Rgb::Constant(0.5), Rgb::Constant(0.5)));
+    std::vector<Vec3> v;
+    for (int i = 0; i < 8; ++i) v.emplace_back(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    // Each face as a quad (corner indices round it), then oriented towards the centre.
+    const int quads[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
+    const Vec3 center(0.5, 0.5, 0.5);
+    std::vector<std::array<int, 3>> tris;
+    for (const auto& q : quads) {
+        std::array<int, 3> t1{q[0], q[1], q[2]}, t2{q[0], q[2], q[3]};
+        const Vec3 n = (v[q[1]] - v[q[0]]).cross(v[q[2]] - v[q[0]]);
+        if (n.dot(center - v[q[0]]) < 0) {
+            std::swap(t1[1], t1[2]);
+            std::swap(t2[1], t2[2]);
+        }
+        tris.push_back(t1);
+        tris.push_back(t2);
+    }
+    s.add_object(v, tris, mat);
+    s.camera.eye = Vec3(0.5, 0.5, 0.02);
+    s.camera.target = Vec3(0.5, 0.5, 1.0);
+    s.camera.up = Vec3(0, 1, 0);
+    s.camera.fov_y = 90.0;
+    s.camera.width = 256;
+    s.camera.height = 256;
+    // Le = 0.5 and albedo 0.5 everywhere in a closed box: L = 0.5 + 0.5 L, so L = 1.
+    s.exact_radiance = 1.0;
+    return s;
+}
+
+// A block (box with a top and four sides, no bottom) given its four bottom
+// corners and its height; faces point away from its axis.
+void add_block(Scene& s, const Vec3 base[4], double height, int material) {
+    Vec3 axis = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) axis += base[i] / 4.0;
+    axis.y() = height / 2.0;
+    const Vec3 up(0, height, 0);
+    // Welded: 4 bottom + 4 top corners, so the block's edges stay conforming.
+    std::vector<Vec3> v;
+    for (int i = 0; i < 4; ++i) v.push_back(base[i]);
+    for (int i = 0; i < 4; ++i) v.push_back(base[i] + up);
+    std::vector<std::array<int, 3>> tris;
+    auto quad = [&](int a, int b, int c, int d) {
+        std::array<int, 3> t1{a, b, c}, t2{a, c, d};
+        const Vec3 n = (v[b] - v[a]).cross(v[c] - v[a]);
+        const Vec3 mid = (v[a] + v[b] + v[c] + v[d]) / 4.0;
+        if (n.dot(mid - axis) < 0) {
+            std::swap(t1[1], t1[2]);
+            std::swap(t2[1], t2[2]);
+        }
+        tris.push_back(t1);
+        tris.push_back(t2);
+    };
+    quad(4, 5, 6, 7);
+    for (int i = 0; i < 4; ++i) quad(i, (i + 1) % 4, 4 + (i + 1) % 4, 4 + i);
+    s.add_object(v, tris, material);
+}
+
+// The Cornell box (the Cornell program of computer graphics' measured geometry,
+// in millimetres) with the usual RGB approximations of its materials. The ceiling
+// is one welded 3x3 grid whose centre cell is the light, so nothing overlaps.
+Scene cornell_box() {
+    Scene s;
+    s.name = "cornell-box";
+    const int white = s.add_material(make_material("white", Rgb(0.725, 0.71, 0.68)));
+    const int red = s.add_material(make_material("red", Rgb(0.63, 0.065, 0.05)));
+    const int green = s.add_material(make_material("green", Rgb(0.14, 0.45, 0.091)));
+    const int light = s.add_material(make_material("light", Rgb(0.78, 0.78, 0.78), Rgb(17.0, 12.0, 4.0)));
+    const Vec3 inside(278, 274, 280);
+
+    const Vec3 floor_[4] = {{552.8, 0, 0}, {0, 0, 0}, {0, 0, 559.2}, {549.6, 0, 559.2}};
+    const Vec3 back[4] = {{549.6, 0, 559.2}, {0, 0, 559.2}, {0, 548.8, 559.2}, {556, 548.8, 559.2}};
+    const Vec3 right[4] = {{0, 0, 559.2}, {0, 0, 0}, {0, 548.8, 0}, {0, 548.8, 559.2}};
+    const Vec3 left[4] = {{552.8, 0, 0}, {549.6, 0, 559.2}, {556, 548.8, 559.2}, {556, 548.8, 0}};
+    add_quad(s, floor_, white, inside);
+    add_quad(s, back, white, inside);
+    add_quad(s, right, green, inside);
+    add_quad(s, left, red, inside);
+
+    // Ceiling: grid lines at the light's edges.
+    const double xs[4] = {0, 213, 343, 556}, zs[4] = {0, 227, 332, 559.2};
+    std::vector<Vec3> cv;
+    for (double z : zs)
+        for (double x : xs) cv.emplace_back(x, 548.8, z);
+    std::vector<std::array<int, 3>> ct;
+    std::vector<int> cm;
+    for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) {
+            const int a = j * 4 + i, b = a + 1, c = a + 5, d = a + 4;
+            // Counter-clockwise seen from below (normal -y).
+            ct.push_back({a, b, c});
+            ct.push_back({a, c, d});
+            const int m = (i == 1 && j == 1) ? light : white;
+            cm.push_back(m);
+            cm.push_back(m);
+        }
+    if ((cv[ct[0][1]] - cv[ct[0][0]]).cross(cv[ct[0][2]] - cv[ct[0][0]]).y() > 0)
+        for (auto& t : ct) std::swap(t[1], t[2]);
+    s.add_object(cv, ct, cm);
+
+    const Vec3 short_block[4] = {{130, 0, 65}, {82, 0, 225}, {240, 0, 272}, {290, 0, 114}};
+    const Vec3 tall_block[4] = {{423, 0, 247}, {265, 0, 296}, {314, 0, 456}, {472, 0, 406}};
+    add_block(s, short_block, 165, white);
+    add_block(s, tall_block, 330, white);
+
+    s.camera.eye = Vec3(278, 273, -800);
+    s.camera.target = Vec3(278, 273, 0);
+    s.camera.up = Vec3(0, 1, 0);
+    s.camera.fov_y = 39.3;
+    s.camera.width = 512;
+    s.camera.height = 512;
+    return s;
+}
+
+}  // namespace
+
+void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards) {
+    std::vector<Vec3> v(corners, corners + 4);
+    std::array<int, 3> t1{0, 1, 2}, t2{0, 2, 3};
+    const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
+    if (n.dot(towards - v[0]) < 0) {
+        std::swap(t1[1], t1[2]);
+        std::swap(t2[1], t2[2]);
+    }
+    scene.add_object(v, {t1, t2}, material);
+}
+
+std::vector<BuiltinInfo> builtin_scenes() {
+    return {
+        {"homogeneous-box", "unit cube, albedo 0.5 and emission 0.5 everywhere: exact radiance 1", 0.2},
+        {"cornell-box", "the Cornell box (mm), white/red/green walls, two blocks, area light", 50.0},
+    };
+}
+
+Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
+    Scene s;
+    double default_size = 0.0;
+    for (const auto& info : builtin_scenes())
+        if (info.name == name) default_size = info.default_patch_size;
+    if (name == "homogeneous-box") {
+        s = homogeneous_box();
+    } else if (name == "cornell-box") {
+        s = cornell_box();
+    } else {
+        std::string known;
+        for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
+        throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
+    }
+    const double size = patch_size.value_or(default_size);
+    if (!(size > 0.0) || !std::isfinite(size))
+        throw SceneError(name, "patch_size", "must be a positive number, got " + std::to_string(size));
+    subdivide(s, size);
+    return s;
+}
+
+}  // namespace raybundle::scenes

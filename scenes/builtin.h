@@ -1,0 +1,28 @@
+#pragma once
+// Built-in scenes, made by name.
+#include "scenes/scene.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace raybundle::scenes {
+
+struct BuiltinInfo {
+    std::string name;
+    std::string description;
+    double default_patch_size;
+};
+
+// The built-in scenes with one line each, for `raybundle scenes`.
+std::vector<BuiltinInfo> builtin_scenes();
+
+// Makes a built-in scene, refined to patch_size (its default when absent), finalized.
+// Throws SceneError for an unknown name or a patch size <= 0.
+Scene make_builtin(const std::string& name, std::optional<double> patch_size = std::nullopt);
+
+// Appends a convex planar quad as two triangles sharing an edge; the corners go
+// round the quad, and the front side faces `towards` (a point in front of it).
+void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards);
+
+}  // namespace raybundle::scenes

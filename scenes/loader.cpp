@@ -1,0 +1,274 @@
+#include "scenes/loader.h"
+
+#include "scenes/builtin.h"
+#include "scenes/mesh_file.h"
+#include "scenes/scene_error.h"
+#include "scenes/subdivide.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace raybundle::scenes {
+namespace {
+
+using json = nlohmann::json;
+
+std::string format_number(double x) {
+    std::ostringstream os;
+    os << x;
+    return os.str();
+}
+
+const char* type_name(const json& j) { return j.type_name(); }
+
+// A JSON object with its path in the file: typed getters that throw SceneError, and
+// a check that every key present is one we know (a typo is an error, not a default).
+class Node {
+public:
+    Node(const json& j, std::string file, std::string path) : j_(j), file_(std::move(file)), path_(std::move(path)) {}
+
+    const std::string& path() const { return path_; }
+    std::string at(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+    bool has(const std::string& key) const { return j_.contains(key); }
+    [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+        throw SceneError(file_, key.empty() ? path_ : at(key), what);
+    }
+
+    void require_object() const {
+        if (!j_.is_object()) throw SceneError(file_, path_, std::string("expected an object, got ") + type_name(j_));
+    }
+
+    void check_keys(std::initializer_list<const char*> known) const {
+        for (auto it = j_.begin(); it != j_.end(); ++it) {
+            bool ok = false;
+            for (const char* k : known) ok = ok || it.key() == k;
+            if (!ok) {
+                std::string list;
+                for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+                fail("", "unknown key '" + it.key() + "' (known: " + list + ")");
+            }
+        }
+    }
+
+    const json& raw(const std::string& key) const {
+        if (!j_.contains(key)) fail(key, "missing");
+        return j_.at(key);
+    }
+
+    double number(const std::string& key) const {
+        const json& v = raw(key);
+        if (!v.is_number()) fail(key, std::string("expected a number, got ") + type_name(v));
+        const double x = v.get<double>();
+        if (!std::isfinite(x)) fail(key, "value " + format_number(x) + " is not finite");
+        return x;
+    }
+
+    int integer(const std::string& key) const {
+        const json& v = raw(key);
+        if (!v.is_number_integer()) fail(key, std::string("expected an integer, got ") + v.dump());
+        return v.get<int>();
+    }
+
+    std::string string(const std::string& key) const {
+        const json& v = raw(key);
+        if (!v.is_string()) fail(key, std::string("expected a string, got ") + type_name(v));
+        return v.get<std::string>();
+    }
+
+    Vec3 vec3(const json& v, const std::string& where) const {
+        if (!v.is_array() || v.size() != 3) throw SceneError(file_, where, "expected [x, y, z], got " + v.dump());
+        Vec3 r;
+        for (int k = 0; k < 3; ++k) {
+            if (!v[k].is_number()) throw SceneError(file_, where, "expected [x, y, z], got " + v.dump());
+            r[k] = v[k].get<double>();
+            if (!std::isfinite(r[k]))
+                throw SceneError(file_, where, "coordinate " + format_number(r[k]) + " is not finite");
+        }
+        return r;
+    }
+    Vec3 vec3(const std::string& key) const { return vec3(raw(key), at(key)); }
+
+    Node child(const std::string& key) const { return Node(raw(key), file_, at(key)); }
+    const json& value() const { return j_; }
+    const std::string& file() const { return file_; }
+
+private:
+    const json& j_;
+    std::string file_;
+    std::string path_;
+};
+
+std::string rgb_text(const Rgb& c) {
+    return "[" + format_number(c[0]) + ", " + format_number(c[1]) + ", " + format_number(c[2]) + "]";
+}
+
+Material parse_material(const Node& n, const std::string& name) {
+    n.require_object();
+    n.check_keys({"albedo", "emission", "specular", "exponent"});
+    Material m;
+    m.name = name;
+    m.albedo = n.vec3("albedo").array();
+    if (n.has("emission")) m.emission = n.vec3("emission").array();
+    if (n.has("specular")) m.specular = n.vec3("specular").array();
+    if (n.has("exponent")) m.exponent = n.number("exponent");
+    if ((m.albedo < 0).any()) n.fail("albedo", "negative albedo " + rgb_text(m.albedo));
+    if ((m.specular < 0).any()) n.fail("specular", "negative specular " + rgb_text(m.specular));
+    if ((m.emission < 0).any()) n.fail("emission", "negative emission " + rgb_text(m.emission));
+    if (m.exponent < 0) n.fail("exponent", "negative exponent " + format_number(m.exponent));
+    if (m.glossy() && !n.has("exponent")) n.fail("exponent", "missing (a material with specular needs it)");
+    static const char* channel[3] = {"r", "g", "b"};
+    for (int k = 0; k < 3; ++k) {
+        const double sum = m.albedo[k] + m.specular[k];
+        if (!(sum < 1.0))
+            n.fail("", "albedo + specular = " + format_number(sum) + " in channel " + channel[k] +
+                           " (must be < 1 so that the light transport contracts)");
+    }
+    return m;
+}
+
+Camera parse_camera(const Node& n) {
+    n.require_object();
+    n.check_keys({"eye", "target", "up", "fov_y", "width", "height"});
+    Camera c;
+    c.eye = n.vec3("eye");
+    c.target = n.vec3("target");
+    if (n.has("up")) c.up = n.vec3("up");
+    if (n.has("fov_y")) c.fov_y = n.number("fov_y");
+    if (n.has("width")) c.width = n.integer("width");
+    if (n.has("height")) c.height = n.integer("height");
+    if (!(c.fov_y > 0.0 && c.fov_y < 180.0))
+        n.fail("fov_y", "must be in (0, 180) degrees, got " + format_number(c.fov_y));
+    if (c.width <= 0 || c.width > 16384) n.fail("width", "must be in 1..16384, got " + std::to_string(c.width));
+    if (c.height <= 0 || c.height > 16384) n.fail("height", "must be in 1..16384, got " + std::to_string(c.height));
+    const Vec3 view = c.target - c.eye;
+    if (view.norm() == 0.0) n.fail("target", "equals the eye");
+    if (c.up.cross(view).norm() <= 1e-9 * c.up.norm() * view.norm())
+        n.fail("up", "is zero or parallel to the viewing direction");
+    return c;
+}
+
+std::string dir_of(const std::string& path) {
+    const auto slash = path.find_last_of('/');
+    return slash == std::string::npos ? "." : path.substr(0, slash);
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
+                  std::optional<double> patch_size_override) {
+    json doc;
+    try {
+        doc = json::parse(text);
+    } catch (const json::parse_error& e) {
+        // Turn the byte offset into line and column.
+        std::size_t line = 1, col = 1;
+        for (std::size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+            if (text[i] == '\n') {
+                ++line;
+                col = 1;
+            } else {
+                ++col;
+            }
+        }
+        std::string msg = e.what();
+        const auto colon = msg.find(": ", msg.find("parse error"));
+        if (colon != std::string::npos) msg = msg.substr(colon + 2);
+        throw SceneError(shown + ":" + std::to_string(line) + ":" + std::to_string(col), "", "malformed JSON: " + msg);
+    } catch (const json::exception& e) {
+        // Not a syntax error but a value JSON cannot hold (e.g. 1e999 overflows a double).
+        std::string msg = e.what();
+        const auto bracket = msg.find("] ");
+        if (bracket != std::string::npos) msg = msg.substr(bracket + 2);
+        throw SceneError(shown, "", "invalid number: " + msg + " (not finite)");
+    }
+
+    Node root(doc, shown, "");
+    root.require_object();
+    root.check_keys({"camera", "materials", "objects", "patch_size"});
+
+    Scene scene;
+    scene.name = shown;
+    scene.camera = parse_camera(root.child("camera"));
+
+    const Node mats = root.child("materials");
+    mats.require_object();
+    for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it)
+        scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
+    if (scene.materials.empty()) mats.fail("", "no materials defined");
+
+    const json& objects = root.raw("objects");
+    if (!objects.is_array()) root.fail("objects", std::string("expected an array, got ") + type_name(objects));
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        const Node obj(objects[i], shown, "objects[" + std::to_string(i) + "]");
+        obj.require_object();
+        obj.check_keys({"mesh", "quad", "triangle", "material"});
+        const std::string mat_name = obj.string("material");
+        const int mat = scene.find_material(mat_name);
+        if (mat < 0) {
+            std::string known;
+            for (const auto& m : scene.materials) known += (known.empty() ? "" : ", ") + m.name;
+            obj.fail("material", "unknown material '" + mat_name + "' (known: " + known + ")");
+        }
+        const int kinds = obj.has("mesh") + obj.has("quad") + obj.has("triangle");
+        if (kinds != 1) obj.fail("", "needs exactly one of 'mesh', 'quad', 'triangle'");
+        if (obj.has("mesh")) {
+            const std::string rel = obj.string("mesh");
+            const std::string full = (!rel.empty() && rel[0] == '/') ? rel : base_dir + "/" + rel;
+            MeshData data;
+            try {
+                data = read_mesh_file(full, rel);
+            } catch (const SceneError& e) {
+                obj.fail("mesh", e.what());
+            }
+            for (const auto& t : data.triangles)
+                for (int k : t)
+                    if (k < 0 || k >= static_cast<int>(data.vertices.size()))
+                        obj.fail("mesh", "face index " + std::to_string(k) + " out of range");
+            scene.add_object(data.vertices, data.triangles, mat);
+        } else {
+            const bool quad = obj.has("quad");
+            const char* key = quad ? "quad" : "triangle";
+            const json& pts = obj.raw(key);
+            const std::size_t want = quad ? 4 : 3;
+            if (!pts.is_array() || pts.size() != want)
+                obj.fail(key, "expected " + std::to_string(want) + " points [x, y, z], got " + pts.dump());
+            std::vector<Vec3> v;
+            for (std::size_t k = 0; k < want; ++k)
+                v.push_back(obj.vec3(pts[k], obj.at(key) + "[" + std::to_string(k) + "]"));
+            if (quad)
+                scene.add_object(v, {{0, 1, 2}, {0, 2, 3}}, mat);
+            else
+                scene.add_object(v, {{0, 1, 2}}, mat);
+        }
+    }
+
+    std::optional<double> patch_size;
+    if (root.has("patch_size")) {
+        const double ps = root.number("patch_size");
+        if (!(ps > 0.0)) root.fail("patch_size", "must be > 0, got " + format_number(ps));
+        patch_size = ps;
+    }
+    if (patch_size_override) {
+        if (!(*patch_size_override > 0.0) || !std::isfinite(*patch_size_override))
+            throw SceneError(shown, "--patch-size", "must be > 0, got " + format_number(*patch_size_override));
+        patch_size = patch_size_override;
+    }
+    if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
+    scene.finalize();
+    if (patch_size) subdivide(scene, *patch_size);
+    return scene;
+}
+
+Scene load_scene(const std::string& path, std::optional<double> patch_size_override) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(path, "", "cannot open scene file");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return parse_scene(ss.str(), path, dir_of(path), patch_size_override);
+}
+
+}  // namespace raybundle::scenes

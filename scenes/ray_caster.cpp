@@ -1,0 +1,73 @@
+#include "scenes/ray_caster.h"
+
+#include "scenes/scene_error.h"
+
+#include <embree3/rtcore.h>
+
+#include <limits>
+#include <string>
+
+namespace raybundle::scenes {
+
+struct RayCaster::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    ~Impl() {
+        if (scene) rtcReleaseScene(scene);
+        if (device) rtcReleaseDevice(device);
+    }
+};
+
+RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
+    impl_->device = rtcNewDevice(nullptr);
+    if (!impl_->device)
+        throw std::runtime_error("Embree: cannot create a device (error " +
+                                 std::to_string(rtcGetDeviceError(nullptr)) + ")");
+    impl_->scene = rtcNewScene(impl_->device);
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    const auto& pos = scene.vertex_positions();
+    const auto& patches = scene.patch_list();
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                           3 * sizeof(float), pos.size()));
+    for (std::size_t i = 0; i < pos.size(); ++i)
+        for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(pos[i][k]);
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                              3 * sizeof(unsigned), patches.size()));
+    for (std::size_t i = 0; i < patches.size(); ++i)
+        for (int k = 0; k < 3; ++k) ib[3 * i + k] = static_cast<unsigned>(patches[i].v[k]);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(impl_->scene, geom);
+    rtcReleaseGeometry(geom);
+    rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+    rtcCommitScene(impl_->scene);
+}
+
+RayCaster::~RayCaster() = default;
+
+RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rh{};
+    rh.ray.org_x = static_cast<float>(org.x());
+    rh.ray.org_y = static_cast<float>(org.y());
+    rh.ray.org_z = static_cast<float>(org.z());
+    rh.ray.dir_x = static_cast<float>(dir.x());
+    rh.ray.dir_y = static_cast<float>(dir.y());
+    rh.ray.dir_z = static_cast<float>(dir.z());
+    rh.ray.tnear = static_cast<float>(t_min);
+    rh.ray.tfar = t_max == std::numeric_limits<double>::infinity() ? std::numeric_limits<float>::infinity()
+                                                                   : static_cast<float>(t_max);
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &context, &rh);
+    RayHit hit;
+    if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+        hit.patch = static_cast<int>(rh.hit.primID);
+        hit.t = rh.ray.tfar;
+        hit.b1 = rh.hit.u;
+        hit.b2 = rh.hit.v;
+    }
+    return hit;
+}
+
+}  // namespace raybundle::scenes

@@ -1,0 +1,37 @@
+#pragma once
+// Ray casting against the scene's patches through Embree: one BVH built per scene,
+// shared by the renderer (camera rays) and, later, the final gather and the
+// `raycast` visibility backend.
+#include "scenes/scene.h"
+
+#include <limits>
+#include <memory>
+
+namespace raybundle::scenes {
+
+struct RayHit {
+    int patch = -1;       // -1: the ray left the scene
+    double t = 0.0;       // distance along the (unit) direction
+    double b1 = 0.0;      // barycentric weights of the patch's 2nd and 3rd vertices
+    double b2 = 0.0;
+    bool valid() const { return patch >= 0; }
+};
+
+class RayCaster {
+public:
+    explicit RayCaster(const Scene& scene);
+    ~RayCaster();
+    RayCaster(const RayCaster&) = delete;
+    RayCaster& operator=(const RayCaster&) = delete;
+
+    // Nearest hit of the ray org + t dir, t in (t_min, t_max). Both sides of a patch
+    // are hit (patches block light from behind too); thread-safe.
+    RayHit intersect(const Vec3& org, const Vec3& dir, double t_min = 0.0,
+                     double t_max = std::numeric_limits<double>::infinity()) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace raybundle::scenes

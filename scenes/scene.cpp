@@ -1,0 +1,109 @@
+#include "scenes/scene.h"
+
+#include "scenes/scene_error.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace raybundle::scenes {
+
+Scene::Scene() { mesh.add_property(material_handle, "material"); }
+
+void Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                       int material) {
+    add_object(vertices, triangles, std::vector<int>(triangles.size(), material));
+}
+
+int Scene::add_material(Material m) {
+    materials.push_back(std::move(m));
+    return static_cast<int>(materials.size()) - 1;
+}
+
+int Scene::find_material(const std::string& material_name) const {
+    for (std::size_t i = 0; i < materials.size(); ++i)
+        if (materials[i].name == material_name) return static_cast<int>(i);
+    return -1;
+}
+
+void Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                       const std::vector<int>& triangle_materials) {
+    std::vector<TriMesh::VertexHandle> handles;
+    handles.reserve(vertices.size());
+    for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
+    for (std::size_t k = 0; k < triangles.size(); ++k) {
+        const auto& t = triangles[k];
+        auto f = mesh.add_face(handles[t[0]], handles[t[1]], handles[t[2]]);
+        if (!f.is_valid()) {
+            // Non-manifold input (OpenMesh refuses the face): keep it as a separate triangle.
+            f = mesh.add_face(mesh.add_vertex(to_om(vertices[t[0]])), mesh.add_vertex(to_om(vertices[t[1]])),
+                              mesh.add_vertex(to_om(vertices[t[2]])));
+        }
+        mesh.property(material_handle, f) = triangle_materials[k];
+    }
+}
+
+void Scene::finalize() {
+    // Drop zero-area triangles (they carry no light and break normals).
+    std::size_t dropped = 0;
+    mesh.request_face_status();
+    mesh.request_edge_status();
+    mesh.request_vertex_status();
+    for (auto f : mesh.faces()) {
+        auto it = mesh.cfv_iter(f);
+        const Vec3 a = to_eigen(mesh.point(*it++));
+        const Vec3 b = to_eigen(mesh.point(*it++));
+        const Vec3 c = to_eigen(mesh.point(*it));
+        const double area2 = (b - a).cross(c - a).norm();
+        const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
+        if (!(area2 > 1e-12 * scale)) {
+            mesh.delete_face(f, true);
+            ++dropped;
+        }
+    }
+    mesh.garbage_collection();
+    dropped_degenerate += dropped;
+
+    positions.clear();
+    positions.reserve(mesh.n_vertices());
+    for (auto v : mesh.vertices()) positions.push_back(to_eigen(mesh.point(v)));
+
+    patches.clear();
+    patches.reserve(mesh.n_faces());
+    area_sum = 0.0;
+    for (auto f : mesh.faces()) {
+        Patch p{};
+        int k = 0;
+        for (auto v : mesh.fv_range(f)) p.v[k++] = v.idx();
+        const Vec3& a = positions[p.v[0]];
+        const Vec3& b = positions[p.v[1]];
+        const Vec3& c = positions[p.v[2]];
+        const Vec3 cross = (b - a).cross(c - a);
+        p.area = 0.5 * cross.norm();
+        p.normal = cross.normalized();
+        p.centroid = (a + b + c) / 3.0;
+        p.material = mesh.property(material_handle, f);
+        area_sum += p.area;
+        patches.push_back(p);
+    }
+    if (patches.empty()) throw SceneError(name, "", "the scene has no patches");
+
+    // Bounding sphere: centre of the bounding box, radius to the farthest vertex.
+    Vec3 lo = positions.front(), hi = positions.front();
+    for (const auto& p : positions) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    }
+    center = 0.5 * (lo + hi);
+    radius = 0.0;
+    for (const auto& p : positions) radius = std::max(radius, (p - center).norm());
+}
+
+bool Scene::has_glossy() const {
+    return std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.glossy(); });
+}
+
+bool Scene::has_emission() const {
+    return std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.emissive(); });
+}
+
+}  // namespace raybundle::scenes

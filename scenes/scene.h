@@ -1,0 +1,108 @@
+#pragma once
+// The scene model: one-sided triangular patches on an OpenMesh TriMesh, their
+// materials, the camera, and flat per-patch arrays derived once for the inner loops.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace raybundle::scenes {
+
+using Vec3 = Eigen::Vector3d;
+using Rgb = Eigen::Array3d;
+
+struct MeshTraits : public OpenMesh::DefaultTraits {
+    using Point = OpenMesh::Vec3d;
+    using Normal = OpenMesh::Vec3d;
+};
+using TriMesh = OpenMesh::TriMesh_ArrayKernelT<MeshTraits>;
+
+// Diffuse albedo plus an optional glossy lobe: the physically plausible modified
+// Phong BRDF  f = albedo/pi + specular (n+2)/(2 pi) cos^n(alpha). Emission is a
+// radiance, emitted on the front side only.
+struct Material {
+    std::string name;
+    Rgb albedo = Rgb::Zero();
+    Rgb emission = Rgb::Zero();
+    Rgb specular = Rgb::Zero();
+    double exponent = 0.0;
+
+    bool glossy() const { return (specular > 0.0).any(); }
+    bool emissive() const { return (emission > 0.0).any(); }
+};
+
+struct Camera {
+    Vec3 eye{0, 0, 1};
+    Vec3 target{0, 0, 0};
+    Vec3 up{0, 1, 0};
+    double fov_y = 40.0;  // degrees, vertical
+    int width = 512;
+    int height = 512;
+};
+
+// A patch with everything the inner loops need, in one cache-friendly record.
+struct Patch {
+    int v[3];       // vertex indices into Scene::positions
+    Vec3 normal;    // unit, front side
+    Vec3 centroid;
+    double area;
+    int material;
+};
+
+class Scene {
+public:
+    std::string name;             // the built-in name or the scene file
+    TriMesh mesh;                 // topology, IO and subdivision
+    std::vector<Material> materials;
+    Camera camera;
+    std::optional<double> exact_radiance;  // known analytic answer (every patch, every channel)
+    std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
+
+    // Per-face material index, kept on the mesh so that subdivision copies it.
+    OpenMesh::FPropHandleT<int> material_handle;
+
+    Scene();
+
+    // Adds one object: vertices shared by its triangles (so that subdivision stays
+    // conforming), all with one material. Front sides are counter-clockwise.
+    void add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                    int material);
+    // The same with one material per triangle.
+    void add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                    const std::vector<int>& materials);
+    // Adds a material and returns its index.
+    int add_material(Material m);
+    // The index of the material called name, or -1.
+    int find_material(const std::string& name) const;
+
+    // Derives the flat arrays below from the mesh (drops zero-area triangles first).
+    // Call after the mesh changes; everything downstream reads only the flat arrays.
+    void finalize();
+
+    std::size_t patch_count() const { return patches.size(); }
+    const std::vector<Patch>& patch_list() const { return patches; }
+    const std::vector<Vec3>& vertex_positions() const { return positions; }
+    const Material& material_of(std::size_t patch) const { return materials[patches[patch].material]; }
+
+    Vec3 bounds_center() const { return center; }
+    double bounds_radius() const { return radius; }
+    double total_area() const { return area_sum; }
+    bool has_glossy() const;
+    bool has_emission() const;
+
+private:
+    std::vector<Patch> patches;
+    std::vector<Vec3> positions;
+    Vec3 center = Vec3::Zero();
+    double radius = 0.0;
+    double area_sum = 0.0;
+};
+
+inline Vec3 to_eigen(const OpenMesh::Vec3d& p) { return {p[0], p[1], p[2]}; }
+inline OpenMesh::Vec3d to_om(const Vec3& p) { return {p.x(), p.y(), p.z()}; }
+
+}  // namespace raybundle::scenes

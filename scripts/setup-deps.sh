@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs raybundle's build dependencies from Debian 12 packages (apt-get only).
+# Idempotent: packages already present are not touched, and apt-get runs only
+# when something is missing.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build ccache pkg-config
+  libopenmesh-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libeigen3-dev libglm-dev libosmesa6-dev
+  catch2 libembree-dev libopenexr-dev libpng-dev
+  nlohmann-json3-dev libcli11-dev libtbb-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "setup-deps: installing ${missing[*]}"
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

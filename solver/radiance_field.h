@@ -1,0 +1,21 @@
+#pragma once
+// The solved radiance of every patch, and what the renderer needs to show it.
+#include "scenes/scene.h"
+
+#include <vector>
+
+namespace raybundle::solver {
+
+struct RadianceField {
+    // Per patch: the radiance it sends towards the camera. For purely diffuse scenes
+    // this is its (view-independent) radiance.
+    std::vector<scenes::Rgb> radiance;
+    bool view_dependent = false;
+
+    // Patch-area-weighted mean radiance, averaged over the channels.
+    double mean_radiance(const scenes::Scene& scene) const;
+    // Sum area |L - L_exact| / sum area L_exact over patches and channels.
+    double relative_l1_error(const scenes::Scene& scene, double exact) const;
+};
+
+}  // namespace raybundle::solver

@@ -1,0 +1,185 @@
+// Scene loading: a valid scene, and every bad-input case ending in one clear
+// SceneError that names the file, the object and the value.
+#include "scenes/builtin.h"
+#include "scenes/loader.h"
+#include "scenes/scene_error.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+using namespace raybundle::scenes;
+using Catch::Matchers::Contains;
+
+namespace {
+
+// A scratch directory for mesh files, removed at the end of the test.
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        path = fs::temp_directory_path() / ("raybundle-test-" + std::to_string(std::rand()) + "-" +
+                                            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    std::string write(const std::string& name, const std::string& text) const {
+        std::ofstream(path / name) << text;
+        return (path / name).string();
+    }
+};
+
+const char* kCamera = R"("camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "width": 64, "height": 48})";
+const char* kMaterials = R"("materials": {"white": {"albedo": [0.5, 0.5, 0.5]}, "lamp": {"albedo": [0.1, 0.1, 0.1], "emission": [2, 2, 2]}})";
+const char* kQuad = R"({"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "white"})";
+
+std::string scene_text(const std::string& camera, const std::string& materials, const std::string& objects,
+                       const std::string& extra = "") {
+    return "{" + camera + ", " + materials + ", \"objects\": [" + objects + "]" + extra + "}";
+}
+
+Scene parse(const std::string& text, const std::string& dir = ".") { return parse_scene(text, "s.json", dir); }
+
+}  // namespace
+
+TEST_CASE("a valid scene loads with its camera, materials and patches", "[scenes]") {
+    const Scene s = parse(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": 0.25)"));
+    CHECK(s.camera.width == 64);
+    CHECK(s.camera.height == 48);
+    CHECK(s.camera.fov_y == 45.0);
+    CHECK(s.materials.size() == 2);
+    CHECK(s.patch_count() > 2);
+    CHECK(s.total_area() == Approx(1.0).epsilon(1e-12));
+    for (const auto& p : s.patch_list()) CHECK(p.normal.z() == Approx(1.0));  // counter-clockwise front
+}
+
+TEST_CASE("meshes load through OpenMesh with polygons triangulated", "[scenes]") {
+    TempDir dir;
+    dir.write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    dir.write("tri.off", "OFF\n3 1 0\n0 0 1\n1 0 1\n0 1 1\n3 0 1 2\n");
+    const Scene s = parse(scene_text(kCamera, kMaterials,
+                                     R"({"mesh": "quad.obj", "material": "white"}, {"mesh": "tri.off", "material": "lamp"})"),
+                          dir.path.string());
+    CHECK(s.patch_count() == 3);
+    CHECK(s.total_area() == Approx(1.5));
+}
+
+TEST_CASE("zero-area triangles are dropped and counted", "[scenes]") {
+    const Scene s = parse(scene_text(kCamera, kMaterials,
+                                     std::string(kQuad) + R"(, {"triangle": [[0,0,1], [1,0,1], [2,0,1]], "material": "white"})"));
+    CHECK(s.patch_count() == 2);
+    CHECK(s.dropped_degenerate == 1);
+}
+
+TEST_CASE("bad scene input gives one clear error naming file, object and value", "[scenes][errors]") {
+    TempDir dir;
+    const std::string d = dir.path.string();
+    auto fails_with = [&](const std::string& text, const std::string& needle) {
+        INFO(text);
+        REQUIRE_THROWS_AS(parse(text, d), SceneError);
+        REQUIRE_THROWS_WITH(parse(text, d), Contains("s.json") && Contains(needle));
+        try {
+            parse(text, d);
+        } catch (const SceneError& e) {
+            CHECK(std::string(e.what()).find('\n') == std::string::npos);  // one line
+        }
+    };
+
+    SECTION("missing file") {
+        REQUIRE_THROWS_WITH(load_scene(d + "/nope.json"), Contains("nope.json") && Contains("cannot open"));
+    }
+    SECTION("malformed JSON names line and column") {
+        fails_with("{\n  \"camera\": {\n    \"eye\": [0, 0,, 5]\n  }\n}", "s.json:3:");
+    }
+    SECTION("unknown keys are errors") {
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patchsize": 2)"), "unknown key 'patchsize'");
+        fails_with(scene_text(kCamera, R"("materials": {"white": {"albedo": [0.5,0.5,0.5], "emision": [1,1,1]}})", kQuad),
+                   "materials.white: unknown key 'emision'");
+        fails_with(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "white", "colour": 1})"),
+                   "objects[0]: unknown key 'colour'");
+        fails_with(scene_text(R"("camera": {"eye": [0,0,5], "target": [0,0,0], "fov": 40})", kMaterials, kQuad),
+                   "camera: unknown key 'fov'");
+    }
+    SECTION("unknown material") {
+        fails_with(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "red"})"),
+                   "objects[0].material: unknown material 'red' (known: lamp, white)");
+    }
+    SECTION("non-finite coordinates") {
+        fails_with(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1e999,0,0],[1,1,0],[0,1,0]], "material": "white"})"),
+                   "number overflow parsing '1e999' (not finite)");
+        dir.write("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "nan.obj", "material": "white"})"),
+                   "nan.obj: line 2: coordinate 'nan' is not finite");
+        dir.write("inf.off", "OFF\n3 1 0\n0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "inf.off", "material": "white"})"),
+                   "inf.off: vertex 1: coordinate 'inf' is not finite");
+    }
+    SECTION("face index out of range") {
+        dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "bad.obj", "material": "white"})"),
+                   "objects[0].mesh: bad.obj: line 4: face references vertex 7, but only 3 vertices");
+        dir.write("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "bad.off", "material": "white"})"),
+                   "bad.off: face 0: references vertex 3, but the file has 3 vertices");
+    }
+    SECTION("truncated mesh files") {
+        dir.write("short.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "short.off", "material": "white"})"),
+                   "short.off: vertices: file is truncated: header promises 4 vertices, found 3");
+        dir.write("short.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                  "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "short.ply", "material": "white"})"), "short.ply");
+        fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "missing.obj", "material": "white"})"),
+                   "objects[0].mesh: missing.obj: cannot open mesh file");
+    }
+    SECTION("albedo + specular must stay below 1 in every channel") {
+        fails_with(scene_text(kCamera,
+                              R"("materials": {"white": {"albedo": [0.5,0.6,0.5], "specular": [0.3,0.4,0.3], "exponent": 20}})",
+                              kQuad),
+                   "materials.white: albedo + specular = 1 in channel g");
+        fails_with(scene_text(kCamera, R"("materials": {"white": {"albedo": [1.2,0.5,0.5]}})", kQuad),
+                   "albedo + specular = 1.2 in channel r");
+    }
+    SECTION("negative emission") {
+        fails_with(scene_text(kCamera, R"("materials": {"white": {"albedo": [0.5,0.5,0.5], "emission": [1,-1,1]}})", kQuad),
+                   "materials.white.emission: negative emission [1, -1, 1]");
+    }
+    SECTION("fov_y outside (0, 180)") {
+        fails_with(scene_text(R"("camera": {"eye": [0,0,5], "target": [0,0,0], "fov_y": 180})", kMaterials, kQuad),
+                   "camera.fov_y: must be in (0, 180) degrees, got 180");
+        fails_with(scene_text(R"("camera": {"eye": [0,0,5], "target": [0,0,0], "fov_y": 0})", kMaterials, kQuad),
+                   "camera.fov_y: must be in (0, 180) degrees, got 0");
+    }
+    SECTION("patch_size <= 0") {
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": 0)"), "patch_size: must be > 0, got 0");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": -1)"), "patch_size: must be > 0, got -1");
+    }
+    SECTION("a scene with no patches") {
+        fails_with(scene_text(kCamera, kMaterials, ""), "the scene has no patches");
+        fails_with(scene_text(kCamera, kMaterials, R"({"triangle": [[0,0,0],[1,0,0],[2,0,0]], "material": "white"})"),
+                   "the scene has no patches");
+    }
+    SECTION("wrong types") {
+        fails_with(scene_text(R"("camera": {"eye": [0,0,5], "target": [0,0,0], "fov_y": "wide"})", kMaterials, kQuad),
+                   "camera.fov_y: expected a number, got string");
+        fails_with(scene_text(R"("camera": {"eye": [0,0], "target": [0,0,0]})", kMaterials, kQuad),
+                   "camera.eye: expected [x, y, z], got [0,0]");
+    }
+}
+
+TEST_CASE("built-in scenes", "[scenes]") {
+    const Scene box = make_builtin("homogeneous-box");
+    CHECK(box.exact_radiance == 1.0);
+    CHECK(box.total_area() == Approx(6.0).epsilon(1e-12));
+    const Scene cornell = make_builtin("cornell-box");
+    CHECK(cornell.patch_count() > 3000);
+    CHECK(cornell.patch_count() < 4500);
+    CHECK(cornell.has_emission());
+    REQUIRE_THROWS_WITH(make_builtin("teapot"), Contains("unknown built-in scene 'teapot'") &&
+                                                   Contains("homogeneous-box") && Contains("cornell-box"));
+    REQUIRE_THROWS_WITH(make_builtin("cornell-box", 0.0), Contains("patch_size"));
+}

@@ -1,0 +1,100 @@
+// Stochastic iteration on the homogeneous box, whose exact radiance is 1 everywhere:
+// error level, M^(-1/2) convergence, bias, determinism.
+#include "scenes/builtin.h"
+#include "solver/stochastic_iteration.h"
+#include "visibility/backend.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <map>
+#include <vector>
+
+using namespace raybundle;
+
+namespace {
+
+struct Run {
+    std::map<long, double> error;  // iteration -> relative L1 error
+    solver::RadianceField field;
+};
+
+Run solve(const scenes::Scene& scene, long iterations, std::uint64_t seed, long every) {
+    auto backend = visibility::make_backend("painter", scene, {});
+    solver::IterationOptions opt;
+    opt.iterations = iterations;
+    opt.seed = seed;
+    opt.progress_every = every;
+    solver::StochasticIteration it(scene, *backend, opt);
+    Run run;
+    it.run([&](const solver::Progress& p) { run.error[p.iteration] = it.field().relative_l1_error(scene, 1.0); });
+    run.field = it.field();
+    return run;
+}
+
+}  // namespace
+
+TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][convergence]") {
+    const auto scene = scenes::make_builtin("homogeneous-box");
+    const Run run = solve(scene, 10000, 1, 100);
+
+    // Error level at 1,000 iterations.
+    const double e1000 = run.error.at(1000);
+    INFO("relative L1 error at 1000 iterations: " << e1000);
+    CHECK(e1000 < 0.05);
+
+    // Least-squares slope of log(error) against log(M) over 100..10,000.
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (const auto& [m, e] : run.error) {
+        const double x = std::log(static_cast<double>(m)), y = std::log(e);
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+        ++n;
+    }
+    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    INFO("fitted slope: " << slope);
+    CHECK(slope > -0.65);
+    CHECK(slope < -0.35);
+
+    // Bias: the area-weighted mean radiance after 10,000 iterations.
+    const double mean = run.field.mean_radiance(scene);
+    INFO("mean radiance: " << mean);
+    CHECK(std::abs(mean - 1.0) < 0.003);
+    CHECK(run.error.at(10000) < run.error.at(1000) / 2.0);
+}
+
+TEST_CASE("the same seed gives bit-identical results, another seed does not", "[solver][determinism]") {
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    const Run a = solve(scene, 300, 77, 0), b = solve(scene, 300, 77, 0), c = solve(scene, 300, 78, 0);
+    REQUIRE(a.field.radiance.size() == b.field.radiance.size());
+    bool all_equal = true, any_differs = false;
+    for (std::size_t i = 0; i < a.field.radiance.size(); ++i) {
+        all_equal = all_equal && (a.field.radiance[i] == b.field.radiance[i]).all();
+        any_differs = any_differs || !(a.field.radiance[i] == c.field.radiance[i]).all();
+    }
+    CHECK(all_equal);
+    CHECK(any_differs);
+}
+
+TEST_CASE("a glossy scene takes the view-dependent path and stays unbiased", "[solver][glossy]") {
+    // The homogeneous box with half the albedo made glossy: the hemispherical albedo at
+    // every incidence is <= 0.5, so the mean radiance must fall below 1, but the
+    // emission keeps it above 0.5.
+    auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    scene.materials[0].albedo = scenes::Rgb::Constant(0.25);
+    scene.materials[0].specular = scenes::Rgb::Constant(0.25);
+    scene.materials[0].exponent = 10.0;
+    auto backend = visibility::make_backend("painter", scene, {});
+    solver::IterationOptions opt;
+    opt.iterations = 2000;
+    solver::StochasticIteration it(scene, *backend, opt);
+    CHECK(it.view_dependent());
+    CHECK(it.stats().shading.find("glossy") != std::string::npos);
+    it.run();
+    const double mean = it.field().mean_radiance(scene);
+    CHECK(mean > 0.7);
+    CHECK(mean < 1.0);
+}
