@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Command 1 of the README: install the dependencies, build, and solve the built-in
+# Cornell box, writing out/cornell.{exr,png} and out/cornell-{stats.json,convergence.csv}.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup-deps.sh
+bash scripts/build.sh
+mkdir -p out
+./build/apps/raybundle solve --builtin cornell-box --iterations "${RAYBUNDLE_ITERATIONS:-20000}" \
+  -o out/cornell.exr --png out/cornell.png --exposure 1 \
+  --stats out/cornell-stats.json --csv out/cornell-convergence.csv
+echo "wrote out/cornell.exr, out/cornell.png, out/cornell-stats.json, out/cornell-convergence.csv"
