@@ -18,11 +18,26 @@ constexpr double kSubpixel = 256.0;
 // errors are below 1e-12 pixel for maps up to 16384 pixels.
 constexpr double kTie = 1e-7;
 
-// Calls span(y, x_begin, x_end) for every row y in [0, height) whose pixel centres
-// (x + 1/2, y + 1/2) inside the triangle form the non-empty run [x_begin, x_end).
-// X, Y: vertex positions in sub-pixel units (integers stored in doubles).
+// floor and ceil for values well inside the int range, without a libm call (the
+// baseline x86-64 target has no rounding instruction, and these run once per row).
+inline double fast_floor(double v) {
+    const double t = static_cast<double>(static_cast<long long>(v));
+    return t > v ? t - 1.0 : t;
+}
+inline double fast_ceil(double v) {
+    const double t = static_cast<double>(static_cast<long long>(v));
+    return t < v ? t + 1.0 : t;
+}
+// Keeps a boundary estimate in a range where the conversions above are exact.
+inline double clamp_estimate(double v) { return std::clamp(v, -1e9, 1e9); }
+
+// Calls span(y, x_begin, x_end) for every row y in [wy0, wy1) whose pixel centres
+// (x + 1/2, y + 1/2) inside the triangle and in the window's columns [wx0, wx1) form
+// the non-empty run [x_begin, x_end). X, Y: vertex positions in sub-pixel units
+// (integers stored in doubles).
 template <class Span>
-inline void rasterize_triangle(const double X[3], const double Y[3], int width, int height, Span&& span) {
+inline void rasterize_triangle(const double X[3], const double Y[3], int wx0, int wx1, int wy0, int wy1,
+                               Span&& span) {
     constexpr double S = kSubpixel, H = kSubpixel / 2;
     int a = 0, b = 1, c = 2;
     const double area2 = (X[b] - X[a]) * (Y[c] - Y[a]) - (Y[b] - Y[a]) * (X[c] - X[a]);
@@ -49,30 +64,31 @@ inline void rasterize_triangle(const double X[3], const double Y[3], int width, 
         x0[k] = ((1.0 - C[k] - Bx[k] * H) / A[k] - H) / S;
         dxdy[k] = -Bx[k] / A[k];
     }
-    const int width_last = width - 1;
+    const int width_last = wx1 - 1;
+    const double first = wx0, past = wx1;
     // Narrows [lo, hi] to the pixels of row y inside edge k.
     auto bound = [&](int k, int y, double py, int& lo, int& hi) {
         const double off = Bx[k] * py + C[k];  // inside: A*Px + off >= 1
         auto inside = [&](int x) { return A[k] * (x * S + H) + off >= 1.0; };
         const double xf = x0[k] + dxdy[k] * y;
         if (A[k] > 0) {
-            double xc = std::ceil(xf);
+            double xc = fast_ceil(clamp_estimate(xf));
             if (xc - xf < kTie || xc - xf > 1.0 - kTie) {
-                int x = static_cast<int>(std::clamp(xc, 0.0, static_cast<double>(width)));
+                int x = static_cast<int>(std::clamp(xc, first, past));
                 while (x <= width_last && !inside(x)) ++x;
-                while (x > 0 && inside(x - 1)) --x;
+                while (x > wx0 && inside(x - 1)) --x;
                 xc = x;
             }
-            lo = std::max(lo, static_cast<int>(std::clamp(xc, 0.0, static_cast<double>(width))));
+            lo = std::max(lo, static_cast<int>(std::clamp(xc, first, past)));
         } else if (A[k] < 0) {
-            double xc = std::floor(xf);
+            double xc = fast_floor(clamp_estimate(xf));
             if (xf - xc < kTie || xf - xc > 1.0 - kTie) {
-                int x = static_cast<int>(std::clamp(xc, -1.0, static_cast<double>(width_last)));
-                while (x >= 0 && !inside(x)) --x;
+                int x = static_cast<int>(std::clamp(xc, first - 1.0, past - 1.0));
+                while (x >= wx0 && !inside(x)) --x;
                 while (x < width_last && inside(x + 1)) ++x;
                 xc = x;
             }
-            hi = std::min(hi, static_cast<int>(std::clamp(xc, -1.0, static_cast<double>(width_last))));
+            hi = std::min(hi, static_cast<int>(std::clamp(xc, first - 1.0, past - 1.0)));
         } else if (!(off >= 1.0)) {
             hi = -1;
         }
@@ -89,23 +105,51 @@ inline void rasterize_triangle(const double X[3], const double Y[3], int width, 
     const int e_long = edge_between(s[0], s[2]);
     const int e_upper = edge_between(s[0], s[1]), e_lower = edge_between(s[1], s[2]);
 
-    const int last = width - 1;
-    const int y0 = std::max(0, static_cast<int>(std::floor((Y[s[0]] - H) / S)));
-    const int y1 = std::min(height - 1, static_cast<int>(std::ceil((Y[s[2]] - H) / S)));
+    // Strictly between vertex rows exactly two edges cross a row: the long one and the
+    // upper or lower short one; one bounds the run on the left (A > 0), the other on
+    // the right (A < 0).
+    auto sides = [&](int e_short, int& left, int& right) {
+        left = A[e_long] > 0 ? e_long : e_short;
+        right = A[e_long] > 0 ? e_short : e_long;
+    };
+    int up_left, up_right, low_left, low_right;
+    sides(e_upper, up_left, up_right);
+    sides(e_lower, low_left, low_right);
+
+    const int y0 = std::max(wy0, static_cast<int>(fast_floor((Y[s[0]] - H) / S)));
+    const int y1 = std::min(wy1 - 1, static_cast<int>(fast_ceil((Y[s[2]] - H) / S)));
     for (int y = y0; y <= y1; ++y) {
         const double py = y * S + H;
-        if (py < Y[s[0]] || py > Y[s[2]]) continue;
-        int lo = 0, hi = last;
-        if (py == Y[s[0]] || py == Y[s[1]] || py == Y[s[2]]) {
-            // The row passes exactly through a vertex: apply all three edge tests.
+        if (py <= Y[s[0]] || py >= Y[s[2]] || py == Y[s[1]]) {
+            // Outside, or exactly through a vertex: all three exact edge tests.
+            if (py < Y[s[0]] || py > Y[s[2]]) continue;
+            int lo = wx0, hi = width_last;
             for (int k = 0; k < 3 && lo <= hi; ++k) bound(k, y, py, lo, hi);
+            if (lo <= hi) span(y, lo, hi + 1);
+            continue;
+        }
+        const bool upper = py < Y[s[1]];
+        const int l = upper ? up_left : low_left, r = upper ? up_right : low_right;
+        const double xl = x0[l] + dxdy[l] * y, xr = x0[r] + dxdy[r] * y;
+        double lo_f = fast_ceil(clamp_estimate(xl)), hi_f = fast_floor(clamp_estimate(xr));
+        int lo, hi;
+        if (lo_f - xl < kTie || lo_f - xl > 1.0 - kTie || xr - hi_f < kTie || xr - hi_f > 1.0 - kTie) {
+            lo = wx0;
+            hi = width_last;
+            bound(l, y, py, lo, hi);
+            bound(r, y, py, lo, hi);
         } else {
-            // Strictly between vertex rows exactly two edges cross: the long one and a short one.
-            bound(e_long, y, py, lo, hi);
-            bound(py < Y[s[1]] ? e_upper : e_lower, y, py, lo, hi);
+            lo = static_cast<int>(std::clamp(lo_f, first, past));
+            hi = static_cast<int>(std::clamp(hi_f, first - 1.0, past - 1.0));
         }
         if (lo <= hi) span(y, lo, hi + 1);
     }
+}
+
+// The whole map [0, width) x [0, height) as the window.
+template <class Span>
+inline void rasterize_triangle(const double X[3], const double Y[3], int width, int height, Span&& span) {
+    rasterize_triangle(X, Y, 0, width, 0, height, std::forward<Span>(span));
 }
 
 }  // namespace raybundle::visibility
