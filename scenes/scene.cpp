@@ -87,6 +87,11 @@ void Scene::finalize() {
     }
     if (patches.empty()) throw SceneError(name, "", "the scene has no patches");
 
+    normals.assign(positions.size(), Vec3::Zero());
+    for (const auto& p : patches)
+        for (int v : p.v) normals[v] += p.area * p.normal;
+    for (auto& n : normals) n.normalize();
+
     // Bounding sphere: centre of the bounding box, radius to the farthest vertex.
     Vec3 lo = positions.front(), hi = positions.front();
     for (const auto& p : positions) {

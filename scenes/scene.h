@@ -86,6 +86,8 @@ public:
     std::size_t patch_count() const { return patches.size(); }
     const std::vector<Patch>& patch_list() const { return patches; }
     const std::vector<Vec3>& vertex_positions() const { return positions; }
+    // Per-vertex shading normals: the area-weighted mean of the incident patch normals.
+    const std::vector<Vec3>& vertex_normals() const { return normals; }
     const Material& material_of(std::size_t patch) const { return materials[patches[patch].material]; }
 
     Vec3 bounds_center() const { return center; }
@@ -97,6 +99,7 @@ public:
 private:
     std::vector<Patch> patches;
     std::vector<Vec3> positions;
+    std::vector<Vec3> normals;
     Vec3 center = Vec3::Zero();
     double radius = 0.0;
     double area_sum = 0.0;
