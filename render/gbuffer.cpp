@@ -20,6 +20,7 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
             s.depth = hit.t;
             s.b1 = hit.b1;
             s.b2 = hit.b2;
+            s.front = s.normal.dot(d) < 0.0;
         }
     return g;
 }

@@ -14,6 +14,7 @@ struct GSample {
     scenes::Vec3 normal = scenes::Vec3::Zero();
     double depth = 0.0;    // distance from the eye
     double b1 = 0.0, b2 = 0.0;  // barycentric weights of the patch's 2nd and 3rd vertex
+    bool front = false;    // the camera sees the patch's front side (one-sided patches)
 };
 
 struct GBuffer {

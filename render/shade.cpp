@@ -51,7 +51,7 @@ Image shade(const scenes::Scene& scene, const solver::RadianceField& field, cons
     for (int y = 0; y < g.height; ++y)
         for (int x = 0; x < g.width; ++x) {
             const GSample& s = g.at(x, y);
-            if (s.patch < 0) continue;
+            if (s.patch < 0 || !s.front) continue;  // background, or a patch seen from behind: black
             Rgb L;
             if (mode == Shading::Flat) {
                 L = field.radiance[s.patch];

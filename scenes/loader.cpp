@@ -70,7 +70,11 @@ public:
     int integer(const std::string& key) const {
         const json& v = raw(key);
         if (!v.is_number_integer()) fail(key, std::string("expected an integer, got ") + v.dump());
-        return v.get<int>();
+        const long long x = v.is_number_unsigned() && v.get<unsigned long long>() > 1ull << 62
+                                ? (1ll << 62)
+                                : v.get<long long>();
+        if (x < -1000000000ll || x > 1000000000ll) fail(key, "value " + v.dump() + " is out of range");
+        return static_cast<int>(x);
     }
 
     std::string string(const std::string& key) const {
@@ -259,7 +263,16 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     }
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize();
-    if (patch_size) subdivide(scene, *patch_size);
+    if (patch_size) {
+        // Refinement leaves triangles of at least about L^2/4 area: refuse sizes that
+        // would make more patches than any run can hold.
+        const double estimate = scene.total_area() / (0.25 * *patch_size * *patch_size);
+        if (estimate > 2e7)
+            throw SceneError(shown, "patch_size",
+                             format_number(*patch_size) + " would make about " + format_number(estimate) +
+                                 " patches (limit 20,000,000)");
+        subdivide(scene, *patch_size);
+    }
     return scene;
 }
 

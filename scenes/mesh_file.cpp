@@ -129,10 +129,12 @@ void check_off(std::istream& in, const std::string& shown) {
     }
 }
 
-// PLY: only the header is checked here; the counts are compared after reading.
-void read_ply_counts(std::istream& in, long& nv, long& nf) {
+// PLY: the header's counts; for ASCII files also the number of data lines, which
+// must cover them (a truncated file has fewer).
+void read_ply_counts(std::istream& in, long& nv, long& nf, long& data_lines, bool& ascii) {
     std::string line;
     while (std::getline(in, line)) {
+        if (line.rfind("format ascii", 0) == 0) ascii = true;
         std::istringstream ls(line);
         std::string word, element;
         ls >> word;
@@ -144,6 +146,10 @@ void read_ply_counts(std::istream& in, long& nv, long& nf) {
         }
         if (word == "end_header") break;
     }
+    data_lines = 0;
+    if (ascii)
+        while (std::getline(in, line))
+            if (line.find_first_not_of(" \t\r") != std::string::npos) ++data_lines;
 }
 
 }  // namespace
@@ -152,13 +158,18 @@ MeshData read_mesh_file(const std::string& path, const std::string& shown) {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw SceneError(shown, "", "cannot open mesh file");
     const std::string ext = lower_extension(path);
-    long ply_nv = -1, ply_nf = -1;
+    long ply_nv = -1, ply_nf = -1, ply_lines = 0;
+    bool ply_ascii = false;
     if (ext == "obj") {
         check_obj(probe, shown);
     } else if (ext == "off") {
         check_off(probe, shown);
     } else if (ext == "ply") {
-        read_ply_counts(probe, ply_nv, ply_nf);
+        read_ply_counts(probe, ply_nv, ply_nf, ply_lines, ply_ascii);
+        if (ply_ascii && ply_nv >= 0 && ply_nf >= 0 && ply_lines < ply_nv + ply_nf)
+            throw SceneError(shown, "", "file is truncated: header promises " + std::to_string(ply_nv) +
+                                            " vertices and " + std::to_string(ply_nf) + " faces, found " +
+                                            std::to_string(ply_lines) + " data lines");
     } else {
         throw SceneError(shown, "", "unknown mesh format '." + ext + "' (known: .obj, .ply, .off)");
     }
@@ -171,10 +182,10 @@ MeshData read_mesh_file(const std::string& path, const std::string& shown) {
     OpenMesh::IO::Options options;
     const bool ok = OpenMesh::IO::read_mesh(poly, path, options);
     if (!ok) throw SceneError(shown, "", "OpenMesh could not read the mesh (malformed or truncated file)");
-    if (ply_nv >= 0 && (static_cast<long>(poly.n_vertices()) != ply_nv || static_cast<long>(poly.n_faces()) < ply_nf))
-        throw SceneError(shown, "", "file is truncated: header promises " + std::to_string(ply_nv) + " vertices and " +
-                                        std::to_string(ply_nf) + " faces, read " + std::to_string(poly.n_vertices()) +
-                                        " and " + std::to_string(poly.n_faces()));
+    // OpenMesh may add vertices (it duplicates them for non-manifold faces), never lose them.
+    if (ply_nv >= 0 && static_cast<long>(poly.n_vertices()) < ply_nv)
+        throw SceneError(shown, "", "file is truncated: header promises " + std::to_string(ply_nv) +
+                                        " vertices, read " + std::to_string(poly.n_vertices()));
 
     MeshData data;
     data.vertices.reserve(poly.n_vertices());

@@ -92,15 +92,18 @@ void Scene::finalize() {
         for (int v : p.v) normals[v] += p.area * p.normal;
     for (auto& n : normals) n.normalize();
 
-    // Bounding sphere: centre of the bounding box, radius to the farthest vertex.
-    Vec3 lo = positions.front(), hi = positions.front();
-    for (const auto& p : positions) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-    }
+    // Bounding sphere of the patches (vertices no patch uses do not count): centre of
+    // the bounding box, radius to the farthest patch vertex.
+    Vec3 lo = positions[patches.front().v[0]], hi = lo;
+    for (const auto& p : patches)
+        for (int v : p.v) {
+            lo = lo.cwiseMin(positions[v]);
+            hi = hi.cwiseMax(positions[v]);
+        }
     center = 0.5 * (lo + hi);
     radius = 0.0;
-    for (const auto& p : positions) radius = std::max(radius, (p - center).norm());
+    for (const auto& p : patches)
+        for (int v : p.v) radius = std::max(radius, (positions[v] - center).norm());
 }
 
 bool Scene::has_glossy() const {

@@ -45,16 +45,21 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
         py_[k] = std::nearbyint((v.dot(d) + radius_) * scale + jy * kSubpixel);
     }
 
-    // Sort along w: upstream (where the light comes from) first.
+    // Sort along w: upstream (where the light comes from) first. Depth is measured from
+    // the scene's centre in double precision; at equal depth receivers go first, so a
+    // two-sided panel made of two coincident opposite triangles does not leak light.
     const std::size_t n = normals_.size();
     order_.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-        order_[i] = {static_cast<float>(direction.dot(centroids_[i])), static_cast<std::uint32_t>(i)};
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint64_t source = normals_[i].dot(direction) > 0.0 ? 1 : 0;
+        order_[i] = {direction.dot(centroids_[i] - center_), (source << 32) | i};
+    }
     std::sort(order_.begin(), order_.end());
 
     map_.assign(static_cast<std::size_t>(W) * W, -1);
     std::int32_t* map = map_.data();
-    for (const auto& [key, i] : order_) {
+    for (const auto& [key, tag] : order_) {
+        const auto i = static_cast<std::uint32_t>(tag & 0xFFFFFFFFu);
         const double facing = normals_[i].dot(direction);
         const std::uint32_t* tri = &indices_[3 * i];
         const double X[3] = {px_[tri[0]], px_[tri[1]], px_[tri[2]]};

@@ -36,7 +36,7 @@ private:
 
     // Scratch, reused between directions.
     std::vector<double> px_, py_;
-    std::vector<std::pair<float, std::uint32_t>> order_;
+    std::vector<std::pair<double, std::uint64_t>> order_;  // depth, (is source << 32) | patch
     std::vector<std::int32_t> map_;
     std::vector<std::uint32_t> counts_;
     std::vector<std::uint32_t> touched_;
