@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -70,11 +71,11 @@ public:
     int integer(const std::string& key) const {
         const json& v = raw(key);
         if (!v.is_number_integer()) fail(key, std::string("expected an integer, got ") + v.dump());
-        const long long x = v.is_number_unsigned() && v.get<unsigned long long>() > 1ull << 62
-                                ? (1ll << 62)
-                                : v.get<long long>();
-        if (x < -1000000000ll || x > 1000000000ll) fail(key, "value " + v.dump() + " is out of range");
-        return static_cast<int>(x);
+        // Range-check before narrowing: a large value must not wrap into a valid one.
+        const bool in_range = v.is_number_unsigned() ? v.get<unsigned long long>() <= 1000000000ull
+                                                      : std::abs(v.get<long long>()) <= 1000000000ll;
+        if (!in_range) fail(key, "value " + v.dump() + " is out of range");
+        return static_cast<int>(v.get<long long>());
     }
 
     std::string string(const std::string& key) const {

@@ -46,13 +46,13 @@ inline void rasterize_triangle(const double X[3], const double Y[3], int wx0, in
 
     // Edge k from vertex e0[k] to e1[k]: inside where -dy*Px + dx*Py + C + bias >= 1.
     const int e0[3] = {a, b, c}, e1[3] = {b, c, a};
-    double A[3], Bx[3], C[3];
+    double A[3], Bx[3], C[3], bias[3];
     for (int k = 0; k < 3; ++k) {
         const double dx = X[e1[k]] - X[e0[k]], dy = Y[e1[k]] - Y[e0[k]];
-        const bool include_ties = dy > 0 || (dy == 0 && dx < 0);
+        bias[k] = (dy > 0 || (dy == 0 && dx < 0)) ? 1.0 : 0.0;  // this edge owns ties
         A[k] = -dy;
         Bx[k] = dx;
-        C[k] = dy * X[e0[k]] - dx * Y[e0[k]] + (include_ties ? 1.0 : 0.0);
+        C[k] = dy * X[e0[k]] - dx * Y[e0[k]] + bias[k];
     }
     // Per edge, where the exact test flips along a row, in pixel units:
     //   Px* = X0 + (py - Y0) dx/dy - (1 - bias)/dy,  x = (Px* - H) / S,
@@ -62,16 +62,15 @@ inline void rasterize_triangle(const double X[3], const double Y[3], int wx0, in
     double slope[3] = {0, 0, 0}, base[3] = {0, 0, 0}, ystart[3] = {0, 0, 0};
     for (int k = 0; k < 3; ++k) {
         if (A[k] == 0.0) continue;
-        const double dx = Bx[k], dy = -A[k];
-        const double bias = C[k] - (dy * X[e0[k]] - dx * Y[e0[k]]);
-        slope[k] = dx / dy;
-        base[k] = X[e0[k]] - (1.0 - bias) / dy - H;
+        const double dy = -A[k];
+        slope[k] = Bx[k] / dy;
+        base[k] = X[e0[k]] - (1.0 - bias[k]) / dy - H;
         ystart[k] = Y[e0[k]];
     }
     auto estimate = [&](int k, double py) { return (base[k] + (py - ystart[k]) * slope[k]) / S; };
     const int width_last = wx1 - 1;
     const double first = wx0, past = wx1;
-    // Narrows [lo, hi] to the pixels of row y inside edge k.
+    // Narrows [lo, hi] to the pixels of the row at py (sub-pixel units) inside edge k.
     auto bound = [&](int k, double py, int& lo, int& hi) {
         const double off = Bx[k] * py + C[k];  // inside: A*Px + off >= 1
         auto inside = [&](int x) { return A[k] * (x * S + H) + off >= 1.0; };

@@ -185,6 +185,13 @@ TEST_CASE("unknown backend names list the known ones", "[visibility]") {
 TEST_CASE("the default resolution gives a small patch about 16 pixels", "[visibility]") {
     const auto scene = scenes::make_builtin("cornell-box");
     const int r = visibility::default_resolution(scene);
+    std::vector<double> areas;
+    for (const auto& p : scene.patch_list()) areas.push_back(p.area);
+    std::sort(areas.begin(), areas.end());
+    const double pixel = 2.0 * scene.bounds_radius() / r;
+    const double covered = areas[areas.size() / 10] / (pixel * pixel);
+    CHECK(covered >= 16.0);
+    CHECK(covered < 16.5);  // the resolution is rounded up by less than one pixel per side
     CHECK(r >= 64);
     CHECK(r <= 2048);
 }
