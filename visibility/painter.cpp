@@ -8,6 +8,30 @@
 
 namespace raybundle::visibility {
 
+namespace {
+
+// Stable LSD radix sort of 64-bit keys by their top 33 bits (bits 31..63), in three
+// passes of 11 bits. Keys equal in those bits keep their order.
+void radix_sort_top33(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
+    constexpr int kBits = 11, kBuckets = 1 << kBits;
+    scratch.resize(keys.size());
+    std::uint32_t count[kBuckets];
+    for (int shift = 31; shift < 64; shift += kBits) {
+        std::fill(count, count + kBuckets, 0u);
+        for (const std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
+        std::uint32_t sum = 0;
+        for (auto& c : count) {
+            const std::uint32_t here = c;
+            c = sum;
+            sum += here;
+        }
+        for (const std::uint64_t k : keys) scratch[count[(k >> shift) & (kBuckets - 1)]++] = k;
+        keys.swap(scratch);
+    }
+}
+
+}  // namespace
+
 PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options)
     : resolution_(options.resolution > 0 ? options.resolution : default_resolution(scene)),
       jitter_(options.jitter),
@@ -45,30 +69,39 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
         py_[k] = std::nearbyint((v.dot(d) + radius_) * scale + jy * kSubpixel);
     }
 
-    // Sort along w: upstream (where the light comes from) first. Depth is measured from
-    // the scene's centre in double precision; at equal depth receivers go first, so a
-    // two-sided panel made of two coincident opposite triangles does not leak light.
+    // Sort along w: upstream (where the light comes from) first. The key is the centre's
+    // depth from the scene's centre quantised to 32 bits over the bounding sphere's
+    // diameter, then "is a source", then the patch index: at equal depth receivers go
+    // first, so a two-sided panel of two coincident opposite triangles does not leak.
+    // A stable LSD radix sort on the top 33 bits keeps equal keys in index order.
     const std::size_t n = normals_.size();
-    order_.resize(n);
+    keys_.resize(n);
+    side_.resize(n);
+    const double depth_scale = 0.5 * 4294967295.0 / radius_;
     for (std::size_t i = 0; i < n; ++i) {
-        const std::uint64_t source = normals_[i].dot(direction) > 0.0 ? 1 : 0;
-        order_[i] = {direction.dot(centroids_[i] - center_), (source << 32) | i};
+        const double depth = direction.dot(centroids_[i] - center_);
+        const double q = std::clamp((depth + radius_) * depth_scale, 0.0, 4294967295.0);
+        const double facing = normals_[i].dot(direction);
+        side_[i] = facing > 0.0 ? 1 : (facing < 0.0 ? -1 : 0);
+        const std::uint64_t source = side_[i] > 0 ? 1 : 0;
+        keys_[i] = (static_cast<std::uint64_t>(q) << 32) | (source << 31) | i;
     }
-    std::sort(order_.begin(), order_.end());
+    radix_sort_top33(keys_, scratch_);
 
     map_.assign(static_cast<std::size_t>(W) * W, -1);
     std::int32_t* map = map_.data();
-    for (const auto& [key, tag] : order_) {
-        const auto i = static_cast<std::uint32_t>(tag & 0xFFFFFFFFu);
-        const double facing = normals_[i].dot(direction);
+    for (const std::uint64_t key : keys_) {
+        const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
+        const int side = side_[i];
         const std::uint32_t* tri = &indices_[3 * i];
         const double X[3] = {px_[tri[0]], px_[tri[1]], px_[tri[2]]};
         const double Y[3] = {py_[tri[0]], py_[tri[1]], py_[tri[2]]};
-        if (facing > 0.0) {
+        if (side > 0) {
             // A source: it is what the next receiver downstream sees.
             const std::int32_t id = static_cast<std::int32_t>(i);
             rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
-                std::fill(map + static_cast<std::size_t>(y) * W + x0, map + static_cast<std::size_t>(y) * W + x1, id);
+                std::int32_t* row = map + static_cast<std::size_t>(y) * W;
+                for (int x = x0; x < x1; ++x) row[x] = id;
             });
         } else {
             // A receiver (or edge-on): read what it sees, then block everything behind it.
@@ -96,7 +129,7 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
                 }
             });
             flush();
-            if (facing < 0.0) {
+            if (side < 0) {
                 for (std::uint32_t j : touched_)
                     out.entries.push_back({i, j, counts_[j] * pixel_area});
             }

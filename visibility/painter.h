@@ -36,7 +36,8 @@ private:
 
     // Scratch, reused between directions.
     std::vector<double> px_, py_;
-    std::vector<std::pair<double, std::uint64_t>> order_;  // depth, (is source << 32) | patch
+    std::vector<std::int8_t> side_;              // sign of n . w per patch
+    std::vector<std::uint64_t> keys_, scratch_;  // depth (32 bits) | is source (1) | patch (31)
     std::vector<std::int32_t> map_;
     std::vector<std::uint32_t> counts_;
     std::vector<std::uint32_t> touched_;

@@ -120,8 +120,9 @@ inline void rasterize_triangle(const double X[3], const double Y[3], int wx0, in
     sides(e_upper, up_left, up_right);
     sides(e_lower, low_left, low_right);
 
-    const int y0 = std::max(wy0, static_cast<int>(fast_floor((Y[s[0]] - H) / S)));
-    const int y1 = std::min(wy1 - 1, static_cast<int>(fast_ceil((Y[s[2]] - H) / S)));
+    // Rows whose centres lie in [Y_min, Y_max].
+    const int y0 = std::max(wy0, static_cast<int>(fast_ceil((Y[s[0]] - H) / S)));
+    const int y1 = std::min(wy1 - 1, static_cast<int>(fast_floor((Y[s[2]] - H) / S)));
     for (int y = y0; y <= y1; ++y) {
         const double py = y * S + H;
         if (py <= Y[s[0]] || py >= Y[s[2]] || py == Y[s[1]]) {
