@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace raybundle::visibility {
 
@@ -27,6 +28,21 @@ void radix_sort_top33(std::vector<std::uint64_t>& keys, std::vector<std::uint64_
         }
         for (const std::uint64_t k : keys) scratch[count[(k >> shift) & (kBuckets - 1)]++] = k;
         keys.swap(scratch);
+    }
+}
+
+// Sets row[0, n) to v. Runs are short (a few pixels), so instead of a loop with a
+// data-dependent trip count: two overlapping fixed-width stores cover 4..16 pixels.
+inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
+    const std::int32_t pattern[8] = {v, v, v, v, v, v, v, v};
+    if (n >= 8) {
+        for (int i = 0; i + 8 < n; i += 8) std::memcpy(row + i, pattern, sizeof pattern);
+        std::memcpy(row + n - 8, pattern, sizeof pattern);
+    } else if (n >= 4) {
+        std::memcpy(row, pattern, 4 * sizeof(std::int32_t));
+        std::memcpy(row + n - 4, pattern, 4 * sizeof(std::int32_t));
+    } else {
+        for (int i = 0; i < n; ++i) row[i] = v;
     }
 }
 
@@ -100,8 +116,7 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
             // A source: it is what the next receiver downstream sees.
             const std::int32_t id = static_cast<std::int32_t>(i);
             rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
-                std::int32_t* row = map + static_cast<std::size_t>(y) * W;
-                for (int x = x0; x < x1; ++x) row[x] = id;
+                fill_run(map + static_cast<std::size_t>(y) * W + x0, x1 - x0, id);
             });
         } else {
             // A receiver (or edge-on): read what it sees, then block everything behind it.
