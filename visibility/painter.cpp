@@ -81,8 +81,9 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     py_.resize(nv);
     for (std::size_t k = 0; k < nv; ++k) {
         const Vec3 d = positions_[k] - center_;
-        px_[k] = std::nearbyint((u.dot(d) + radius_) * scale + jx * kSubpixel);
-        py_[k] = std::nearbyint((v.dot(d) + radius_) * scale + jy * kSubpixel);
+        // Rounded to the nearest sub-pixel unit (the values are positive: no libm call).
+        px_[k] = std::floor((u.dot(d) + radius_) * scale + jx * kSubpixel + 0.5);
+        py_[k] = std::floor((v.dot(d) + radius_) * scale + jy * kSubpixel + 0.5);
     }
 
     // Sort along w: upstream (where the light comes from) first. The key is the centre's
