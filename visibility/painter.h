@@ -8,7 +8,8 @@
 // perpendicular to w that covers the scene's bounding sphere. A pixel holds the last
 // patch that faces w (a source) or "none" behind a patch facing against w (a
 // receiver). A receiver reads the pixels it covers before overwriting them: each
-// read of source j adds one pixel's area to A(i, j). O(n log n + pixels) per direction.
+// read of source j adds one pixel's area to A(i, j). The sort is a radix sort on the
+// centres' depth quantised to 32 bits, so a direction costs O(n + pixels).
 // Centre sorting is exact for non-intersecting patches that are small against their
 // distances; interpenetrating patches need the global z-buffer instead.
 #include "visibility/backend.h"
