@@ -1,6 +1,5 @@
 #include "visibility/painter.h"
 
-#include "sampling/directions.h"
 #include "visibility/raster.h"
 
 #include <algorithm>
@@ -49,42 +48,22 @@ inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
 }  // namespace
 
 PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : resolution_(options.resolution > 0 ? options.resolution : default_resolution(scene)),
-      jitter_(options.jitter),
-      center_(scene.bounds_center()),
-      radius_(scene.bounds_radius()),
-      positions_(scene.vertex_positions()) {
-    const auto& patches = scene.patch_list();
-    indices_.reserve(3 * patches.size());
-    for (const auto& p : patches) {
-        for (int k : p.v) indices_.push_back(static_cast<std::uint32_t>(k));
+    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {
+    for (const auto& p : scene.patch_list()) {
         normals_.push_back(p.normal);
         centroids_.push_back(p.centroid);
     }
-    counts_.assign(patches.size(), 0);
+    counts_.assign(scene.patch_count(), 0);
 }
 
 void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
     out.direction = direction;
     out.entries.clear();
-    const int W = resolution_ + 1;  // one spare pixel for the jitter shift
-    const double pixel = 2.0 * radius_ / resolution_;
-    const double pixel_area = pixel * pixel;
-    const double jx = jitter_ ? jitter.x() : 0.5, jy = jitter_ ? jitter.y() : 0.5;
-
-    // Project every vertex onto the plane perpendicular to w, in snapped sub-pixel units.
-    Vec3 u, v;
-    sampling::orthonormal_basis(direction, u, v);
-    const double scale = kSubpixel / pixel;
-    const std::size_t nv = positions_.size();
-    px_.resize(nv);
-    py_.resize(nv);
-    for (std::size_t k = 0; k < nv; ++k) {
-        const Vec3 d = positions_[k] - center_;
-        // Rounded to the nearest sub-pixel unit (the values are positive: no libm call).
-        px_[k] = std::floor((u.dot(d) + radius_) * scale + jx * kSubpixel + 0.5);
-        py_[k] = std::floor((v.dot(d) + radius_) * scale + jy * kSubpixel + 0.5);
-    }
+    grid_.project(direction, jitter);
+    const int W = grid_.width();
+    const double pixel_area = grid_.pixel_area();
+    const Vec3 center = grid_.center();
+    const double radius = grid_.radius();
 
     // Sort along w: upstream (where the light comes from) first. The key is the centre's
     // depth from the scene's centre quantised to 32 bits over the bounding sphere's
@@ -94,10 +73,10 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     const std::size_t n = normals_.size();
     keys_.resize(n);
     side_.resize(n);
-    const double depth_scale = 0.5 * 4294967295.0 / radius_;
+    const double depth_scale = 0.5 * 4294967295.0 / radius;
     for (std::size_t i = 0; i < n; ++i) {
-        const double depth = direction.dot(centroids_[i] - center_);
-        const double q = std::clamp((depth + radius_) * depth_scale, 0.0, 4294967295.0);
+        const double depth = direction.dot(centroids_[i] - center);
+        const double q = std::clamp((depth + radius) * depth_scale, 0.0, 4294967295.0);
         const double facing = normals_[i].dot(direction);
         side_[i] = facing > 0.0 ? 1 : (facing < 0.0 ? -1 : 0);
         const std::uint64_t source = side_[i] > 0 ? 1 : 0;
@@ -110,9 +89,8 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     for (const std::uint64_t key : keys_) {
         const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
         const int side = side_[i];
-        const std::uint32_t* tri = &indices_[3 * i];
-        const double X[3] = {px_[tri[0]], px_[tri[1]], px_[tri[2]]};
-        const double Y[3] = {py_[tri[0]], py_[tri[1]], py_[tri[2]]};
+        double X[3], Y[3];
+        grid_.triangle(i, X, Y);
         if (side > 0) {
             // A source: it is what the next receiver downstream sees.
             const std::int32_t id = static_cast<std::int32_t>(i);

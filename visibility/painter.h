@@ -13,6 +13,7 @@
 // Centre sorting is exact for non-intersecting patches that are small against their
 // distances; interpenetrating patches need the global z-buffer instead.
 #include "visibility/backend.h"
+#include "visibility/map_grid.h"
 
 #include <cstdint>
 #include <vector>
@@ -23,20 +24,14 @@ class PainterBackend final : public Backend {
 public:
     PainterBackend(const scenes::Scene& scene, const BackendOptions& options);
     std::string name() const override { return "painter"; }
-    int resolution() const override { return resolution_; }
+    int resolution() const override { return grid_.resolution(); }
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
 
 private:
-    int resolution_;
-    bool jitter_;
-    Vec3 center_;
-    double radius_;
-    std::vector<Vec3> positions_;
-    std::vector<std::uint32_t> indices_;  // 3 per patch
+    MapGrid grid_;
     std::vector<Vec3> normals_, centroids_;
 
     // Scratch, reused between directions.
-    std::vector<double> px_, py_;
     std::vector<std::int8_t> side_;              // sign of n . w per patch
     std::vector<std::uint64_t> keys_, scratch_;  // depth (32 bits) | is source (1) | patch (31)
     std::vector<std::int32_t> map_;
