@@ -4,6 +4,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <limits>
 #include <string>
 
@@ -24,6 +25,8 @@ RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
         throw std::runtime_error("Embree: cannot create a device (error " +
                                  std::to_string(rtcGetDeviceError(nullptr)) + ")");
     impl_->scene = rtcNewScene(impl_->device);
+    // all_hits() collects every crossing through a per-call filter function.
+    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     const auto& pos = scene.vertex_positions();
     const auto& patches = scene.patch_list();
@@ -44,9 +47,9 @@ RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
 
 RayCaster::~RayCaster() = default;
 
-RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
+namespace {
+
+RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max) {
     RTCRayHit rh{};
     rh.ray.org_x = static_cast<float>(org.x());
     rh.ray.org_y = static_cast<float>(org.y());
@@ -59,6 +62,53 @@ RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, doub
                                                                    : static_cast<float>(t_max);
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
+// An intersect context that records every hit and rejects it, so traversal goes on.
+struct CollectContext {
+    RTCIntersectContext context;  // first member: Embree hands back a pointer to it
+    std::vector<RayHit>* hits;
+};
+
+void collect_hit(const RTCFilterFunctionNArguments* args) {
+    auto* ctx = reinterpret_cast<CollectContext*>(args->context);
+    for (unsigned k = 0; k < args->N; ++k) {
+        if (args->valid[k] == 0) continue;
+        RayHit h;
+        h.patch = static_cast<int>(RTCHitN_primID(args->hit, args->N, k));
+        h.t = RTCRayN_tfar(args->ray, args->N, k);
+        h.b1 = RTCHitN_u(args->hit, args->N, k);
+        h.b2 = RTCHitN_v(args->hit, args->N, k);
+        ctx->hits->push_back(h);
+        args->valid[k] = 0;
+    }
+}
+
+}  // namespace
+
+void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min,
+                         double t_max) const {
+    hits.clear();
+    CollectContext ctx;
+    rtcInitIntersectContext(&ctx.context);
+    ctx.context.filter = collect_hit;
+    ctx.hits = &hits;
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max);
+    rtcIntersect1(impl_->scene, &ctx.context, &rh);
+    std::sort(hits.begin(), hits.end(), [](const RayHit& a, const RayHit& b) {
+        return a.t < b.t || (a.t == b.t && a.patch < b.patch);
+    });
+    // A BVH with spatial splits may reference a triangle from several leaves.
+    hits.erase(std::unique(hits.begin(), hits.end(),
+                           [](const RayHit& a, const RayHit& b) { return a.patch == b.patch && a.t == b.t; }),
+               hits.end());
+}
+
+RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max);
     rtcIntersect1(impl_->scene, &context, &rh);
     RayHit hit;
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {

@@ -6,6 +6,7 @@
 
 #include <limits>
 #include <memory>
+#include <vector>
 
 namespace raybundle::scenes {
 
@@ -28,6 +29,11 @@ public:
     // are hit (patches block light from behind too); thread-safe.
     RayHit intersect(const Vec3& org, const Vec3& dir, double t_min = 0.0,
                      double t_max = std::numeric_limits<double>::infinity()) const;
+
+    // Every crossing of the ray org + t dir with a patch, t in (t_min, t_max), in order
+    // of increasing t (ties in patch order). Replaces the contents of `hits`.
+    void all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min = 0.0,
+                  double t_max = std::numeric_limits<double>::infinity()) const;
 
 private:
     struct Impl;

@@ -53,7 +53,7 @@ public:
     virtual void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) = 0;
 };
 
-// Makes a backend by name: "painter". Throws std::invalid_argument for an unknown
+// Makes a backend by name: "painter", "global-zbuffer", "raycast". Throws std::invalid_argument for an unknown
 // name, listing the known ones.
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options);

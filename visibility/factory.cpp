@@ -1,5 +1,7 @@
 #include "visibility/backend.h"
+#include "visibility/global_zbuffer.h"
 #include "visibility/painter.h"
+#include "visibility/raycast.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +9,7 @@
 
 namespace raybundle::visibility {
 
-std::vector<std::string> backend_names() { return {"painter"}; }
+std::vector<std::string> backend_names() { return {"painter", "global-zbuffer", "raycast"}; }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options) {
@@ -15,6 +17,8 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
         throw std::invalid_argument("visibility resolution must be in 1..16384, got " +
                                     std::to_string(options.resolution));
     if (name == "painter") return std::make_unique<PainterBackend>(scene, options);
+    if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options);
+    if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
     std::string known;
     for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
     throw std::invalid_argument("unknown visibility backend '" + name + "' (known: " + known + ")");

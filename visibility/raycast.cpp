@@ -1,0 +1,44 @@
+#include "visibility/raycast.h"
+
+#include "visibility/pixel_pairs.h"
+
+#include <algorithm>
+
+namespace raybundle::visibility {
+
+RaycastBackend::RaycastBackend(const scenes::Scene& scene, const BackendOptions& options)
+    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+      caster_(scene) {
+    for (const auto& p : scene.patch_list()) normals_.push_back(p.normal);
+}
+
+void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
+    out.direction = w;
+    out.entries.clear();
+    grid_.project(w, jitter);
+    const int W = grid_.width();
+    const double R = grid_.radius();
+    const Vec3 center = grid_.center();
+    pairs_.clear();
+    for (int y = 0; y < W; ++y)
+        for (int x = 0; x < W; ++x) {
+            const Vec3 q = grid_.pixel_point(x, y);
+            if ((q - center).squaredNorm() > R * R) continue;  // misses the bounding sphere
+            // From upstream of the whole scene to downstream of it.
+            caster_.all_hits(q - 1.01 * R * w, w, hits_, 0.0, 2.02 * R);
+            // At equal distance receivers first, as in the other backends: a two-sided
+            // panel of coincident opposite triangles does not leak.
+            std::stable_sort(hits_.begin(), hits_.end(), [&](const scenes::RayHit& a, const scenes::RayHit& b) {
+                return a.t < b.t || (a.t == b.t && normals_[a.patch].dot(w) < 0.0 && normals_[b.patch].dot(w) > 0.0);
+            });
+            for (std::size_t k = 0; k + 1 < hits_.size(); ++k) {
+                const auto& a = hits_[k];
+                const auto& b = hits_[k + 1];
+                if (normals_[a.patch].dot(w) > 0.0 && normals_[b.patch].dot(w) < 0.0)
+                    pairs_.push_back(pixel_pair(static_cast<std::uint32_t>(b.patch), static_cast<std::uint32_t>(a.patch)));
+            }
+        }
+    entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);
+}
+
+}  // namespace raybundle::visibility
