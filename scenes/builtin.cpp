@@ -4,6 +4,7 @@
 #include "scenes/subdivide.h"
 
 #include <cmath>
+#include <map>
 
 namespace raybundle::scenes {
 namespace {
@@ -47,6 +48,95 @@ Scene homogeneous_box() {
     // Le = 0.5 and albedo 0.5 everywhere in a closed box: L = 0.5 + 0.5 L, so L = 1.
     s.exact_radiance = 1.0;
     return s;
+}
+
+// A floor (a convex quad in the plane y = const) with the blocks' footprints cut out:
+// the quad is split by the lines through every footprint edge (a line arrangement,
+// so the pieces meet edge to edge, without T-junctions), the pieces inside a
+// footprint are dropped, and the rest are triangulated as fans. No patch straddles a
+// block's base, where sorting patches by their centres would go wrong, and no patch
+// hides under a block.
+void add_floor(Scene& s, const Vec3 corners[4], const std::vector<std::array<Vec3, 4>>& footprints, int material,
+               const Vec3& towards) {
+    using P = Eigen::Vector2d;  // (x, z)
+    using Poly = std::vector<P>;
+    auto cross = [](const P& a, const P& b) { return a.x() * b.y() - a.y() * b.x(); };
+    // Keeps the part of a convex polygon on the side of line (a, b) where side * cross >= 0.
+    auto clip = [&](const Poly& poly, const P& a, const P& b, double side) {
+        Poly out;
+        for (std::size_t k = 0; k < poly.size(); ++k) {
+            const P& p = poly[k];
+            const P& q = poly[(k + 1) % poly.size()];
+            const double dp = side * cross(b - a, p - a), dq = side * cross(b - a, q - a);
+            if (dp >= 0) out.push_back(p);
+            if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) out.push_back(p + (q - p) * (dp / (dp - dq)));
+        }
+        return out;
+    };
+    auto area = [&](const Poly& poly) {
+        double a = 0;
+        for (std::size_t k = 0; k < poly.size(); ++k) a += cross(poly[k], poly[(k + 1) % poly.size()]);
+        return 0.5 * a;
+    };
+    std::vector<Poly> cells{{}};
+    for (int k = 0; k < 4; ++k) cells[0].emplace_back(corners[k].x(), corners[k].z());
+    for (const auto& fp : footprints)
+        for (int k = 0; k < 4; ++k) {
+            const P a(fp[k].x(), fp[k].z()), b(fp[(k + 1) % 4].x(), fp[(k + 1) % 4].z());
+            std::vector<Poly> next;
+            for (const auto& c : cells)
+                for (double side : {1.0, -1.0}) {
+                    Poly part = clip(c, a, b, side);
+                    if (part.size() >= 3 && std::abs(area(part)) > 1e-9) next.push_back(std::move(part));
+                }
+            cells.swap(next);
+        }
+    auto inside_footprint = [&](const P& q) {
+        for (const auto& fp : footprints) {
+            int sign = 0;
+            bool in = true;
+            for (int k = 0; k < 4 && in; ++k) {
+                const P a(fp[k].x(), fp[k].z()), b(fp[(k + 1) % 4].x(), fp[(k + 1) % 4].z());
+                const int sk = cross(b - a, q - a) > 0 ? 1 : -1;
+                if (sign == 0) sign = sk;
+                in = sk == sign;
+            }
+            if (in) return true;
+        }
+        return false;
+    };
+    // Weld the pieces' corners (the same intersection computed from two pieces may
+    // differ in the last bits) and fan-triangulate the pieces outside the footprints.
+    const double y = corners[0].y();
+    std::vector<Vec3> vertices;
+    std::map<std::pair<long long, long long>, int> index;
+    auto vertex = [&](const P& p) {
+        const std::pair<long long, long long> key{std::llround(p.x() * 1e6), std::llround(p.y() * 1e6)};
+        const auto it = index.find(key);
+        if (it != index.end()) return it->second;
+        vertices.emplace_back(p.x(), y, p.y());
+        return index[key] = static_cast<int>(vertices.size()) - 1;
+    };
+    std::vector<std::array<int, 3>> tris;
+    for (const auto& c : cells) {
+        P centroid = P::Zero();
+        for (const auto& p : c) centroid += p / static_cast<double>(c.size());
+        if (inside_footprint(centroid)) continue;
+        std::vector<int> ids;
+        for (const auto& p : c) {
+            const int id = vertex(p);
+            if (ids.empty() || ids.back() != id) ids.push_back(id);
+        }
+        while (ids.size() > 1 && ids.back() == ids.front()) ids.pop_back();
+        for (std::size_t k = 1; k + 1 < ids.size(); ++k) {
+            std::array<int, 3> t{ids[0], ids[k], ids[k + 1]};
+            const Vec3 n = (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]);
+            if (n.norm() < 1e-9) continue;
+            if (n.dot(towards - vertices[t[0]]) < 0) std::swap(t[1], t[2]);
+            tris.push_back(t);
+        }
+    }
+    s.add_object(vertices, tris, material);
 }
 
 // A block (box with a top and four sides, no bottom) given its four bottom
@@ -93,7 +183,6 @@ Scene cornell_box() {
     const Vec3 back[4] = {{549.6, 0, 559.2}, {0, 0, 559.2}, {0, 548.8, 559.2}, {556, 548.8, 559.2}};
     const Vec3 right[4] = {{0, 0, 559.2}, {0, 0, 0}, {0, 548.8, 0}, {0, 548.8, 559.2}};
     const Vec3 left[4] = {{552.8, 0, 0}, {549.6, 0, 559.2}, {556, 548.8, 559.2}, {556, 548.8, 0}};
-    add_quad(s, floor_, white, inside);
     add_quad(s, back, white, inside);
     add_quad(s, right, green, inside);
     add_quad(s, left, red, inside);
@@ -123,6 +212,10 @@ Scene cornell_box() {
     const Vec3 tall_block[4] = {{423, 0, 247}, {265, 0, 296}, {314, 0, 456}, {472, 0, 406}};
     add_block(s, short_block, 165, white);
     add_block(s, tall_block, 330, white);
+    add_floor(s, floor_,
+              {{short_block[0], short_block[1], short_block[2], short_block[3]},
+               {tall_block[0], tall_block[1], tall_block[2], tall_block[3]}},
+              white, inside);
 
     s.camera.eye = Vec3(278, 273, -800);
     s.camera.target = Vec3(278, 273, 0);
@@ -149,7 +242,7 @@ void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& tow
 std::vector<BuiltinInfo> builtin_scenes() {
     return {
         {"homogeneous-box", "unit cube, albedo 0.5 and emission 0.5 everywhere: exact radiance 1", 0.2},
-        {"cornell-box", "the Cornell box (mm), white/red/green walls, two blocks, area light", 50.0},
+        {"cornell-box", "the Cornell box (mm), white/red/green walls, two blocks, area light", 53.0},
     };
 }
 

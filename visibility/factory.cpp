@@ -1,4 +1,5 @@
 #include "visibility/backend.h"
+#include "visibility/arrangement.h"
 #include "visibility/global_zbuffer.h"
 #include "visibility/painter.h"
 #include "visibility/raycast.h"
@@ -9,7 +10,13 @@
 
 namespace raybundle::visibility {
 
-std::vector<std::string> backend_names() { return {"painter", "global-zbuffer", "raycast"}; }
+std::vector<std::string> backend_names() {
+    return {"painter", "global-zbuffer", "raycast",
+#ifdef RAYBUNDLE_HAVE_CGAL
+            "arrangement"
+#endif
+    };
+}
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options) {
@@ -19,6 +26,13 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
     if (name == "painter") return std::make_unique<PainterBackend>(scene, options);
     if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options);
     if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
+    if (name == "arrangement") {
+#ifdef RAYBUNDLE_HAVE_CGAL
+        return std::make_unique<ArrangementBackend>(scene);
+#else
+        throw std::invalid_argument("visibility backend 'arrangement' is not built (configure with RAYBUNDLE_WITH_CGAL=ON)");
+#endif
+    }
     std::string known;
     for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
     throw std::invalid_argument("unknown visibility backend '" + name + "' (known: " + known + ")");

@@ -82,35 +82,48 @@ TEST_CASE("every backend: the expected matrix is reciprocal between w and -w", "
     const std::string name = GENERATE(from_range(visibility::backend_names()));
     const auto scene = scenes::make_builtin("cornell-box", 150.0);
     visibility::BackendOptions opt;
-    opt.resolution = 128;
+    opt.resolution = 256;
     auto backend = visibility::make_backend(name, scene, opt);
     const Vec3 w = Vec3(0.3, -0.8, 0.5).normalized();
-    const Matrix forward = averaged(*backend, w, 32, 7);
-    const Matrix backward_raw = averaged(*backend, -w, 32, 8);
+    const Matrix forward = averaged(*backend, w, 64, 7);
+    const Matrix backward_raw = averaged(*backend, -w, 64, 8);
     Matrix backward;
     for (const auto& [k, area] : backward_raw) backward[{k.second, k.first}] = area;
     INFO(name);
-    CHECK(relative_frobenius(backward, forward) < 0.03);
+    CHECK(relative_frobenius(backward, forward) < (name == "arrangement" ? 1e-9 : 0.02));
 }
 
-TEST_CASE("the discrete backends agree on the Cornell box", "[visibility][backends]") {
+TEST_CASE("the discrete backends agree with the exact arrangement on the Cornell box", "[visibility][backends]") {
+    // The arrangement backend computes A(w) exactly; the discrete backends' jitter
+    // averages must converge to it. Row sums within 1 % (relative L1 over receivers),
+    // the matrix within 2 % (relative Frobenius norm), at ten fixed directions.
     const auto scene = scenes::make_builtin("cornell-box");
-    visibility::BackendOptions opt;
-    opt.resolution = 256;
-    auto reference = visibility::make_backend("raycast", scene, opt);
+    auto exact = visibility::make_backend("arrangement", scene, {});
+    // Jitters per direction: the pixel noise of an entry falls as 1/sqrt(samples).
+    const std::map<std::string, std::pair<int, int>> plan = {  // backend -> (directions, jitters)
+        {"painter", {10, 128}}, {"global-zbuffer", {10, 64}}, {"raycast", {3, 32}}};
     sampling::RandomDirections dirs(5);
-    for (int d = 0; d < 3; ++d) {
-        const Vec3 w = dirs.next();
-        const Matrix ref = averaged(*reference, w, 8, 50 + d);
-        for (const auto& name : visibility::backend_names()) {
-            if (name == "raycast") continue;
-            auto backend = visibility::make_backend(name, scene, opt);
-            const Matrix m = averaged(*backend, w, 8, 50 + d);
-            INFO(name << " against raycast, direction " << d);
-            // The global z-buffer orders every pixel exactly, like the rays; the painter's
-            // centre sort misorders patches near where walls and blocks meet (measured
-            // 0.8-2.1 % on these directions).
-            CHECK(relative_frobenius(m, ref) < (name == "painter" ? 0.03 : 0.01));
+    std::vector<Vec3> directions;
+    for (int d = 0; d < 10; ++d) directions.push_back(dirs.next());
+    std::vector<Matrix> reference;
+    for (const auto& w : directions) reference.push_back(averaged(*exact, w, 1, 0));
+    for (const auto& [name, counts] : plan) {
+        visibility::BackendOptions opt;
+        opt.resolution = 512;
+        auto backend = visibility::make_backend(name, scene, opt);
+        for (int d = 0; d < counts.first; ++d) {
+            const Matrix m = averaged(*backend, directions[d], counts.second, 50 + d);
+            std::vector<double> row(scene.patch_count(), 0.0), row_ref(scene.patch_count(), 0.0);
+            for (const auto& [k, area] : m) row[k.first] += area;
+            for (const auto& [k, area] : reference[d]) row_ref[k.first] += area;
+            double diff = 0.0, norm = 0.0;
+            for (std::size_t i = 0; i < row.size(); ++i) {
+                diff += std::abs(row[i] - row_ref[i]);
+                norm += row_ref[i];
+            }
+            INFO(name << " against arrangement, direction " << d);
+            CHECK(diff / norm < 0.01);
+            CHECK(relative_frobenius(m, reference[d]) < 0.02);
         }
     }
 }
@@ -143,6 +156,8 @@ TEST_CASE("interpenetrating patches: exact per-pixel order where centre sorting 
         CHECK(received[exact_backend].first == Approx(0.5125).epsilon(0.005));
         CHECK(received[exact_backend].second == Approx(0.4875).epsilon(0.005));
     }
+    // The arrangement orders each face at one point, and the crossing line is not an
+    // edge of the arrangement: like the painter, it needs non-intersecting patches.
     // The painter sorts each square's two triangles by their centres: each triangle
     // is wholly in front of or behind the other square's, so the crossing line is lost
     // and the split comes out near 0.5 / 0.5 (measured: 0.500 / 0.499).
@@ -156,7 +171,7 @@ TEST_CASE("the solver reaches the same radiance with every backend", "[visibilit
     std::map<std::string, solver::RadianceField> fields;
     for (const auto& name : visibility::backend_names()) {
         visibility::BackendOptions opt;
-        opt.resolution = 96;
+        opt.resolution = 256;
         auto backend = visibility::make_backend(name, scene, opt);
         solver::IterationOptions it_opt;
         it_opt.iterations = 200;
@@ -165,16 +180,16 @@ TEST_CASE("the solver reaches the same radiance with every backend", "[visibilit
         it.run();
         fields[name] = it.field();
     }
-    // Same seed: same directions and jitters, so the runs differ only where the
-    // backends' matrices do.
-    const auto& ref = fields["raycast"];
+    // Same seed: same directions (and jitters), so the runs differ only where the
+    // backends' matrices do: by pixel noise, against the exact arrangement.
+    const auto& ref = fields.count("arrangement") ? fields["arrangement"] : fields["raycast"];
     for (const auto& [name, field] : fields) {
         double diff = 0.0, norm = 0.0;
         for (std::size_t i = 0; i < scene.patch_count(); ++i) {
             diff += scene.patch_list()[i].area * (field.radiance[i] - ref.radiance[i]).abs().sum();
             norm += scene.patch_list()[i].area * ref.radiance[i].sum();
         }
-        INFO(name << " against raycast");
-        CHECK(diff / norm < 0.01);
+        INFO(name << " against the reference");
+        CHECK(diff / norm < 0.02);
     }
 }
