@@ -2,7 +2,7 @@
 // map resolution. A benchmark, not a test: run it on a quiet machine and compare
 // ratios measured in one run. Results and the commands that made them: docs/benchmarks.md.
 //
-//   bench_visibility [--backend painter] [--scene cornell-box] [--patch-size 50 ...]
+//   bench_visibility [--backend painter ...] [--scene cornell-box] [--patch-size 53 ...]
 //                    [--resolution 256 512 1024] [--directions 200] [--csv out.csv]
 #include "sampling/directions.h"
 #include "scenes/builtin.h"
@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 namespace rb = raybundle;
 
@@ -21,13 +22,13 @@ int main(int argc, char** argv) {
     CLI::App app{"raybundle visibility benchmark"};
     std::vector<std::string> backends{"painter"};
     std::string scene_name = "cornell-box";
-    std::vector<double> patch_sizes{50.0};
+    std::vector<double> patch_sizes;  // empty: the scene's default
     std::vector<int> resolutions{256, 512, 1024};
     int directions = 200;
     std::string csv;
     app.add_option("--backend", backends, "backends to measure")->capture_default_str();
     app.add_option("--scene", scene_name, "built-in scene")->capture_default_str();
-    app.add_option("--patch-size", patch_sizes, "patch sizes (scene units), one scene each")->capture_default_str();
+    app.add_option("--patch-size", patch_sizes, "patch sizes (scene units), one scene each (default: the scene's)");
     app.add_option("--resolution", resolutions, "map resolutions")->capture_default_str();
     app.add_option("--directions", directions, "directions per measurement")->capture_default_str();
     app.add_option("--csv", csv, "append rows to this CSV");
@@ -39,7 +40,10 @@ int main(int argc, char** argv) {
         out << "backend,scene,patches,resolution,directions,seconds_per_direction,entries_per_direction\n";
     }
     std::printf("%-10s %-16s %8s %6s %14s %10s\n", "backend", "scene", "patches", "res", "ms/direction", "entries");
-    for (double ps : patch_sizes) {
+    std::vector<std::optional<double>> sizes;
+    for (double ps : patch_sizes) sizes.emplace_back(ps);
+    if (sizes.empty()) sizes.emplace_back(std::nullopt);
+    for (const auto& ps : sizes) {
         const auto scene = rb::scenes::make_builtin(scene_name, ps);
         for (const auto& name : backends)
             for (int res : resolutions) {

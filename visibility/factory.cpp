@@ -3,6 +3,9 @@
 #include "visibility/global_zbuffer.h"
 #include "visibility/painter.h"
 #include "visibility/raycast.h"
+#ifdef RAYBUNDLE_HAVE_OPENGL
+#include "visibility/zbuffer.h"
+#endif
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +15,9 @@ namespace raybundle::visibility {
 
 std::vector<std::string> backend_names() {
     return {"painter", "global-zbuffer", "raycast",
+#ifdef RAYBUNDLE_HAVE_OPENGL
+            "zbuffer",
+#endif
 #ifdef RAYBUNDLE_HAVE_CGAL
             "arrangement"
 #endif
@@ -26,6 +32,13 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
     if (name == "painter") return std::make_unique<PainterBackend>(scene, options);
     if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options);
     if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
+    if (name == "zbuffer") {
+#ifdef RAYBUNDLE_HAVE_OPENGL
+        return std::make_unique<ZBufferBackend>(scene, options);
+#else
+        throw std::invalid_argument("visibility backend 'zbuffer' is not built (configure with RAYBUNDLE_WITH_OPENGL=ON)");
+#endif
+    }
     if (name == "arrangement") {
 #ifdef RAYBUNDLE_HAVE_CGAL
         return std::make_unique<ArrangementBackend>(scene);

@@ -80,6 +80,20 @@ else
   fail "missing output directory: exit $rc, $(cat err.txt)"
 fi
 
+# A backend whose library is missing at run time: one clear line, exit 1, no output.
+if "$bin" backends | grep -qx zbuffer; then
+  rm -rf outdir && mkdir outdir
+  RAYBUNDLE_OSMESA_LIBRARY=/nonexistent/libOSMesa.so "$bin" solve --builtin homogeneous-box --visibility zbuffer \
+    -o outdir/z.exr --stats outdir/z.json >out.txt 2>err.txt
+  rc=$?
+  if [ "$rc" -eq 1 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF "zbuffer: cannot load OSMesa" err.txt \
+     && [ -z "$(ls outdir)" ]; then
+    passed=$((passed + 1))
+  else
+    fail "missing OSMesa: exit $rc, $(cat err.txt), outputs: $(ls outdir)"
+  fi
+fi
+
 # A good run writes every output, with the documented stats and CSV headers.
 if "$bin" solve --builtin homogeneous-box --iterations 200 -o h.exr --png h.png --stats h.json \
      --csv h.csv --patches h-patches.csv --ply h.ply 2>err.txt; then

@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <utility>
@@ -101,13 +102,15 @@ TEST_CASE("the discrete backends agree with the exact arrangement on the Cornell
     auto exact = visibility::make_backend("arrangement", scene, {});
     // Jitters per direction: the pixel noise of an entry falls as 1/sqrt(samples).
     const std::map<std::string, std::pair<int, int>> plan = {  // backend -> (directions, jitters)
-        {"painter", {10, 128}}, {"global-zbuffer", {10, 64}}, {"raycast", {3, 32}}};
+        {"painter", {10, 128}}, {"global-zbuffer", {10, 64}}, {"raycast", {3, 32}}, {"zbuffer", {3, 32}}};
     sampling::RandomDirections dirs(5);
     std::vector<Vec3> directions;
     for (int d = 0; d < 10; ++d) directions.push_back(dirs.next());
     std::vector<Matrix> reference;
     for (const auto& w : directions) reference.push_back(averaged(*exact, w, 1, 0));
     for (const auto& [name, counts] : plan) {
+        const auto known = visibility::backend_names();
+        if (std::find(known.begin(), known.end(), name) == known.end()) continue;  // not built
         visibility::BackendOptions opt;
         opt.resolution = 512;
         auto backend = visibility::make_backend(name, scene, opt);
