@@ -3,7 +3,9 @@
 #include "scenes/scene_error.h"
 #include "scenes/subdivide.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 
 namespace raybundle::scenes {
@@ -226,6 +228,85 @@ Scene cornell_box() {
     return s;
 }
 
+// A fractal terrain (the paper's section 10 scenes, without the lake): a 16 km wide
+// height field by midpoint displacement (diamond-square, fixed seed, roughness 0.5),
+// sampled on a grid of cells about patch_size wide, lit by an emissive "moon" square
+// hanging over it. The grid is built at the target size (conforming by construction),
+// so the patch count follows the patch size: 2 * (16000 / patch_size)^2 triangles.
+Scene fractal_terrain(double patch_size) {
+    Scene s;
+    s.name = "fractal-terrain";
+    const int ground = s.add_material(make_material("ground", Rgb(0.45, 0.42, 0.35)));
+    const int moon = s.add_material(make_material("moon", Rgb(0.5, 0.5, 0.5), Rgb(12.0, 11.4, 10.2)));
+    constexpr int kLevels = 9, N = (1 << kLevels) + 1;  // 513 x 513 height samples
+    constexpr double kSide = 16000.0, kRelief = 3000.0;
+    std::vector<double> h(static_cast<std::size_t>(N) * N, 0.0);
+    auto at = [&](int i, int j) -> double& { return h[static_cast<std::size_t>(j) * N + i]; };
+    std::uint64_t state = 0x7e11a1;
+    auto random = [&]() {  // splitmix64 in [-1, 1): fixed, platform-independent
+        std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-52 - 1.0;
+    };
+    double amplitude = kRelief;
+    for (int step = N - 1; step > 1; step /= 2, amplitude *= 0.5) {
+        const int half = step / 2;
+        for (int j = half; j < N; j += step)  // diamond
+            for (int i = half; i < N; i += step)
+                at(i, j) = 0.25 * (at(i - half, j - half) + at(i + half, j - half) + at(i - half, j + half) +
+                                   at(i + half, j + half)) + amplitude * random();
+        for (int j = 0; j < N; j += half)  // square
+            for (int i = (j / half) % 2 == 0 ? half : 0; i < N; i += step) {
+                double sum = 0.0;
+                int count = 0;
+                if (i >= half) sum += at(i - half, j), ++count;
+                if (i + half < N) sum += at(i + half, j), ++count;
+                if (j >= half) sum += at(i, j - half), ++count;
+                if (j + half < N) sum += at(i, j + half), ++count;
+                at(i, j) = sum / count + amplitude * random();
+            }
+    }
+    auto height = [&](double x, double z) {  // bilinear in the sample grid
+        const double fx = std::clamp(x / kSide, 0.0, 1.0) * (N - 1), fz = std::clamp(z / kSide, 0.0, 1.0) * (N - 1);
+        const int i = std::min(static_cast<int>(fx), N - 2), j = std::min(static_cast<int>(fz), N - 2);
+        const double tx = fx - i, tz = fz - j;
+        return (1 - tx) * (1 - tz) * at(i, j) + tx * (1 - tz) * at(i + 1, j) + (1 - tx) * tz * at(i, j + 1) +
+               tx * tz * at(i + 1, j + 1);
+    };
+    // Cells of side at most patch_size / sqrt(2), so that the diagonals respect it too.
+    const int cells = std::max(1, static_cast<int>(std::ceil(kSide * std::sqrt(2.0) / patch_size)));
+    std::vector<Vec3> v;
+    for (int j = 0; j <= cells; ++j)
+        for (int i = 0; i <= cells; ++i) {
+            const double x = kSide * i / cells, z = kSide * j / cells;
+            v.emplace_back(x, height(x, z), z);
+        }
+    std::vector<std::array<int, 3>> tris;
+    for (int j = 0; j < cells; ++j)
+        for (int i = 0; i < cells; ++i) {
+            const int a = j * (cells + 1) + i, b = a + 1, c = a + cells + 2, d = a + cells + 1;
+            // Counter-clockwise seen from above (+y): a, d, c and a, c, b.
+            tris.push_back({a, d, c});
+            tris.push_back({a, c, b});
+        }
+    s.add_object(v, tris, ground);
+    double top = -1e30;
+    for (const auto& p : v) top = std::max(top, p.y());
+    const Vec3 m0(5500, top + 2500, 5500), m1(7500, top + 2500, 5500), m2(7500, top + 2500, 7500),
+        m3(5500, top + 2500, 7500);
+    const Vec3 moon_quad[4] = {m0, m1, m2, m3};
+    add_quad(s, moon_quad, moon, Vec3(6500, 0, 6500));
+    s.camera.eye = Vec3(-6000, top + 6000, -6000);
+    s.camera.target = Vec3(8000, 0, 8000);
+    s.camera.up = Vec3(0, 1, 0);
+    s.camera.fov_y = 45.0;
+    s.camera.width = 640;
+    s.camera.height = 480;
+    s.finalize();
+    return s;
+}
+
 }  // namespace
 
 void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards) {
@@ -243,6 +324,7 @@ std::vector<BuiltinInfo> builtin_scenes() {
     return {
         {"homogeneous-box", "unit cube, albedo 0.5 and emission 0.5 everywhere: exact radiance 1", 0.2},
         {"cornell-box", "the Cornell box (mm), white/red/green walls, two blocks, area light", 53.0},
+        {"fractal-terrain", "a 16 km fractal mountain range under an emissive square 'moon' (m)", 265.0},
     };
 }
 
@@ -251,6 +333,13 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
     double default_size = 0.0;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
+    const double size = patch_size.value_or(default_size);
+    if (name == "fractal-terrain") {
+        if (!(size > 0.0) || !std::isfinite(size) || 2.0 * std::pow(16000.0 * std::sqrt(2.0) / size, 2) > 2e7)
+            throw SceneError(name, "patch_size", "must be a positive number giving at most 20 million patches, got " +
+                                                     std::to_string(size));
+        return fractal_terrain(size);
+    }
     if (name == "homogeneous-box") {
         s = homogeneous_box();
     } else if (name == "cornell-box") {
@@ -260,7 +349,6 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
     }
-    const double size = patch_size.value_or(default_size);
     if (!(size > 0.0) || !std::isfinite(size))
         throw SceneError(name, "patch_size", "must be a positive number, got " + std::to_string(size));
     subdivide(s, size);

@@ -179,6 +179,13 @@ TEST_CASE("built-in scenes", "[scenes]") {
     CHECK(cornell.patch_count() > 3000);
     CHECK(cornell.patch_count() < 4500);
     CHECK(cornell.has_emission());
+    const Scene terrain = make_builtin("fractal-terrain");
+    CHECK(terrain.patch_count() > 14000);  // the paper's terrain has 14,712 patches
+    CHECK(terrain.patch_count() < 15500);
+    CHECK(terrain.has_emission());
+    for (std::size_t i = 0; i < terrain.patch_count(); ++i)
+        CHECK(terrain.patch_list()[i].normal.y() * (terrain.material_of(i).emissive() ? -1.0 : 1.0) > 0.0);
+    CHECK(make_builtin("fractal-terrain", 1000.0).patch_count() == 2 * 23 * 23 + 2);  // 23 cells a side, + moon
     REQUIRE_THROWS_WITH(make_builtin("teapot"), Contains("unknown built-in scene 'teapot'") &&
                                                    Contains("homogeneous-box") && Contains("cornell-box"));
     REQUIRE_THROWS_WITH(make_builtin("cornell-box", 0.0), Contains("patch_size"));
