@@ -70,7 +70,7 @@ void StochasticIteration::step(const Vec3& w) {
 
 void StochasticIteration::run(const Callback& progress) {
     sampling::RandomDirections directions(options_.seed);
-    sampling::Rng jitter(options_.seed, /*stream=*/0x717e4);
+    sampling::Rng jitter(options_.seed, /*stream=*/0x717e4 + options_.jitter_stream);
     const long total = options_.iterations;
     const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
     const auto start = Clock::now();

@@ -27,6 +27,7 @@ namespace raybundle::solver {
 struct IterationOptions {
     long iterations = 1000;
     std::uint64_t seed = 1;
+    std::uint64_t jitter_stream = 0;  // another stream of map jitters for the same directions
     long progress_every = 0;  // callback every k steps (0: about 100 times per run)
 };
 
