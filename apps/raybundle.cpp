@@ -148,6 +148,7 @@ int run_solve(const SolveOptions& o) {
         {"iterations", st.iterations},
         {"directions", st.directions},
         {"visibility", backend->name()},
+        {"visibility_details", backend->details()},
         {"resolution", backend->resolution()},
         {"seed", o.seed},
         {"threads", 1},

@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
                 rb::visibility::BackendOptions opt;
                 opt.resolution = res;
                 auto backend = rb::visibility::make_backend(name, scene, opt);
+                if (!backend->details().empty()) std::fprintf(stderr, "%s: %s\n", name.c_str(), backend->details().c_str());
                 rb::sampling::RandomDirections dirs(7);
                 rb::sampling::Rng jitter(7, 1);
                 rb::visibility::GeometryMatrix m;

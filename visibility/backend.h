@@ -46,6 +46,8 @@ public:
     virtual std::string name() const = 0;
     // The resolution in use (pixels per side of the map), 0 for continuous backends.
     virtual int resolution() const = 0;
+    // Anything else a run should record about the backend (e.g. the OpenGL renderer).
+    virtual std::string details() const { return {}; }
     // Computes A(direction) for a unit direction. `jitter` in [0,1)^2 is the sub-pixel
     // shift of the map's grid (ignored without BackendOptions::jitter, and by
     // continuous backends); a fresh uniform jitter per direction makes pixel-count

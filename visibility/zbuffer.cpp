@@ -227,7 +227,7 @@ ZBufferBackend::~ZBufferBackend() {
 
 int ZBufferBackend::resolution() const { return impl_->resolution; }
 
-std::string ZBufferBackend::renderer() const { return impl_->context->describe(); }
+std::string ZBufferBackend::details() const { return impl_->context->describe(); }
 
 void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
     Impl& s = *impl_;

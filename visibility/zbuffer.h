@@ -35,8 +35,8 @@ public:
     std::string name() const override { return "zbuffer"; }
     int resolution() const override;
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
-    // The OpenGL implementation in use (for the stats).
-    std::string renderer() const;
+    // The OpenGL implementation in use.
+    std::string details() const override;
 
 private:
     struct Impl;
