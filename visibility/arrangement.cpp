@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <unordered_map>
 #include <limits>
 #include <vector>
 
@@ -26,9 +27,13 @@ using Dcel = CGAL::Arr_face_extended_dcel<Traits, int>;  // face data: index int
 using Arrangement = CGAL::Arrangement_2<Traits, Dcel>;
 using Point = Kernel::Point_2;
 
+// Curves that bound no patch: where two patches cross each other in 3-D.
+constexpr std::uint32_t kCrossing = 0xFFFFFFFFu;
+
 // Sorted patch ids; XOR with the ids on a crossed halfedge.
 void toggle(std::vector<std::uint32_t>& set, const Traits::Data_container& ids) {
     for (const std::uint32_t id : ids) {
+        if (id == kCrossing) continue;
         const auto it = std::lower_bound(set.begin(), set.end(), id);
         if (it != set.end() && *it == id)
             set.erase(it);
@@ -48,65 +53,140 @@ Polygon ccb_points(Arrangement::Ccb_halfedge_const_circulator first) {
     return p;
 }
 
-// Even-odd point-in-polygon test, and the distance to the nearest boundary segment.
-bool contains(const Polygon& poly, const Eigen::Vector2d& q) {
-    bool in = false;
-    for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
-        const auto& a = poly[k];
-        const auto& b = poly[j];
-        if ((a.y() > q.y()) != (b.y() > q.y()) && q.x() < (b.x() - a.x()) * (q.y() - a.y()) / (b.y() - a.y()) + a.x())
-            in = !in;
-    }
-    return in;
-}
-double boundary_distance(const Polygon& poly, const Eigen::Vector2d& q) {
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0, j = poly.size() - 1; k < poly.size(); j = k++) {
-        const Eigen::Vector2d ab = poly[k] - poly[j];
-        const double t = std::clamp((q - poly[j]).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
-        best = std::min(best, (poly[j] + t * ab - q).norm());
-    }
-    return best;
-}
-
-// A point inside face f, as far from its boundary as the candidates allow: the
-// centroid of the outer boundary and the centroids of its fan triangles.
+// A point inside face f, well away from its boundary: on horizontal lines halfway
+// between the y levels of its vertices, the boundary crossings (outer boundary and
+// holes, even-odd) split the line into inside and outside intervals; the middle of
+// the widest inside interval wins. Works for non-convex faces and faces with holes.
 Eigen::Vector2d interior_point(Arrangement::Face_const_handle f) {
-    const Polygon outer = ccb_points(f->outer_ccb());
-    std::vector<Polygon> holes;
-    for (auto hole = f->holes_begin(); hole != f->holes_end(); ++hole) holes.push_back(ccb_points(*hole));
-    std::vector<Eigen::Vector2d> candidates;
-    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-    double area = 0.0;
-    for (std::size_t k = 1; k + 1 < outer.size(); ++k) {
-        const double a = 0.5 * ((outer[k] - outer[0]).x() * (outer[k + 1] - outer[0]).y() -
-                                (outer[k] - outer[0]).y() * (outer[k + 1] - outer[0]).x());
-        const Eigen::Vector2d c = (outer[0] + outer[k] + outer[k + 1]) / 3.0;
-        candidates.push_back(c);
-        centroid += a * c;
-        area += a;
-    }
-    if (area != 0.0) candidates.insert(candidates.begin(), centroid / area);
-    Eigen::Vector2d best = outer[0];
-    double best_distance = -1.0;
-    for (const auto& c : candidates) {
-        if (!contains(outer, c)) continue;
-        bool in_hole = false;
-        for (const auto& h : holes) in_hole = in_hole || contains(h, c);
-        if (in_hole) continue;
-        double d = boundary_distance(outer, c);
-        for (const auto& h : holes) d = std::min(d, boundary_distance(h, c));
-        if (d > best_distance) {
-            best = c;
-            best_distance = d;
+    std::vector<Polygon> rings{ccb_points(f->outer_ccb())};
+    for (auto hole = f->holes_begin(); hole != f->holes_end(); ++hole) rings.push_back(ccb_points(*hole));
+    std::vector<double> ys;
+    for (const auto& ring : rings)
+        for (const auto& p : ring) ys.push_back(p.y());
+    std::sort(ys.begin(), ys.end());
+    ys.erase(std::unique(ys.begin(), ys.end()), ys.end());
+    Eigen::Vector2d best = rings[0][0];
+    double best_width = -1.0;
+    std::vector<double> xs;
+    for (std::size_t k = 0; k + 1 < ys.size(); ++k) {
+        const double y = 0.5 * (ys[k] + ys[k + 1]);
+        xs.clear();
+        for (const auto& ring : rings)
+            for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
+                const Eigen::Vector2d& p = ring[a];
+                const Eigen::Vector2d& q = ring[b];
+                if ((p.y() > y) != (q.y() > y)) xs.push_back(p.x() + (y - p.y()) * (q.x() - p.x()) / (q.y() - p.y()));
+            }
+        std::sort(xs.begin(), xs.end());
+        for (std::size_t i = 0; i + 1 < xs.size(); i += 2) {
+            // The interval's width, but also its distance to the neighbouring vertex levels.
+            const double width = std::min(xs[i + 1] - xs[i], 2.0 * std::min(y - ys[k], ys[k + 1] - y));
+            if (width > best_width) {
+                best_width = width;
+                best = Eigen::Vector2d(0.5 * (xs[i] + xs[i + 1]), y);
+            }
         }
     }
     return best;
 }
 
+// The segments along which pairs of patches properly cross each other (each patch
+// has corners strictly on both sides of the other's plane): 3-D lines across which
+// the depth order of the two changes, to be added to every arrangement. Patches that
+// only touch (along an edge or at a corner) do not cross. Candidate pairs come from a
+// uniform grid over the patches' bounding boxes.
+std::vector<std::pair<Vec3, Vec3>> crossing_segments(const std::vector<Vec3>& pos,
+                                                     const std::vector<std::array<int, 3>>& tris, double extent) {
+    const std::size_t n = tris.size();
+    std::vector<std::pair<Vec3, Vec3>> segments;
+    if (n < 2) return segments;
+    Vec3 lo = pos[tris[0][0]], hi = lo;
+    double mean_size = 0.0;
+    std::vector<Vec3> bmin(n), bmax(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        bmin[i] = bmax[i] = pos[tris[i][0]];
+        for (int k = 1; k < 3; ++k) {
+            bmin[i] = bmin[i].cwiseMin(pos[tris[i][k]]);
+            bmax[i] = bmax[i].cwiseMax(pos[tris[i][k]]);
+        }
+        lo = lo.cwiseMin(bmin[i]);
+        hi = hi.cwiseMax(bmax[i]);
+        mean_size += (bmax[i] - bmin[i]).maxCoeff();
+    }
+    const double cell = std::max(mean_size / static_cast<double>(n), 1e-9 * extent) * 2.0;
+    std::array<int, 3> cells;
+    for (int k = 0; k < 3; ++k) cells[k] = static_cast<int>(std::floor((hi[k] - lo[k]) / cell)) + 1;
+    auto cell_of = [&](const Vec3& p) {
+        std::array<int, 3> c;
+        for (int k = 0; k < 3; ++k) c[k] = std::clamp(static_cast<int>(std::floor((p[k] - lo[k]) / cell)), 0, cells[k] - 1);
+        return c;
+    };
+    std::unordered_map<long long, std::vector<std::uint32_t>> grid;
+    auto key = [&](int x, int y, int z) { return (static_cast<long long>(z) * cells[1] + y) * cells[0] + x; };
+    for (std::uint32_t i = 0; i < n; ++i) {
+        const auto a = cell_of(bmin[i]), b = cell_of(bmax[i]);
+        for (int z = a[2]; z <= b[2]; ++z)
+            for (int y = a[1]; y <= b[1]; ++y)
+                for (int x = a[0]; x <= b[0]; ++x) grid[key(x, y, z)].push_back(i);
+    }
+    const double eps = 1e-9 * extent;
+    auto side = [&](const Vec3& normal, double d, const Vec3& p) {
+        const double s = normal.dot(p) - d;
+        return s > eps ? 1 : (s < -eps ? -1 : 0);
+    };
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> tested;
+    for (const auto& [k, members] : grid)
+        for (std::size_t p = 0; p < members.size(); ++p)
+            for (std::size_t q = p + 1; q < members.size(); ++q) {
+                const std::uint32_t i = std::min(members[p], members[q]), j = std::max(members[p], members[q]);
+                if (((bmin[i] - bmax[j]).array() > eps).any() || ((bmin[j] - bmax[i]).array() > eps).any()) continue;
+                tested.emplace_back(i, j);
+            }
+    std::sort(tested.begin(), tested.end());
+    tested.erase(std::unique(tested.begin(), tested.end()), tested.end());
+    for (const auto& [i, j] : tested) {
+        const Vec3 *A[3] = {&pos[tris[i][0]], &pos[tris[i][1]], &pos[tris[i][2]]};
+        const Vec3 *B[3] = {&pos[tris[j][0]], &pos[tris[j][1]], &pos[tris[j][2]]};
+        const Vec3 na = (*A[1] - *A[0]).cross(*A[2] - *A[0]).normalized(), nb = (*B[1] - *B[0]).cross(*B[2] - *B[0]).normalized();
+        const double da = na.dot(*A[0]), db = nb.dot(*B[0]);
+        int sa[3], sb[3];
+        for (int k = 0; k < 3; ++k) {
+            sa[k] = side(nb, db, *A[k]);
+            sb[k] = side(na, da, *B[k]);
+        }
+        // Proper crossing: strictly on both sides, both ways.
+        auto straddles = [](const int s[3]) {
+            return (s[0] > 0 || s[1] > 0 || s[2] > 0) && (s[0] < 0 || s[1] < 0 || s[2] < 0);
+        };
+        if (!straddles(sa) || !straddles(sb)) continue;
+        // Where each triangle meets the other's plane: a segment on the common line.
+        auto cut = [&](const Vec3* const T[3], const Vec3& normal, double d, Vec3& p0, Vec3& p1) {
+            int found = 0;
+            for (int k = 0; k < 3 && found < 2; ++k) {
+                const Vec3& a = *T[k];
+                const Vec3& b = *T[(k + 1) % 3];
+                const double fa = normal.dot(a) - d, fb = normal.dot(b) - d;
+                if ((fa > 0) != (fb > 0) && fa != fb) (found++ == 0 ? p0 : p1) = a + (b - a) * (fa / (fa - fb));
+            }
+            return found == 2;
+        };
+        Vec3 a0, a1, b0, b1;
+        if (!cut(A, nb, db, a0, a1) || !cut(B, na, da, b0, b1)) continue;
+        const Vec3 dir = na.cross(nb);
+        double ta0 = dir.dot(a0), ta1 = dir.dot(a1), tb0 = dir.dot(b0), tb1 = dir.dot(b1);
+        if (ta0 > ta1) std::swap(a0, a1), std::swap(ta0, ta1);
+        if (tb0 > tb1) std::swap(b0, b1), std::swap(tb0, tb1);
+        const Vec3& s0 = ta0 > tb0 ? a0 : b0;
+        const Vec3& s1 = ta1 < tb1 ? a1 : b1;
+        if (std::max(ta0, tb0) < std::min(ta1, tb1)) segments.emplace_back(s0, s1);
+    }
+    return segments;
+}
+
 }  // namespace
 
 struct ArrangementBackend::Impl {
+    std::vector<std::pair<Vec3, Vec3>> crossings;  // 3-D segments where patches cross
     std::vector<Vec3> positions;
     std::vector<std::array<int, 3>> triangles;
     std::vector<Vec3> normals;
@@ -124,6 +204,8 @@ ArrangementBackend::ArrangementBackend(const scenes::Scene& scene) : impl_(std::
         impl_->normals.push_back(p.normal);
         impl_->plane.push_back(p.normal.dot(impl_->positions[p.v[0]]));
     }
+    impl_->crossings = crossing_segments(impl_->positions, impl_->triangles, impl_->extent);
+
 }
 
 ArrangementBackend::~ArrangementBackend() = default;
@@ -153,6 +235,17 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
             const Point& b = projected[t[(k + 1) % 3]];
             if (a != b) curves.emplace_back(Kernel::Segment_2(a, b), i);
         }
+    }
+    // A crossing segment ends on patch edges, but its rounded end points need not lie
+    // exactly on their projections: extended a little at both ends, it surely cuts
+    // through them and splits the faces it must (an end point short of the edge would
+    // leave a dangling edge inside one face, with one depth order for both sides).
+    const double reach = 1e-7 * s.extent;
+    for (const auto& [a3, b3] : s.crossings) {
+        const Vec3 along = (b3 - a3).normalized() * reach;
+        const Vec3 da = a3 - along - s.center, db = b3 + along - s.center;
+        const Point a(u.dot(da), v.dot(da)), b(u.dot(db), v.dot(db));
+        if (a != b) curves.emplace_back(Kernel::Segment_2(a, b), kCrossing);
     }
     Arrangement arr;
     CGAL::insert(arr, curves.begin(), curves.end());

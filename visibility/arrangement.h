@@ -11,9 +11,10 @@
 // the unbounded one and toggling the patches whose edges each crossed halfedge lies
 // on. In a face the covering patches are sorted by depth along w, and every source
 // directly followed by a receiver adds the face's exact area (converted to double once
-// per face) to A(receiver, source). The depth order is taken at one point of the face,
-// so patches must not interpenetrate (their 3-D intersection lines are not in the
-// arrangement). CGAL lives in this backend's own translation unit.
+// per face) to A(receiver, source). The depth order is taken at one point inside the
+// face; where patches cross each other in 3-D, their intersection segments (found
+// once, when the backend is made) are inserted too, so that no face straddles a
+// change of order. CGAL lives in this backend's own translation unit.
 #include "visibility/backend.h"
 
 #include <memory>

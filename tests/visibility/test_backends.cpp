@@ -154,13 +154,45 @@ TEST_CASE("interpenetrating patches: exact per-pixel order where centre sorting 
         for (const auto& [k, area] : m) (scene.patch_list()[k.first].normal.x() > 0 ? a : b) += area;
         received[name] = {a, b};
     }
-    for (const char* exact_backend : {"global-zbuffer", "raycast"}) {
+    for (const char* exact_backend : {"global-zbuffer", "raycast", "zbuffer"}) {
+        if (!received.count(exact_backend)) continue;  // not built
         INFO(exact_backend);
         CHECK(received[exact_backend].first == Approx(0.5125).epsilon(0.005));
         CHECK(received[exact_backend].second == Approx(0.4875).epsilon(0.005));
     }
-    // The arrangement orders each face at one point, and the crossing line is not an
-    // edge of the arrangement: like the painter, it needs non-intersecting patches.
+    // The arrangement inserts the squares' crossing line: exact.
+    if (received.count("arrangement")) {
+        CHECK(received["arrangement"].first == Approx(0.5125).epsilon(1e-9));
+        CHECK(received["arrangement"].second == Approx(0.4875).epsilon(1e-9));
+    }
+    // At ten directions, against the (now exact) arrangement: the per-pixel backends
+    // agree like on the Cornell box; the painter's centre order does not.
+    if (received.count("arrangement")) {
+        auto exact = visibility::make_backend("arrangement", scene, opt);
+        sampling::RandomDirections dirs(31);
+        double painter_worst = 0.0;
+        for (int d = 0; d < 10;) {
+            const Vec3 w = dirs.next();
+            const Matrix ref = averaged(*exact, w, 1, 0);
+            if (ref.empty()) continue;  // w nearly in the squares' planes: nothing to compare
+            ++d;
+            for (const auto& name : visibility::backend_names()) {
+                if (name == "arrangement") continue;
+                visibility::BackendOptions o;
+                o.resolution = 256;
+                auto backend = visibility::make_backend(name, scene, o);
+                const double f = relative_frobenius(averaged(*backend, w, name == "painter" ? 16 : 48, 40 + d), ref);
+                INFO(name << " against arrangement, direction " << d);
+                if (name == "painter")
+                    painter_worst = std::max(painter_worst, f);
+                else
+                    CHECK(f < 0.02);
+            }
+        }
+        // Documented in docs/benchmarks.md: the painter is off by up to this much here.
+        WARN("painter against arrangement on the X scene, worst of ten directions: " << painter_worst);
+        CHECK(painter_worst > 0.02);
+    }
     // The painter sorts each square's two triangles by their centres: each triangle
     // is wholly in front of or behind the other square's, so the crossing line is lost
     // and the split comes out near 0.5 / 0.5 (measured: 0.500 / 0.499).
