@@ -102,7 +102,7 @@ TEST_CASE("the discrete backends agree with the exact arrangement on the Cornell
     auto exact = visibility::make_backend("arrangement", scene, {});
     // Jitters per direction: the pixel noise of an entry falls as 1/sqrt(samples).
     const std::map<std::string, std::pair<int, int>> plan = {  // backend -> (directions, jitters)
-        {"painter", {10, 128}}, {"global-zbuffer", {10, 64}}, {"raycast", {3, 32}}, {"zbuffer", {3, 32}}};
+        {"painter", {10, 128}}, {"global-zbuffer", {10, 64}}, {"raycast", {10, 64}}, {"zbuffer", {10, 64}}};
     sampling::RandomDirections dirs(5);
     std::vector<Vec3> directions;
     for (int d = 0; d < 10; ++d) directions.push_back(dirs.next());
