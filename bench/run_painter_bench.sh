@@ -22,7 +22,7 @@ summarise() {  # stdin: lines "config ms entries"; prints config,min,median,entr
 {
   echo "patches,ms_min,ms_median,entries_per_direction"
   for k in $(seq $runs); do
-    for ps in 100 50 25 12.5 10; do
+    for ps in 100 53 25 12.5 9; do
       "$bench" --patch-size "$ps" --resolution 512 --directions 50 | tail -1 | awk '{print $3, $5, $6}'
     done
   done | summarise
