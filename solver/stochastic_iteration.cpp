@@ -44,24 +44,42 @@ StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility:
 void StochasticIteration::step(const Vec3& w) {
     const std::size_t n = inv_area_.size();
     const auto& patches = scene_.patch_list();
-    // Radiance every patch sends along w: emission plus the reflection of the
-    // irradiance that arrived along the previous direction.
+    const bool both = options_.bidirectional;
+    // The direction the irradiance of patch i arrived along in the previous step: w_prev,
+    // or with both directions, whichever of +-w_prev the patch faced.
+    auto arrived = [&](std::size_t i) {
+        return both && patches[i].normal.dot(previous_) > 0.0 ? Vec3(-previous_) : previous_;
+    };
+    // Radiance every patch sends along w (with both directions: along whichever of +-w
+    // it faces): emission plus the reflection of the irradiance of the previous step.
     for (std::size_t j = 0; j < n; ++j) {
-        if (patch_glossy_[j] && steps_ > 0)
-            outgoing_[j] = emission_[j] + 4.0 * M_PI * brdf(scene_.material_of(j), patches[j].normal, previous_, w) *
-                                              irradiance_[j];
-        else
+        if (patch_glossy_[j] && steps_ > 0) {
+            const Vec3 out = both && patches[j].normal.dot(w) < 0.0 ? Vec3(-w) : w;
+            outgoing_[j] = emission_[j] +
+                           4.0 * M_PI * brdf(scene_.material_of(j), patches[j].normal, arrived(j), out) * irradiance_[j];
+        } else {
             outgoing_[j] = emission_[j] + reflect_[j] * irradiance_[j];
+        }
     }
     std::fill(next_.begin(), next_.end(), Rgb::Zero());
-    for (const auto& e : matrix_.entries) next_[e.receiver] += (e.area * inv_area_[e.receiver]) * outgoing_[e.source];
+    if (both) {
+        // Every entry also carries light along -w, from the receiver back to the source.
+        // Each patch faces exactly one of +-w, so it receives once; weight 1/2 keeps the
+        // expectation: the pair (w, -w) is sampled with twice the density of w alone.
+        for (const auto& e : matrix_.entries) {
+            next_[e.receiver] += (0.5 * e.area * inv_area_[e.receiver]) * outgoing_[e.source];
+            next_[e.source] += (0.5 * e.area * inv_area_[e.source]) * outgoing_[e.receiver];
+        }
+    } else {
+        for (const auto& e : matrix_.entries) next_[e.receiver] += (e.area * inv_area_[e.receiver]) * outgoing_[e.source];
+    }
     irradiance_.swap(next_);
     previous_ = w;
     ++steps_;
     if (glossy_) {
         for (std::size_t i = 0; i < n; ++i) {
             if ((irradiance_[i] == 0.0).all()) continue;
-            sum_[i] += 4.0 * M_PI * brdf(scene_.material_of(i), patches[i].normal, w, to_eye_[i]) * irradiance_[i];
+            sum_[i] += 4.0 * M_PI * brdf(scene_.material_of(i), patches[i].normal, arrived(i), to_eye_[i]) * irradiance_[i];
         }
     } else {
         for (std::size_t i = 0; i < n; ++i) sum_[i] += irradiance_[i];

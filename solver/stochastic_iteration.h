@@ -28,6 +28,10 @@ struct IterationOptions {
     long iterations = 1000;
     std::uint64_t seed = 1;
     std::uint64_t jitter_stream = 0;  // another stream of map jitters for the same directions
+    // Use every geometry matrix for w and -w (its entries serve both): each patch
+    // receives along whichever of the two it faces, with weight 1/2. Unbiased, and a
+    // step then moves light for every patch instead of about half of them.
+    bool bidirectional = false;
     long progress_every = 0;  // callback every k steps (0: about 100 times per run)
 };
 

@@ -66,6 +66,38 @@ TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][conve
     CHECK(run.error.at(10000) < run.error.at(1000) / 2.0);
 }
 
+TEST_CASE("iteration with both w and -w: unbiased, and a smaller error", "[solver][convergence]") {
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    auto run = [&](bool both, std::uint64_t seed, long iterations) {
+        auto backend = visibility::make_backend("painter", scene, {});
+        solver::IterationOptions opt;
+        opt.iterations = iterations;
+        opt.seed = seed;
+        opt.bidirectional = both;
+        solver::StochasticIteration it(scene, *backend, opt);
+        it.run();
+        return it.field();
+    };
+    // Unbiased: the mean radiance over 8 seeds within 3 standard errors of 1.
+    const int K = 8;
+    double sum = 0.0, sum2 = 0.0;
+    for (int k = 0; k < K; ++k) {
+        const double m = run(true, 100 + k, 2000).mean_radiance(scene);
+        sum += m;
+        sum2 += m * m;
+    }
+    const double mean = sum / K, se = std::sqrt((sum2 / K - mean * mean) / (K - 1));
+    INFO("mean " << mean << ", standard error " << se);
+    CHECK(std::abs(mean - 1.0) < 3.0 * se + 1e-4);
+    CHECK(se < 0.002);
+    // At 1,000 steps (measured: 4.3 % for w alone, 1.0 % for both on the default box).
+    const double one = run(false, 1, 1000).relative_l1_error(scene, 1.0);
+    const double both = run(true, 1, 1000).relative_l1_error(scene, 1.0);
+    INFO("w alone " << one << ", both " << both);
+    CHECK(both < 0.5 * one);
+    CHECK(both < 0.02);
+}
+
 TEST_CASE("the same seed gives bit-identical results, another seed does not", "[solver][determinism]") {
     const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
     const Run a = solve(scene, 300, 77, 0), b = solve(scene, 300, 77, 0), c = solve(scene, 300, 78, 0);
