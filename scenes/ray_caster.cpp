@@ -25,8 +25,9 @@ RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
         throw std::runtime_error("Embree: cannot create a device (error " +
                                  std::to_string(rtcGetDeviceError(nullptr)) + ")");
     impl_->scene = rtcNewScene(impl_->device);
+    // Robust traversal: rays through shared edges must not slip between triangles.
     // all_hits() collects every crossing through a per-call filter function.
-    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     const auto& pos = scene.vertex_positions();
     const auto& patches = scene.patch_list();

@@ -228,8 +228,10 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
     std::vector<Traits::Curve_2> curves;
     curves.reserve(3 * s.triangles.size());
     for (std::uint32_t i = 0; i < s.triangles.size(); ++i) {
-        if (s.normals[i].dot(w) == 0.0) continue;
         const auto& t = s.triangles[i];
+        // Seen edge-on (exactly, in the projection): covers nothing. Its edges would
+        // overlap with the same patch id, which the coverage walk cannot toggle right.
+        if (CGAL::collinear(projected[t[0]], projected[t[1]], projected[t[2]])) continue;
         for (int k = 0; k < 3; ++k) {
             const Point& a = projected[t[k]];
             const Point& b = projected[t[(k + 1) % 3]];
@@ -311,13 +313,13 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
             const std::uint32_t i = set[k];
             depth[k] = (s.plane[i] - s.normals[i].dot(m)) / s.normals[i].dot(w);
         }
-        // By depth; coincident patches receivers first (a two-sided panel does not leak).
+        // By depth; coincident patches (up to rounding) receivers first: a two-sided
+        // panel does not leak.
         std::vector<std::size_t> idx(set.size());
         for (std::size_t k = 0; k < idx.size(); ++k) idx[k] = k;
-        std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
-            if (depth[a] != depth[b]) return depth[a] < depth[b];
-            return s.normals[set[a]].dot(w) < s.normals[set[b]].dot(w);
-        });
+        std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return depth[a] < depth[b]; });
+        receivers_first_at_ties(idx.begin(), idx.end(), 1e-9 * s.extent, [&](std::size_t k) { return depth[k]; },
+                                [&](std::size_t k) { return s.normals[set[k]].dot(w) > 0.0; });
         for (std::size_t k = 0; k + 1 < idx.size(); ++k) {
             const std::uint32_t a = set[idx[k]], b = set[idx[k + 1]];
             if (s.normals[a].dot(w) > 0.0 && s.normals[b].dot(w) < 0.0) {

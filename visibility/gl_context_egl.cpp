@@ -17,6 +17,16 @@ namespace {
 class EglContext final : public GlContext {
 public:
     EglContext() {
+        try {
+            create();
+        } catch (...) {
+            release();
+            throw;
+        }
+    }
+    ~EglContext() override { release(); }
+
+    void create() {
         auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
         auto platform_display =
             reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
@@ -43,6 +53,7 @@ public:
             throw std::runtime_error("zbuffer: no EGL configuration for OpenGL with a pbuffer");
         const EGLint surface_attribs[] = {EGL_WIDTH, 1, EGL_HEIGHT, 1, EGL_NONE};
         surface_ = eglCreatePbufferSurface(display_, config, surface_attribs);
+        if (surface_ == EGL_NO_SURFACE) throw std::runtime_error("zbuffer: EGL cannot create a pbuffer surface");
         const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
                                           EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                           EGL_NONE};
@@ -50,11 +61,15 @@ public:
         if (context_ == EGL_NO_CONTEXT) throw std::runtime_error("zbuffer: EGL cannot create an OpenGL 4.5 core context");
         make_current();
     }
-    ~EglContext() override {
-        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-        eglDestroyContext(display_, context_);
+    // Frees what this context made. The display is shared by every context on the
+    // device and eglInitialize is not reference-counted: it is never terminated.
+    void release() {
+        if (display_ == EGL_NO_DISPLAY) return;
+        if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        if (context_ != EGL_NO_CONTEXT) eglDestroyContext(display_, context_);
         if (surface_ != EGL_NO_SURFACE) eglDestroySurface(display_, surface_);
-        eglTerminate(display_);
+        context_ = EGL_NO_CONTEXT;
+        surface_ = EGL_NO_SURFACE;
     }
 
     void* proc_address(const char* name) const override { return reinterpret_cast<void*>(eglGetProcAddress(name)); }

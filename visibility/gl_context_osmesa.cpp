@@ -39,7 +39,13 @@ public:
             dlclose(handle_);
             throw std::runtime_error("zbuffer: OSMesa cannot create an OpenGL 4.5 core context");
         }
-        make_current();
+        try {
+            make_current();
+        } catch (...) {
+            destroy_(context_);
+            dlclose(handle_);
+            throw;
+        }
     }
     ~OsmesaContext() override {
         destroy_(context_);

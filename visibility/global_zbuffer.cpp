@@ -63,6 +63,7 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
     // Per pixel: sort by depth (lists are short), then pair each source with the patch
     // right behind it when that one is a receiver.
     pairs_.clear();
+    const double tie = 1e-9 * grid_.radius();
     for (std::size_t p = 0; p + 1 < offsets_.size(); ++p) {
         Fragment* first = fragments_.data() + offsets_[p];
         Fragment* last = fragments_.data() + offsets_[p + 1];
@@ -73,6 +74,8 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
         };
         for (Fragment* f = first + 1; f < last; ++f)
             for (Fragment* g = f; g > first && before(*g, g[-1]); --g) std::swap(*g, g[-1]);
+        receivers_first_at_ties(first, last, tie, [](const Fragment& f) { return f.depth; },
+                                [](const Fragment& f) { return f.source; });
         for (Fragment* f = first; f + 1 < last; ++f)
             if (f[0].source && !f[1].source)
                 pairs_.push_back(pixel_pair(f[1].patch, f[0].patch));

@@ -26,11 +26,10 @@ void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
             if ((q - center).squaredNorm() > R * R) continue;  // misses the bounding sphere
             // From upstream of the whole scene to downstream of it.
             caster_.all_hits(q - 1.01 * R * w, w, hits_, 0.0, 2.02 * R);
-            // At equal distance receivers first, as in the other backends: a two-sided
-            // panel of coincident opposite triangles does not leak.
-            std::stable_sort(hits_.begin(), hits_.end(), [&](const scenes::RayHit& a, const scenes::RayHit& b) {
-                return a.t < b.t || (a.t == b.t && normals_[a.patch].dot(w) < 0.0 && normals_[b.patch].dot(w) > 0.0);
-            });
+            // At equal distance (up to Embree's float precision) receivers first, as in
+            // the other backends: a two-sided panel does not leak.
+            receivers_first_at_ties(hits_.begin(), hits_.end(), 1e-6 * R, [](const scenes::RayHit& h) { return h.t; },
+                                    [&](const scenes::RayHit& h) { return normals_[h.patch].dot(w) > 0.0; });
             for (std::size_t k = 0; k + 1 < hits_.size(); ++k) {
                 const auto& a = hits_[k];
                 const auto& b = hits_[k + 1];

@@ -216,6 +216,12 @@ ZBufferBackend::~ZBufferBackend() {
     if (!impl_ || !impl_->gl) return;
     Impl& s = *impl_;
     const Gl& gl = *s.gl;
+    // Names are per context: delete in ours, whichever another backend left current.
+    try {
+        s.context->make_current();
+    } catch (...) {
+        return;  // destroying the context frees them anyway
+    }
     gl.DeleteQueries(1, &s.query);
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(2, s.depth);
@@ -227,7 +233,10 @@ ZBufferBackend::~ZBufferBackend() {
 
 int ZBufferBackend::resolution() const { return impl_->resolution; }
 
-std::string ZBufferBackend::details() const { return impl_->context->describe(); }
+std::string ZBufferBackend::details() const {
+    impl_->context->make_current();
+    return impl_->context->describe();
+}
 
 void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
     Impl& s = *impl_;

@@ -22,6 +22,9 @@
 // passes when patches overlap cyclically.
 //
 // The OpenGL context comes from gl_context.h (OSMesa by default, EGL on a GPU).
+// Limitation: coincident surfaces (a two-sided panel made of two opposite triangles at
+// the same place) peel as one layer, so the pair behind the panel is lost; the global
+// z-buffer handles them.
 #include "visibility/backend.h"
 
 #include <memory>
