@@ -49,6 +49,7 @@ Scene homogeneous_box() {
     s.camera.height = 256;
     // Le = 0.5 and albedo 0.5 everywhere in a closed box: L = 0.5 + 0.5 L, so L = 1.
     s.exact_radiance = 1.0;
+    s.homogeneous_albedo = 0.5;
     return s;
 }
 

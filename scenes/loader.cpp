@@ -156,6 +156,39 @@ Camera parse_camera(const Node& n) {
     return c;
 }
 
+PointLight parse_point_light(const Node& n) {
+    n.require_object();
+    n.check_keys({"position", "intensity"});
+    PointLight l;
+    l.position = n.vec3("position");
+    l.intensity = n.vec3("intensity").array();
+    if ((l.intensity < 0).any()) n.fail("intensity", "negative intensity " + rgb_text(l.intensity));
+    return l;
+}
+
+Sky parse_sky(const Node& n) {
+    n.require_object();
+    n.check_keys({"radiance", "up", "model"});
+    Sky s;
+    s.radiance = n.vec3("radiance").array();
+    if ((s.radiance < 0).any()) n.fail("radiance", "negative radiance " + rgb_text(s.radiance));
+    if (n.has("up")) {
+        const Vec3 up = n.vec3("up");
+        if (!(up.norm() > 0.0)) n.fail("up", "is the zero vector");
+        s.up = up.normalized();
+    }
+    if (n.has("model")) {
+        const std::string model = n.string("model");
+        if (model == "constant")
+            s.model = Sky::Model::constant;
+        else if (model == "overcast")
+            s.model = Sky::Model::overcast;
+        else
+            n.fail("model", "unknown sky model '" + model + "' (known: constant, overcast)");
+    }
+    return s;
+}
+
 std::string dir_of(const std::string& path) {
     const auto slash = path.find_last_of('/');
     return slash == std::string::npos ? "." : path.substr(0, slash);
@@ -193,7 +226,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
     Node root(doc, shown, "");
     root.require_object();
-    root.check_keys({"camera", "materials", "objects", "patch_size"});
+    root.check_keys({"camera", "materials", "objects", "patch_size", "point_lights", "sky"});
 
     Scene scene;
     scene.name = shown;
@@ -250,6 +283,16 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                 scene.add_object(v, {{0, 1, 2}}, mat);
         }
     }
+
+    if (root.has("point_lights")) {
+        const json& lights = root.raw("point_lights");
+        if (!lights.is_array())
+            root.fail("point_lights", std::string("expected an array, got ") + type_name(lights));
+        for (std::size_t i = 0; i < lights.size(); ++i)
+            scene.point_lights.push_back(
+                parse_point_light(Node(lights[i], shown, "point_lights[" + std::to_string(i) + "]")));
+    }
+    if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
 
     std::optional<double> patch_size;
     if (root.has("patch_size")) {

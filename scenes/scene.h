@@ -44,6 +44,33 @@ struct Camera {
     int height = 512;
 };
 
+// An isotropic point light; intensity in W/sr (radiant intensity per channel).
+// Handled by the first shot: its direct effect is computed exactly, with shadows.
+struct PointLight {
+    Vec3 position = Vec3::Zero();
+    Rgb intensity = Rgb::Zero();
+};
+
+// Light from directions no patch covers. "constant": the same radiance from every
+// direction above the horizon (up . w > 0). "overcast": the CIE standard overcast
+// sky, L(theta) = radiance (1 + 2 cos theta) / 3 with theta the angle from the
+// zenith: "radiance" at the zenith, a third of it at the horizon. Below the horizon
+// the sky is black.
+struct Sky {
+    enum class Model { constant, overcast };
+    Rgb radiance = Rgb::Zero();
+    Vec3 up{0, 1, 0};  // unit
+    Model model = Model::constant;
+
+    // Sky radiance arriving along the travel direction d (light moving along d, so it
+    // comes from the sky direction -d).
+    Rgb arriving_along(const Vec3& d) const {
+        const double c = -up.dot(d);  // cosine between the sky direction and the zenith
+        if (c <= 0.0) return Rgb::Zero();
+        return model == Model::constant ? radiance : radiance * ((1.0 + 2.0 * c) / 3.0);
+    }
+};
+
 // A patch with everything the inner loops need, in one cache-friendly record.
 struct Patch {
     int v[3];       // vertex indices into Scene::positions
@@ -59,7 +86,12 @@ public:
     TriMesh mesh;                 // topology, IO and subdivision
     std::vector<Material> materials;
     Camera camera;
+    std::vector<PointLight> point_lights;
+    std::optional<Sky> sky;
     std::optional<double> exact_radiance;  // known analytic answer (every patch, every channel)
+    // For a closed scene with one albedo a everywhere (and exact_radiance set): the
+    // exact answer of a solver truncated after D bounces is exact (1 - a^(D+1)).
+    std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
 
     // Per-face material index, kept on the mesh so that subdivision copies it.
