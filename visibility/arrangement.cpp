@@ -193,9 +193,11 @@ struct ArrangementBackend::Impl {
     std::vector<double> plane;  // n . p0
     Vec3 center;
     double extent;              // the bounding sphere's radius: the scale of depths
+    bool sky = false;           // also the sky entries
 };
 
-ArrangementBackend::ArrangementBackend(const scenes::Scene& scene) : impl_(std::make_unique<Impl>()) {
+ArrangementBackend::ArrangementBackend(const scenes::Scene& scene, bool sky) : impl_(std::make_unique<Impl>()) {
+    impl_->sky = sky;
     impl_->positions = scene.vertex_positions();
     impl_->center = scene.bounds_center();
     impl_->extent = scene.bounds_radius();
@@ -285,7 +287,7 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
     for (auto f = arr.faces_begin(); f != arr.faces_end(); ++f) {
         if (f->is_unbounded()) continue;
         const auto& set = coverage[f->data()];
-        if (set.size() < 2) continue;
+        if (set.size() < (s.sky ? 1u : 2u)) continue;
         auto ccb_area = [](Arrangement::Ccb_halfedge_const_circulator first) {
             Kernel::FT sum = 0;
             auto h = first;
@@ -324,6 +326,18 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
             const std::uint32_t a = set[idx[k]], b = set[idx[k + 1]];
             if (s.normals[a].dot(w) > 0.0 && s.normals[b].dot(w) < 0.0) {
                 pairs.push_back(pixel_pair(b, a));
+                areas.push_back(area);
+            }
+        }
+        if (s.sky) {
+            const auto sky = static_cast<std::uint32_t>(s.normals.size());
+            const std::uint32_t first = set[idx.front()], last = set[idx.back()];
+            if (s.normals[first].dot(w) < 0.0) {
+                pairs.push_back(pixel_pair(first, sky));
+                areas.push_back(area);
+            }
+            if (s.normals[last].dot(w) > 0.0) {
+                pairs.push_back(pixel_pair(sky + 1, last));
                 areas.push_back(area);
             }
         }

@@ -23,7 +23,8 @@ namespace raybundle::visibility {
 
 class ArrangementBackend final : public Backend {
 public:
-    explicit ArrangementBackend(const scenes::Scene& scene);
+    // sky: also the sky entries (see TransferEntry).
+    explicit ArrangementBackend(const scenes::Scene& scene, bool sky = false);
     ~ArrangementBackend() override;
     std::string name() const override { return "arrangement"; }
     int resolution() const override { return 0; }

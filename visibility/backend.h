@@ -24,6 +24,10 @@ using scenes::Vec3;
 // w (n_j . w > 0) and receiver i faces against it (n_i . w < 0). The same entry
 // serves -w with the roles swapped: i is then the source, j the receiver.
 // A(w)_ij = area / area_i (eq. 30).
+//
+// Sky entries (only with BackendOptions::sky; n = the patch count): (i, n) where
+// receiver i is the first surface along a ray (it sees the open sky upstream), and
+// (n + 1, j) where source j is the last one (along -w, it sees the open sky).
 struct TransferEntry {
     std::uint32_t receiver;
     std::uint32_t source;
@@ -38,6 +42,7 @@ struct GeometryMatrix {
 struct BackendOptions {
     int resolution = 0;   // visibility-map pixels per side; 0: derived from the scene
     bool jitter = true;   // shift the pixel grid by the given sub-pixel offset
+    bool sky = false;     // also emit sky entries (a scene without sky skips them)
 };
 
 class Backend {

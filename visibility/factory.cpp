@@ -34,6 +34,9 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
     if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
     if (name == "zbuffer") {
 #ifdef RAYBUNDLE_HAVE_OPENGL
+        if (options.sky)
+            throw std::invalid_argument("visibility backend 'zbuffer' does not support a sky (use painter, "
+                                        "global-zbuffer, raycast or arrangement)");
         return std::make_unique<ZBufferBackend>(scene, options);
 #else
         throw std::invalid_argument("visibility backend 'zbuffer' is not built (configure with RAYBUNDLE_WITH_OPENGL=ON)");
@@ -41,7 +44,7 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
     }
     if (name == "arrangement") {
 #ifdef RAYBUNDLE_HAVE_CGAL
-        return std::make_unique<ArrangementBackend>(scene);
+        return std::make_unique<ArrangementBackend>(scene, options.sky);
 #else
         throw std::invalid_argument("visibility backend 'arrangement' is not built (configure with RAYBUNDLE_WITH_CGAL=ON)");
 #endif

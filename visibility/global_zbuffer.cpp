@@ -7,7 +7,8 @@
 namespace raybundle::visibility {
 
 GlobalZBufferBackend::GlobalZBufferBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {
+    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+      sky_(options.sky) {
     const auto& pos = scene.vertex_positions();
     for (const auto& p : scene.patch_list()) {
         normals_.push_back(p.normal);
@@ -67,7 +68,7 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
     for (std::size_t p = 0; p + 1 < offsets_.size(); ++p) {
         Fragment* first = fragments_.data() + offsets_[p];
         Fragment* last = fragments_.data() + offsets_[p + 1];
-        if (last - first < 2) continue;
+        if (last - first < (sky_ ? 1 : 2)) continue;
         // Insertion sort; at equal depth receivers first (a two-sided panel does not leak).
         auto before = [](const Fragment& a, const Fragment& b) {
             return a.depth < b.depth || (a.depth == b.depth && !a.source && b.source);
@@ -79,6 +80,11 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
         for (Fragment* f = first; f + 1 < last; ++f)
             if (f[0].source && !f[1].source)
                 pairs_.push_back(pixel_pair(f[1].patch, f[0].patch));
+        if (sky_) {
+            const auto sky = static_cast<std::uint32_t>(n);
+            if (!first->source) pairs_.push_back(pixel_pair(first->patch, sky));
+            if (last[-1].source) pairs_.push_back(pixel_pair(sky + 1, last[-1].patch));
+        }
     }
 
     // One entry per (receiver, source), grouped by receiver.

@@ -33,6 +33,7 @@ private:
     };
 
     MapGrid grid_;
+    bool sky_;
     std::vector<Vec3> normals_;
     std::vector<double> plane_;  // n . p0 per patch
 

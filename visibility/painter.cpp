@@ -48,12 +48,13 @@ inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
 }  // namespace
 
 PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {
+    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+      sky_(options.sky) {
     for (const auto& p : scene.patch_list()) {
         normals_.push_back(p.normal);
         centroids_.push_back(p.centroid);
     }
-    counts_.assign(scene.patch_count(), 0);
+    counts_.assign(scene.patch_count() + 2, 0);
 }
 
 void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
@@ -84,7 +85,8 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     }
     radix_sort_top33(keys_, scratch_);
 
-    map_.assign(static_cast<std::size_t>(W) * W, -1);
+    const auto open_sky = static_cast<std::int32_t>(n);
+    map_.assign(static_cast<std::size_t>(W) * W, sky_ ? open_sky : -1);
     std::int32_t* map = map_.data();
     for (const std::uint64_t key : keys_) {
         const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
@@ -130,6 +132,22 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
             for (std::uint32_t j : touched_) counts_[j] = 0;
             touched_.clear();
         }
+    }
+    if (sky_) {
+        // Sources nothing covers downstream: along -w they see the open sky.
+        for (std::size_t p = 0; p < map_.size(); ++p) {
+            const std::int32_t j = map[p];
+            if (j >= 0 && j < open_sky) {
+                if (counts_[j] == 0) touched_.push_back(static_cast<std::uint32_t>(j));
+                ++counts_[j];
+            }
+        }
+        std::sort(touched_.begin(), touched_.end());
+        for (std::uint32_t j : touched_) {
+            out.entries.push_back({static_cast<std::uint32_t>(n + 1), j, counts_[j] * pixel_area});
+            counts_[j] = 0;
+        }
+        touched_.clear();
     }
 }
 

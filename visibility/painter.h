@@ -12,6 +12,8 @@
 // centres' depth quantised to 32 bits, so a direction costs O(n + pixels).
 // Centre sorting is exact for non-intersecting patches that are small against their
 // distances; interpenetrating patches need the global z-buffer instead.
+// With sky entries the map starts as "open sky" (n) instead of "none"; a receiver
+// reading it sees the sky, and the sources left in the map at the end see it along -w.
 #include "visibility/backend.h"
 #include "visibility/map_grid.h"
 
@@ -29,6 +31,7 @@ public:
 
 private:
     MapGrid grid_;
+    bool sky_;
     std::vector<Vec3> normals_, centroids_;
 
     // Scratch, reused between directions.

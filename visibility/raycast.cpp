@@ -8,6 +8,7 @@ namespace raybundle::visibility {
 
 RaycastBackend::RaycastBackend(const scenes::Scene& scene, const BackendOptions& options)
     : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+      sky_(options.sky),
       caster_(scene) {
     for (const auto& p : scene.patch_list()) normals_.push_back(p.normal);
 }
@@ -35,6 +36,13 @@ void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
                 const auto& b = hits_[k + 1];
                 if (normals_[a.patch].dot(w) > 0.0 && normals_[b.patch].dot(w) < 0.0)
                     pairs_.push_back(pixel_pair(static_cast<std::uint32_t>(b.patch), static_cast<std::uint32_t>(a.patch)));
+            }
+            if (sky_ && !hits_.empty()) {
+                const auto sky = static_cast<std::uint32_t>(normals_.size());
+                const auto first = static_cast<std::uint32_t>(hits_.front().patch);
+                const auto last = static_cast<std::uint32_t>(hits_.back().patch);
+                if (normals_[first].dot(w) < 0.0) pairs_.push_back(pixel_pair(first, sky));
+                if (normals_[last].dot(w) > 0.0) pairs_.push_back(pixel_pair(sky + 1, last));
             }
         }
     entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);

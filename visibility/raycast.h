@@ -29,6 +29,7 @@ public:
 
 private:
     MapGrid grid_;
+    bool sky_;
     scenes::RayCaster caster_;
     std::vector<Vec3> normals_;
 
