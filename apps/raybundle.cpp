@@ -12,6 +12,7 @@
 #include "scenes/loader.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene_error.h"
+#include "solver/global_walks.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
 
@@ -47,7 +48,13 @@ struct SolveOptions {
     std::string shading = "smooth";
     double exposure = 0.0;
     long csv_every = 0;
-    bool bidirectional = false;
+    std::string method = "iteration";
+    bool bidirectional = true;
+    bool bidirectional_given = false;
+    int depth = 5;
+    bool depth_given = false;
+    bool unbiased = false;
+    std::string sampler = "random";
 };
 
 // An error in what the user gave us: reported as one line, exit code 2.
@@ -70,6 +77,20 @@ int run_solve(const SolveOptions& o) {
 
     if (o.scene_file.empty() == o.builtin.empty())
         throw UsageError("solve: give exactly one of SCENE.json or --builtin NAME");
+    if (o.method == "iteration") {
+        if (o.sampler != "random")
+            throw UsageError("--sampler " + o.sampler + ": stochastic iteration needs independent consecutive "
+                             "directions (004 section 4.4); use a QMC sampler with --method walk, combined or "
+                             "bidirectional");
+        if (o.unbiased) throw UsageError("--unbiased applies to the walk methods (stochastic iteration is unbiased)");
+        if (o.depth_given) throw UsageError("--depth applies to the walk methods, not to --method iteration");
+    } else if (o.bidirectional_given) {
+        throw UsageError("--bidirectional/--no-bidirectional apply to --method iteration; for walks use "
+                         "--method bidirectional");
+    }
+    if (o.sampler == "sobol" && o.depth > rb::sampling::WalkSampler::kMaxSobolDepth)
+        throw UsageError("--depth " + std::to_string(o.depth) + ": the sobol sampler supports depths up to " +
+                         std::to_string(rb::sampling::WalkSampler::kMaxSobolDepth));
     for (const auto& [path, flag] : {std::pair{o.exr, "-o"}, {o.png, "--png"}, {o.stats, "--stats"},
                                      {o.csv, "--csv"}, {o.patches_csv, "--patches"}, {o.ply, "--ply"}})
         check_output_dir(path, flag);
@@ -83,14 +104,44 @@ int run_solve(const SolveOptions& o) {
 
     rb::visibility::BackendOptions bopt;
     bopt.resolution = o.resolution;
+    bopt.sky = scene.sky.has_value();  // no sky: no sky entries in the maps
     auto backend = rb::visibility::make_backend(o.visibility, scene, bopt);
 
-    rb::solver::IterationOptions sopt;
-    sopt.iterations = o.iterations;
-    sopt.seed = o.seed;
-    sopt.progress_every = o.csv_every;
-    sopt.bidirectional = o.bidirectional;
-    rb::solver::StochasticIteration solver(scene, *backend, sopt);
+    // The first shot (point lights) happens here, once, before any direction.
+    const rb::solver::Transport transport(scene);
+
+    std::optional<rb::solver::StochasticIteration> iteration;
+    std::optional<rb::solver::GlobalWalks> walks;
+    if (o.method == "iteration") {
+        rb::solver::IterationOptions sopt;
+        sopt.iterations = o.iterations;
+        sopt.seed = o.seed;
+        sopt.progress_every = o.csv_every;
+        sopt.bidirectional = o.bidirectional;
+        iteration.emplace(transport, *backend, sopt);
+    } else {
+        rb::solver::WalkOptions wopt;
+        wopt.method = o.method == "walk"       ? rb::solver::WalkMethod::walk
+                      : o.method == "combined" ? rb::solver::WalkMethod::combined
+                                               : rb::solver::WalkMethod::bidirectional;
+        wopt.depth = o.depth;
+        wopt.walks = o.iterations;
+        wopt.unbiased = o.unbiased;
+        wopt.sampler = rb::sampling::parse_sampler(o.sampler);
+        wopt.seed = o.seed;
+        wopt.progress_every = o.csv_every;
+        walks.emplace(transport, *backend, wopt);
+    }
+    auto current_field = [&]() { return iteration ? iteration->field() : walks->field(); };
+    // What the method converges to on a scene with a known answer: walks truncated at
+    // D bounces converge to a known fraction of it on a homogeneous scene.
+    std::optional<double> exact = scene.exact_radiance;
+    if (exact && walks && !o.unbiased) {
+        if (scene.homogeneous_albedo)
+            *exact *= rb::solver::GlobalWalks::truncation_factor(*scene.homogeneous_albedo, o.depth, false);
+        else
+            exact.reset();
+    }
 
     // Convergence rows every k steps; the bar on a terminal.
     struct Row {
@@ -102,17 +153,21 @@ int run_solve(const SolveOptions& o) {
     std::vector<Row> rows;
     rb::apps::ProgressBar bar("solve");
     const auto t_solve = Clock::now();
-    solver.run([&](const rb::solver::Progress& p) {
+    const auto on_progress = [&](const rb::solver::Progress& p) {
         bar.update(p.iteration, p.total, p.seconds);
         if (o.csv.empty()) return;
-        const auto field = solver.field();
+        const auto field = current_field();
         std::optional<double> err;
-        if (scene.exact_radiance) err = field.relative_l1_error(scene, *scene.exact_radiance);
+        if (exact) err = field.relative_l1_error(scene, *exact);
         rows.push_back({p.iteration, p.seconds, err, field.mean_radiance(scene)});
-    });
+    };
+    if (iteration)
+        iteration->run(on_progress);
+    else
+        walks->run(on_progress);
     bar.finish();
     const double seconds_solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
-    const auto field = solver.field();
+    const auto field = current_field();
 
     const auto t_render = Clock::now();
     rb::scenes::RayCaster caster(scene);
@@ -140,14 +195,32 @@ int run_solve(const SolveOptions& o) {
         });
     }
 
-    const auto& st = solver.stats();
+    // The figures both solvers report.
+    struct {
+        long steps, directions;
+        double seconds_visibility, seconds_transport;
+        std::size_t entries_total;
+        std::string shading;
+    } st;
+    if (iteration) {
+        const auto& s = iteration->stats();
+        st = {s.iterations, s.directions, s.seconds_visibility, s.seconds_transport, s.entries_total, s.shading};
+    } else {
+        const auto& s = walks->stats();
+        st = {s.walks, s.directions, s.seconds_visibility, s.seconds_transport, s.entries_total, s.shading};
+    }
+    const auto& shot = transport.shot_stats();
     const double mean = field.mean_radiance(scene);
+    std::string sky_decision = "none: the scene has no sky (no sky entries in the maps)";
+    if (scene.sky)
+        sky_decision = std::string(scene.sky->model == rb::scenes::Sky::Model::constant ? "constant" : "CIE overcast") +
+                       " sky: map pixels that no patch covers upstream carry the sky radiance";
     json stats = {
         {"scene", scene.name},
         {"patches", scene.patch_count()},
         {"dropped_degenerate_triangles", scene.dropped_degenerate},
-        {"method", "iteration"},
-        {"iterations", st.iterations},
+        {"method", o.method},
+        {"iterations", st.steps},
         {"directions", st.directions},
         {"visibility", backend->name()},
         {"visibility_details", backend->details()},
@@ -158,7 +231,9 @@ int run_solve(const SolveOptions& o) {
         {"image", {{"width", camera.width()}, {"height", camera.height()}, {"shading", o.shading}}},
         {"seconds_total", std::chrono::duration<double>(Clock::now() - t_start).count()},
         {"seconds_solve", seconds_solve},
-        {"seconds_per_iteration", st.iterations > 0 ? seconds_solve / st.iterations : 0.0},
+        {"seconds_per_iteration", st.steps > 0 ? seconds_solve / st.steps : 0.0},
+        {"seconds_per_direction", st.directions > 0 ? seconds_solve / st.directions : 0.0},
+        {"seconds_first_shot", shot.seconds},
         {"seconds_visibility", st.seconds_visibility},
         {"seconds_transport", st.seconds_transport},
         {"seconds_render", seconds_render},
@@ -167,15 +242,30 @@ int run_solve(const SolveOptions& o) {
         {"mean_radiance", mean},
         {"decisions",
          {{"shading", st.shading},
-          {"first_shot", "skipped: no point lights (not supported yet)"},
-          {"sky", "none: the scene has no sky"},
-          {"threads", "1: the solver runs on one thread"},
-          {"directions_per_step", o.bidirectional ? "w and -w from one geometry matrix (weight 1/2 each)"
-                                                  : "w (--bidirectional uses -w too)"}}},
+          {"first_shot", shot.lights == 0 ? std::string("skipped: no point lights")
+                                           : std::to_string(shot.lights) + " point light(s), " +
+                                                 std::to_string(shot.shadow_rays) +
+                                                 " shadow rays, then they leave the iteration"},
+          {"sky", sky_decision},
+          {"threads", "1: the solver runs on one thread"}}},
     };
-    if (scene.exact_radiance) {
-        stats["exact_radiance"] = *scene.exact_radiance;
-        stats["relative_l1_error"] = field.relative_l1_error(scene, *scene.exact_radiance);
+    if (iteration) {
+        stats["decisions"]["directions_per_step"] = o.bidirectional
+                                                        ? "w and -w from one geometry matrix (weight 1/2 each)"
+                                                        : "w only (--no-bidirectional)";
+        stats["memory_per_patch_bytes"] = 4 * sizeof(rb::scenes::Rgb);
+    } else {
+        const auto& ws = walks->stats();
+        stats["walks"] = ws.walks;
+        stats["depth"] = o.depth;
+        stats["sampler"] = o.sampler;
+        stats["unbiased"] = o.unbiased;
+        stats["memory_per_patch_bytes"] = ws.bytes_per_patch;
+        stats["decisions"]["storage"] = ws.storage;
+    }
+    if (exact) {
+        stats["exact_radiance"] = *exact;
+        stats["relative_l1_error"] = field.relative_l1_error(scene, *exact);
     }
     if (!o.stats.empty()) rb::apps::write_json(o.stats, stats);
     return 0;
@@ -197,7 +287,7 @@ int main(int argc, char** argv) {
     solve->add_option("--exposure", o.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")
         ->capture_default_str();
     solve->add_option("--shading", o.shading, "image from the patch radiance: smooth | flat")->capture_default_str();
-    solve->add_option("--iterations", o.iterations, "stochastic iteration steps (global directions)")
+    solve->add_option("--iterations", o.iterations, "stochastic iteration steps, or walks for the walk methods")
         ->capture_default_str()
         ->check(CLI::Range(1L, 1000000000L));
     solve->add_option("--resolution", o.resolution, "visibility map pixels per side (default: from the scene)")
@@ -209,8 +299,22 @@ int main(int argc, char** argv) {
     solve->add_option("--threads", o.threads, "worker threads (the solver runs on one for now)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1024));
-    solve->add_flag("--bidirectional", o.bidirectional,
-                    "use every geometry matrix for w and -w: unbiased, about 4x smaller error per step");
+    solve->add_option("--method", o.method,
+                      "iteration (stochastic iteration) | walk | combined | bidirectional (global walks of --depth)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"iteration", "walk", "combined", "bidirectional"}));
+    solve->add_option("--depth", o.depth, "directions (bounces) per global walk")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 32))
+        ->each([&](const std::string&) { o.depth_given = true; });
+    solve->add_flag("--unbiased", o.unbiased,
+                    "walks: correct the next walk's emission with this walk's last bounce (004 4.3)");
+    solve->add_option("--sampler", o.sampler, "walk directions: random | halton | sobol (randomised QMC)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"random", "halton", "sobol"}));
+    solve->add_flag("--bidirectional,!--no-bidirectional", o.bidirectional,
+                    "iteration: use every geometry matrix for w and -w (default; about 4x smaller error per step)")
+        ->each([&](const std::string&) { o.bidirectional_given = true; });
     solve->add_option("--stats", o.stats, "run statistics (JSON)");
     solve->add_option("--csv", o.csv, "convergence table: iteration,seconds,relative_l1_error,mean_radiance");
     solve->add_option("--csv-every", o.csv_every, "convergence row every k iterations (default: 100 rows)")

@@ -12,29 +12,30 @@ using scenes::Rgb;
 using scenes::Vec3;
 using Clock = std::chrono::steady_clock;
 
+StochasticIteration::StochasticIteration(const Transport& transport, visibility::Backend& backend,
+                                         IterationOptions options)
+    : transport_(transport), scene_(transport.scene()), backend_(backend), options_(options),
+      glossy_(transport.glossy()) {
+    init();
+}
+
 StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend,
                                          IterationOptions options)
-    : scene_(scene), backend_(backend), options_(options), glossy_(scene.has_glossy()) {
-    const std::size_t n = scene.patch_count();
-    inv_area_.resize(n);
-    emission_.resize(n);
-    reflect_.resize(n);
-    patch_glossy_.resize(n);
-    const auto& patches = scene.patch_list();
-    for (std::size_t i = 0; i < n; ++i) {
-        const auto& m = scene.material_of(i);
-        inv_area_[i] = 1.0 / patches[i].area;
-        emission_[i] = m.emission;
-        reflect_[i] = 4.0 * m.albedo;
-        patch_glossy_[i] = m.glossy();
-    }
-    irradiance_.assign(n, Rgb::Zero());
-    next_.assign(n, Rgb::Zero());
-    outgoing_.assign(n, Rgb::Zero());
+    : own_(std::make_unique<Transport>(scene)), transport_(*own_), scene_(scene), backend_(backend),
+      options_(options), glossy_(scene.has_glossy()) {
+    init();
+}
+
+void StochasticIteration::init() {
+    const std::size_t n = transport_.patches();
+    const auto& patches = scene_.patch_list();
+    irradiance_.assign(n + 2, Rgb::Zero());
+    next_.assign(n + 2, Rgb::Zero());
+    outgoing_.assign(n + 2, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
     if (glossy_) {
         to_eye_.resize(n);
-        for (std::size_t i = 0; i < n; ++i) to_eye_[i] = (scene.camera.eye - patches[i].centroid).normalized();
+        for (std::size_t i = 0; i < n; ++i) to_eye_[i] = (scene_.camera.eye - patches[i].centroid).normalized();
         stats_.shading = "every step, towards the eye (the scene has glossy materials)";
     } else {
         stats_.shading = "once at the end (purely diffuse scene)";
@@ -42,44 +43,34 @@ StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility:
 }
 
 void StochasticIteration::step(const Vec3& w) {
-    const std::size_t n = inv_area_.size();
-    const auto& patches = scene_.patch_list();
+    const Transport& t = transport_;
+    const std::size_t n = t.patches();
     const bool both = options_.bidirectional;
-    // The direction the irradiance of patch i arrived along in the previous step: w_prev,
-    // or with both directions, whichever of +-w_prev the patch faced.
-    auto arrived = [&](std::size_t i) {
-        return both && patches[i].normal.dot(previous_) > 0.0 ? Vec3(-previous_) : previous_;
-    };
     // Radiance every patch sends along w (with both directions: along whichever of +-w
-    // it faces): emission plus the reflection of the irradiance of the previous step.
+    // it faces): emission plus the reflection of the irradiance of the previous step,
+    // which arrived along w_prev (or whichever of +-w_prev the patch faced).
     for (std::size_t j = 0; j < n; ++j) {
-        if (patch_glossy_[j] && steps_ > 0) {
-            const Vec3 out = both && patches[j].normal.dot(w) < 0.0 ? Vec3(-w) : w;
-            outgoing_[j] = emission_[j] +
-                           4.0 * M_PI * brdf(scene_.material_of(j), patches[j].normal, arrived(j), out) * irradiance_[j];
+        if (t.is_glossy(j)) {
+            const Vec3 out = t.departure(j, w, both);
+            outgoing_[j] = t.emitted(j, out);
+            if (steps_ > 0) outgoing_[j] += t.reflected(j, t.arrival(j, previous_, both), out, irradiance_[j]);
         } else {
-            outgoing_[j] = emission_[j] + reflect_[j] * irradiance_[j];
+            outgoing_[j] = t.emitted(j, w) + t.diffuse_reflectance(j) * irradiance_[j];
         }
     }
+    t.set_sky(w, outgoing_);
     std::fill(next_.begin(), next_.end(), Rgb::Zero());
-    if (both) {
-        // Every entry also carries light along -w, from the receiver back to the source.
-        // Each patch faces exactly one of +-w, so it receives once; weight 1/2 keeps the
-        // expectation: the pair (w, -w) is sampled with twice the density of w alone.
-        for (const auto& e : matrix_.entries) {
-            next_[e.receiver] += (0.5 * e.area * inv_area_[e.receiver]) * outgoing_[e.source];
-            next_[e.source] += (0.5 * e.area * inv_area_[e.source]) * outgoing_[e.receiver];
-        }
-    } else {
-        for (const auto& e : matrix_.entries) next_[e.receiver] += (e.area * inv_area_[e.receiver]) * outgoing_[e.source];
-    }
+    // With both directions, every entry also carries light along -w. Each patch faces
+    // exactly one of +-w, so it receives once; weight 1/2 keeps the expectation: the
+    // pair (w, -w) is sampled with twice the density of w alone.
+    t.gather(matrix_, outgoing_, next_, both, both ? 0.5 : 1.0);
     irradiance_.swap(next_);
     previous_ = w;
     ++steps_;
     if (glossy_) {
         for (std::size_t i = 0; i < n; ++i) {
             if ((irradiance_[i] == 0.0).all()) continue;
-            sum_[i] += 4.0 * M_PI * brdf(scene_.material_of(i), patches[i].normal, arrived(i), to_eye_[i]) * irradiance_[i];
+            sum_[i] += t.reflected(i, t.arrival(i, w, both), to_eye_[i], irradiance_[i]);
         }
     } else {
         for (std::size_t i = 0; i < n; ++i) sum_[i] += irradiance_[i];
@@ -113,7 +104,7 @@ void StochasticIteration::run(const Callback& progress) {
 RadianceField StochasticIteration::field() const {
     RadianceField f;
     f.view_dependent = glossy_;
-    const std::size_t n = inv_area_.size();
+    const std::size_t n = transport_.patches();
     f.radiance.resize(n);
     const double inv_m = steps_ > 0 ? 1.0 / static_cast<double>(steps_) : 0.0;
     const auto& patches = scene_.patch_list();
@@ -121,9 +112,9 @@ RadianceField StochasticIteration::field() const {
         if (glossy_) {
             // Emission leaves the front side only.
             const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
-            f.radiance[i] = (front ? emission_[i] : Rgb::Zero()) + sum_[i] * inv_m;
+            f.radiance[i] = (front ? transport_.emitted(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
         } else {
-            f.radiance[i] = emission_[i] + reflect_[i] * sum_[i] * inv_m;
+            f.radiance[i] = transport_.emitted(i, Vec3::Zero()) + transport_.diffuse_reflectance(i) * sum_[i] * inv_m;
         }
     }
     return f;

@@ -15,10 +15,12 @@
 // Call order: construct, run() (reports progress through the callback, never
 // prints), then field(); field() may also be called from inside the callback.
 #include "solver/radiance_field.h"
+#include "solver/transport.h"
 #include "visibility/backend.h"
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -30,8 +32,9 @@ struct IterationOptions {
     std::uint64_t jitter_stream = 0;  // another stream of map jitters for the same directions
     // Use every geometry matrix for w and -w (its entries serve both): each patch
     // receives along whichever of the two it faces, with weight 1/2. Unbiased, and a
-    // step then moves light for every patch instead of about half of them.
-    bool bidirectional = false;
+    // step then moves light for every patch instead of about half of them: on the
+    // homogeneous box the error at equal steps falls about 4x for 10 % more time.
+    bool bidirectional = true;
     long progress_every = 0;  // callback every k steps (0: about 100 times per run)
 };
 
@@ -54,6 +57,10 @@ class StochasticIteration {
 public:
     using Callback = std::function<void(const Progress&)>;
 
+    // The transport (patch constants, first shot) must outlive the solver.
+    StochasticIteration(const Transport& transport, visibility::Backend& backend, IterationOptions options);
+    // The same with a transport of its own (computing the first shot if the scene has
+    // point lights).
     StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend, IterationOptions options);
 
     void run(const Callback& progress = {});
@@ -66,13 +73,14 @@ public:
 private:
     void step(const scenes::Vec3& direction);
 
+    void init();
+
+    std::unique_ptr<Transport> own_;
+    const Transport& transport_;
     const scenes::Scene& scene_;
     visibility::Backend& backend_;
     IterationOptions options_;
     bool glossy_;
-    std::vector<double> inv_area_;
-    std::vector<scenes::Rgb> emission_, reflect_;  // Le, and 4 albedo (the diffuse 4 pi F)
-    std::vector<char> patch_glossy_;
     std::vector<scenes::Vec3> to_eye_;             // glossy path only
     std::vector<scenes::Rgb> irradiance_, next_, outgoing_;
     std::vector<scenes::Rgb> sum_;                 // sum of I (diffuse) or of 4 pi F(w, eye) I (glossy)

@@ -19,9 +19,10 @@ struct Run {
     solver::RadianceField field;
 };
 
-Run solve(const scenes::Scene& scene, long iterations, std::uint64_t seed, long every) {
+Run solve(const scenes::Scene& scene, long iterations, std::uint64_t seed, long every, bool both = false) {
     auto backend = visibility::make_backend("painter", scene, {});
     solver::IterationOptions opt;
+    opt.bidirectional = both;
     opt.iterations = iterations;
     opt.seed = seed;
     opt.progress_every = every;
@@ -55,7 +56,7 @@ TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][conve
         ++n;
     }
     const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    INFO("fitted slope: " << slope);
+    INFO("fitted slope (w alone): " << slope);
     CHECK(slope > -0.65);
     CHECK(slope < -0.35);
 
@@ -64,6 +65,31 @@ TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][conve
     INFO("mean radiance: " << mean);
     CHECK(std::abs(mean - 1.0) < 0.003);
     CHECK(run.error.at(10000) < run.error.at(1000) / 2.0);
+}
+
+TEST_CASE("iteration with both w and -w converges as M^-1/2", "[solver][convergence]") {
+    // The error of one run wanders (consecutive steps share their irradiance), so the
+    // slope is fitted to the geometric mean of 4 seeds' errors.
+    const auto scene = scenes::make_builtin("homogeneous-box");
+    const int K = 4;
+    std::map<long, double> log_error;
+    for (int k = 0; k < K; ++k)
+        for (const auto& [m, e] : solve(scene, 10000, 1 + k, 100, true).error) log_error[m] += std::log(e) / K;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (const auto& [m, y] : log_error) {
+        const double x = std::log(static_cast<double>(m));
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+        ++n;
+    }
+    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    INFO("fitted slope (w and -w, 4 seeds): " << slope << ", error at 1000: " << std::exp(log_error.at(1000)));
+    CHECK(slope > -0.65);
+    CHECK(slope < -0.35);
+    CHECK(std::exp(log_error.at(1000)) < 0.015);
 }
 
 TEST_CASE("iteration with both w and -w: unbiased, and a smaller error", "[solver][convergence]") {

@@ -1,0 +1,252 @@
+#include "solver/global_walks.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace raybundle::solver {
+
+using Clock = std::chrono::steady_clock;
+
+const char* walk_method_name(WalkMethod m) {
+    switch (m) {
+        case WalkMethod::walk: return "walk";
+        case WalkMethod::combined: return "combined";
+        case WalkMethod::bidirectional: return "bidirectional";
+    }
+    return "?";
+}
+
+namespace {
+
+double binomial(int n, int k) {
+    double r = 1.0;
+    for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
+    return r;
+}
+
+// Index of the table entry (bounce b, last direction t), b <= t.
+std::size_t table_index(int b, int t) { return static_cast<std::size_t>(t) * (t + 1) / 2 + b; }
+
+}  // namespace
+
+double GlobalWalks::truncation_factor(double albedo, int depth, bool unbiased) {
+    return unbiased ? 1.0 : 1.0 - std::pow(albedo, depth + 1);
+}
+
+GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options)
+    : t_(transport),
+      scene_(transport.scene()),
+      backend_(backend),
+      options_(options),
+      glossy_(transport.glossy()),
+      sampler_(options.sampler, options.depth, options.seed),
+      jitter_(options.seed, /*stream=*/0x717e4 + options.jitter_stream) {
+    if (options.walks < 1) throw std::invalid_argument("walks must be >= 1, got " + std::to_string(options.walks));
+    const std::size_t n = t_.patches(), slots = t_.slots();
+    const int D = options.depth;
+    dirs_.resize(static_cast<std::size_t>(D));
+    out_.assign(slots, Rgb::Zero());
+    sum_.assign(n, Rgb::Zero());
+    std::size_t vectors = 2;  // out_ and sum_
+    if (options.method == WalkMethod::walk) {
+        irr_.assign(slots, Rgb::Zero());
+        next_.assign(slots, Rgb::Zero());
+        vectors += 2;
+        if (options.unbiased) {
+            chain_.assign(slots, Rgb::Zero());
+            ++vectors;
+        }
+        stats_.storage = "plain walk: the max-bounce irradiance" +
+                         std::string(options.unbiased ? " and the last-bounce chain (--unbiased)" : "");
+    } else {
+        const std::size_t entries = glossy_ ? table_index(0, D) : static_cast<std::size_t>(D);
+        table_.assign(entries, std::vector<Rgb>(slots, Rgb::Zero()));
+        vectors += entries;
+        stats_.storage = glossy_ ? "the bounce table, D(D+1)/2 = " + std::to_string(entries) +
+                                       " entries (glossy materials need the direction each arrived along)"
+                                 : "one running sum per bounce, D = " + std::to_string(D) +
+                                       " (diffuse: the D(D+1)/2 table collapses)";
+    }
+    if (options.unbiased) {
+        correction_.assign(n, Rgb::Zero());
+        ++vectors;
+    }
+    stats_.bytes_per_patch = vectors * sizeof(Rgb);
+    if (glossy_) {
+        const auto& patches = scene_.patch_list();
+        to_eye_.resize(n);
+        for (std::size_t i = 0; i < n; ++i) to_eye_[i] = (scene_.camera.eye - patches[i].centroid).normalized();
+        stats_.shading = "every walk, towards the eye (the scene has glossy materials)";
+    } else {
+        stats_.shading = "once at the end (purely diffuse scene)";
+    }
+}
+
+void GlobalWalks::transfer(const Vec3& w) {
+    const Eigen::Vector2d offset(jitter_.uniform(), jitter_.uniform());
+    const auto t0 = Clock::now();
+    backend_.transfer(w, offset, matrix_);
+    stats_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+    stats_.entries_total += matrix_.entries.size();
+    ++stats_.directions;
+}
+
+Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
+    Rgb e = t_.emitted(j, out);
+    if (correction_scale_ > 0.0)
+        e += correction_scale_ * t_.reflected(j, t_.arrival(j, correction_dir_, correction_both_), out, correction_[j]);
+    return e;
+}
+
+void GlobalWalks::accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance) {
+    if (glossy_)
+        sum_[i] += t_.reflected(i, arrived, to_eye_[i], irradiance);
+    else
+        sum_[i] += irradiance;
+}
+
+void GlobalWalks::walk_plain() {
+    const std::size_t n = t_.patches();
+    const int D = options_.depth;
+    const bool unbiased = options_.unbiased;
+    std::fill(irr_.begin(), irr_.end(), Rgb::Zero());
+    if (unbiased) std::fill(chain_.begin(), chain_.end(), Rgb::Zero());
+    Vec3 prev = Vec3::Zero();
+    for (int d = 0; d < D; ++d) {
+        const Vec3& w = dirs_[d];
+        transfer(w);
+        const auto t0 = Clock::now();
+        // I <- A(w) (Le + C + 4 pi F I)
+        for (std::size_t j = 0; j < n; ++j) {
+            out_[j] = walk_emission(j, w);
+            if (d > 0) out_[j] += t_.reflected(j, prev, w, irr_[j]);
+        }
+        t_.set_sky(w, out_);
+        std::fill(next_.begin(), next_.end(), Rgb::Zero());
+        t_.gather(matrix_, out_, next_, false, 1.0);
+        irr_.swap(next_);
+        if (unbiased) {
+            // J <- A(w) 4 pi F J, started from the emission (and sky): exactly d bounces.
+            for (std::size_t j = 0; j < n; ++j)
+                out_[j] = d == 0 ? walk_emission(j, w) : t_.reflected(j, prev, w, chain_[j]);
+            if (d == 0)
+                t_.set_sky(w, out_);
+            else
+                out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
+            std::fill(next_.begin(), next_.end(), Rgb::Zero());
+            t_.gather(matrix_, out_, next_, false, 1.0);
+            chain_.swap(next_);
+        }
+        prev = w;
+        stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    for (std::size_t i = 0; i < n; ++i) accumulate(i, prev, irr_[i]);
+    if (unbiased) {
+        for (std::size_t i = 0; i < n; ++i) correction_[i] = chain_[i];
+        correction_dir_ = prev;
+        correction_both_ = false;
+        correction_scale_ = 1.0;
+    }
+}
+
+void GlobalWalks::walk_combined(bool both) {
+    const std::size_t n = t_.patches();
+    const int D = options_.depth;
+    for (auto& v : table_) std::fill(v.begin(), v.end(), Rgb::Zero());
+    // Diffuse: table_[b] is the running sum over the directions so far of the b-bounce
+    // irradiance. Glossy: table_[table_index(b, t)] the b-bounce irradiance whose last
+    // direction was w_t.
+    auto slot = [&](int b, int t) -> std::vector<Rgb>& { return glossy_ ? table_[table_index(b, t)] : table_[b]; };
+    for (int t = 0; t < D; ++t) {
+        const Vec3& w = dirs_[t];
+        transfer(w);
+        const auto t0 = Clock::now();
+        // Highest bounce first, so that (diffuse) the running sums still hold only the
+        // directions before w_t.
+        for (int b = t; b >= 1; --b) {
+            for (std::size_t j = 0; j < n; ++j) {
+                if (!glossy_) {
+                    out_[j] = t_.diffuse_reflectance(j) * table_[b - 1][j];
+                } else {
+                    const Vec3 out = t_.departure(j, w, both);
+                    Rgb sum = Rgb::Zero();
+                    for (int s = b - 1; s < t; ++s) {
+                        const Rgb& z = table_[table_index(b - 1, s)][j];
+                        if ((z != 0.0).any()) sum += t_.reflected(j, t_.arrival(j, dirs_[s], both), out, z);
+                    }
+                    out_[j] = sum;
+                }
+            }
+            out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
+            t_.gather(matrix_, out_, slot(b, t), both, 1.0);
+        }
+        for (std::size_t j = 0; j < n; ++j) out_[j] = walk_emission(j, t_.departure(j, w, both));
+        t_.set_sky(w, out_);
+        t_.gather(matrix_, out_, slot(0, t), both, 1.0);
+        stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    // Each b-bounce sample set: C(D, b+1) subsequences, times 2^(b+1) sign choices.
+    std::vector<double> inv_samples(static_cast<std::size_t>(D));
+    for (int b = 0; b < D; ++b)
+        inv_samples[b] = 1.0 / (binomial(D, b + 1) * (both ? std::ldexp(1.0, b + 1) : 1.0));
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!glossy_) {
+            Rgb irr = Rgb::Zero();
+            for (int b = 0; b < D; ++b) irr += inv_samples[b] * table_[b][i];
+            sum_[i] += irr;
+        } else {
+            for (int t = 0; t < D; ++t)
+                for (int b = 0; b <= t; ++b) {
+                    const Rgb& z = table_[table_index(b, t)][i];
+                    if ((z != 0.0).any()) accumulate(i, t_.arrival(i, dirs_[t], both), inv_samples[b] * z);
+                }
+        }
+    }
+    if (options_.unbiased) {
+        // Bounce D-1 has one subsequence, ending at w_D.
+        const auto& last = slot(D - 1, D - 1);
+        for (std::size_t i = 0; i < n; ++i) correction_[i] = last[i];
+        correction_dir_ = dirs_[D - 1];
+        correction_both_ = both;
+        correction_scale_ = inv_samples[D - 1];
+    }
+}
+
+void GlobalWalks::run(const Callback& progress) {
+    const long total = options_.walks;
+    const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
+    const auto start = Clock::now();
+    for (long m = 0; m < total; ++m) {
+        sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
+        for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
+        if (options_.method == WalkMethod::walk)
+            walk_plain();
+        else
+            walk_combined(options_.method == WalkMethod::bidirectional);
+        ++walks_done_;
+        ++stats_.walks;
+        if (progress && ((m + 1) % every == 0 || m + 1 == total))
+            progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+    }
+}
+
+RadianceField GlobalWalks::field() const {
+    RadianceField f;
+    f.view_dependent = glossy_;
+    const std::size_t n = t_.patches();
+    f.radiance.resize(n);
+    const double inv_m = walks_done_ > 0 ? 1.0 / static_cast<double>(walks_done_) : 0.0;
+    const auto& patches = scene_.patch_list();
+    for (std::size_t i = 0; i < n; ++i) {
+        if (glossy_) {
+            const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
+            f.radiance[i] = (front ? t_.emitted(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
+        } else {
+            f.radiance[i] = t_.emitted(i, Vec3::Zero()) + t_.diffuse_reflectance(i) * sum_[i] * inv_m;
+        }
+    }
+    return f;
+}
+
+}  // namespace raybundle::solver

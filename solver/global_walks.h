@@ -1,0 +1,126 @@
+#pragma once
+// Global walks of D directions (004 sections 4.1-4.3).
+//
+// A walk draws D global directions w_1..w_D (one point of a 2D-dimensional random or
+// quasi-random sequence, sampling/walk_sampler.h), computes A(w_t) once for each, and
+// adds its estimate of the radiance of every patch; the result is the mean over the
+// walks. Three ways to use the D geometry matrices:
+//
+//   walk           (4.1) the plain walk: I <- A(w_t) (Le + 4 pi F I), t = 1..D. One
+//                  estimate of each bounce 1..D per walk. One vector per patch.
+//   combined       (4.2) every increasing subsequence of the walk's directions is a
+//                  sample of a path: C(D, b+1) samples of the b-bounce irradiance per
+//                  walk. The per-patch table Z[b][t] (bounce b, last direction w_t)
+//                  has D(D+1)/2 entries (Table 1).
+//   bidirectional  (4.2) combined, and every matrix serves w and -w (each patch
+//                  receives along the one it faces): 2^(b+1) C(D, b+1) samples.
+//
+// Truncated at D bounces, the walks converge to Le + T Le + ... + T^D Le: on the
+// homogeneous box (albedo a, exact radiance L) to L (1 - a^(D+1)). With `unbiased`
+// (4.3) the previous walk's estimate of its D-th bounce, T^D (Le + C), is added to
+// the emission C of the next walk's transfers, so that walk m estimates bounces up to
+// (m+1) D and the average converges to the full solution; only the first walks miss
+// their highest bounces (an energy defect that fades as 1/M).
+//
+// What is stored (skip what a scene does not need): in a purely diffuse scene the
+// combined table collapses to one running sum per bounce (D vectors instead of
+// D(D+1)/2: 4 pi F does not depend on the direction the light arrived from); glossy
+// scenes keep the whole table, each entry with the direction it arrived along, and
+// evaluate the radiance towards the eye per walk.
+//
+// Call order: construct, run() (progress through the callback), then field();
+// field() may also be called from inside the callback.
+#include "sampling/walk_sampler.h"
+#include "solver/radiance_field.h"
+#include "solver/stochastic_iteration.h"
+#include "solver/transport.h"
+#include "visibility/backend.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace raybundle::solver {
+
+enum class WalkMethod { walk, combined, bidirectional };
+
+const char* walk_method_name(WalkMethod m);
+
+struct WalkOptions {
+    WalkMethod method = WalkMethod::walk;
+    int depth = 5;      // D: directions (and bounces) per walk
+    long walks = 1000;  // M
+    bool unbiased = false;
+    sampling::SamplerKind sampler = sampling::SamplerKind::random;
+    std::uint64_t seed = 1;
+    std::uint64_t jitter_stream = 0;
+    long progress_every = 0;  // callback every k walks (0: about 100 times per run)
+};
+
+struct WalkStats {
+    long walks = 0;
+    long directions = 0;  // visibility transfers made
+    double seconds_visibility = 0.0;
+    double seconds_transport = 0.0;
+    std::size_t entries_total = 0;
+    std::size_t bytes_per_patch = 0;  // the method's per-patch vectors
+    std::string shading;
+    std::string storage;  // what is kept per patch, and why
+};
+
+class GlobalWalks {
+public:
+    using Callback = StochasticIteration::Callback;
+
+    // The transport (patch constants, first shot) must outlive the solver.
+    GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options);
+
+    void run(const Callback& progress = {});
+
+    RadianceField field() const;
+    const WalkStats& stats() const { return stats_; }
+
+    // The radiance the walks converge to on a homogeneous closed scene, relative to
+    // its exact radiance: 1 - a^(D+1) when truncated, 1 with `unbiased`.
+    static double truncation_factor(double albedo, int depth, bool unbiased);
+
+private:
+    void walk_plain();
+    void walk_combined(bool both);
+    void transfer(const Vec3& w);
+    // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
+    // sum_: the irradiance itself (diffuse scene) or the radiance it sends to the eye.
+    void accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance);
+    // The emission of the walk's transfers along `out`: own + first shot + correction.
+    Rgb walk_emission(std::size_t j, const Vec3& out) const;
+
+    const Transport& t_;
+    const scenes::Scene& scene_;
+    visibility::Backend& backend_;
+    WalkOptions options_;
+    bool glossy_;
+    sampling::WalkSampler sampler_;
+    sampling::Rng jitter_;
+    std::vector<Vec3> dirs_;
+    std::vector<Vec3> to_eye_;
+    visibility::GeometryMatrix matrix_;
+
+    // Per patch (slots() long): plain walk: max-bounce irradiance I and, with
+    // `unbiased`, the exact-bounce chain J; combined: the table (glossy) or the running
+    // sums per bounce (diffuse).
+    std::vector<Rgb> irr_, chain_, out_, next_;
+    std::vector<std::vector<Rgb>> table_;
+    // The unbiased correction: the previous walk's last-bounce irradiance (per patch),
+    // and the direction it arrived along (with both: +-, per patch by its normal).
+    std::vector<Rgb> correction_;
+    Vec3 correction_dir_ = Vec3::Zero();
+    bool correction_both_ = false;
+    double correction_scale_ = 0.0;  // 0: none yet
+
+    std::vector<Rgb> sum_;  // per patch: sum over walks of the reflected-radiance estimate
+    long walks_done_ = 0;
+    WalkStats stats_;
+};
+
+}  // namespace raybundle::solver

@@ -1,0 +1,113 @@
+#include "solver/transport.h"
+
+#include "solver/brdf.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace raybundle::solver {
+
+Transport::Transport(const scenes::Scene& scene, const FirstShot* shot)
+    : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()) {
+    init(shot);
+}
+
+void Transport::init(const FirstShot* shot) {
+    const scenes::Scene& scene = scene_;
+    const auto& patches = scene.patch_list();
+    inv_area_.assign(n_ + 2, 0.0);
+    normal_.resize(n_);
+    emission_.resize(n_);
+    shot_diffuse_.assign(n_, Rgb::Zero());
+    emitted_diffuse_.resize(n_);
+    reflect_.resize(n_);
+    patch_glossy_.resize(n_);
+    for (std::size_t i = 0; i < n_; ++i) {
+        const auto& m = scene.material_of(i);
+        inv_area_[i] = 1.0 / patches[i].area;
+        normal_[i] = patches[i].normal;
+        emission_[i] = m.emission;
+        reflect_[i] = 4.0 * m.albedo;
+        patch_glossy_[i] = m.glossy();
+        // Diffuse reflection of the lights' irradiance E: albedo / pi E.
+        if (shot) shot_diffuse_[i] = m.albedo * shot->irradiance[i] / M_PI;
+        emitted_diffuse_[i] = emission_[i] + shot_diffuse_[i];
+    }
+    if (shot && glossy_) {
+        hits_ = shot->glossy_hits;
+        std::stable_sort(hits_.begin(), hits_.end(), [](const auto& a, const auto& b) { return a.patch < b.patch; });
+        hit_begin_.assign(n_ + 1, 0);
+        for (const auto& h : hits_) ++hit_begin_[h.patch + 1];
+        for (std::size_t i = 0; i < n_; ++i) hit_begin_[i + 1] += hit_begin_[i];
+    }
+}
+
+namespace {
+FirstShot shoot(const scenes::Scene& scene, double& seconds) {
+    const auto t0 = std::chrono::steady_clock::now();
+    FirstShot shot;
+    if (!scene.point_lights.empty()) {
+        const scenes::RayCaster caster(scene);
+        shot = first_shot(scene, caster);
+    }
+    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return shot;
+}
+}  // namespace
+
+Transport::Transport(const scenes::Scene& scene)
+    : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()) {
+    if (scene.point_lights.empty()) {
+        init(nullptr);
+        return;
+    }
+    double seconds = 0.0;
+    const FirstShot shot = shoot(scene, seconds);
+    init(&shot);
+    shot_stats_ = {scene.point_lights.size(), shot.shadow_rays, seconds};
+}
+
+Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
+    if (!patch_glossy_[j] || hits_.empty()) return shot_diffuse_[j];
+    Rgb sum = Rgb::Zero();
+    const auto& m = scene_.material_of(j);
+    for (std::uint32_t k = hit_begin_[j]; k < hit_begin_[j + 1]; ++k)
+        sum += brdf(m, normal_[j], hits_[k].direction, out) * hits_[k].irradiance;
+    return sum;
+}
+
+Rgb Transport::emitted(std::size_t j, const Vec3& out) const {
+    if (!patch_glossy_[j] || hits_.empty()) return emitted_diffuse_[j];
+    return emission_[j] + shot_reflected(j, out);
+}
+
+Rgb Transport::reflected(std::size_t j, const Vec3& in, const Vec3& out, const Rgb& irr) const {
+    if (!patch_glossy_[j]) return reflect_[j] * irr;
+    return 4.0 * M_PI * brdf(scene_.material_of(j), normal_[j], in, out) * irr;
+}
+
+void Transport::set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const {
+    if (scene_.sky) {
+        outgoing[n_] = scene_.sky->arriving_along(w);
+        outgoing[n_ + 1] = scene_.sky->arriving_along(-w);
+    } else {
+        outgoing[n_] = outgoing[n_ + 1] = Rgb::Zero();
+    }
+}
+
+void Transport::gather(const visibility::GeometryMatrix& m, const std::vector<Rgb>& outgoing, std::vector<Rgb>& next,
+                       bool both, double weight) const {
+    const double* inv = inv_area_.data();
+    if (both) {
+        for (const auto& e : m.entries) {
+            const double a = weight * e.area;
+            next[e.receiver] += (a * inv[e.receiver]) * outgoing[e.source];
+            next[e.source] += (a * inv[e.source]) * outgoing[e.receiver];
+        }
+    } else {
+        for (const auto& e : m.entries) next[e.receiver] += (weight * e.area * inv[e.receiver]) * outgoing[e.source];
+    }
+}
+
+}  // namespace raybundle::solver

@@ -1,0 +1,96 @@
+#pragma once
+// What every solver does with a geometry matrix: per-patch constants, the radiance a
+// patch sends along a direction, and one bounce of light along A(w) (and -w).
+//
+// Vectors indexed by patch have two extra slots after the n patches, for the sky
+// (004 section 6): slot n is the sky as a source along w (entries (i, n): receiver i
+// sees open sky upstream), slot n+1 the sky as a source along -w (entries (n+1, j):
+// nothing downstream of source j, so along -w it sees the sky). Their areas are zero,
+// so what arrives there is dropped. Backends emit sky entries only when asked
+// (BackendOptions::sky); a scene without sky never has them.
+//
+// Emission is the patches' own plus, with point lights, the first shot: what they
+// reflect of the lights' direct light (FirstShot). The lights then leave the
+// iteration (004 section 9).
+#include "solver/first_shot.h"
+#include "visibility/backend.h"
+
+#include <vector>
+
+namespace raybundle::solver {
+
+using scenes::Rgb;
+using scenes::Vec3;
+
+class Transport {
+public:
+    // `shot` may be null (no point lights).
+    Transport(const scenes::Scene& scene, const FirstShot* shot);
+    // Computes the first shot when the scene has point lights (building a ray caster),
+    // and skips it when it has none.
+    explicit Transport(const scenes::Scene& scene);
+
+    // What the first shot did: point lights, shadow rays, seconds (zeros: skipped).
+    struct ShotStats {
+        std::size_t lights = 0;
+        long shadow_rays = 0;
+        double seconds = 0.0;
+    };
+    const ShotStats& shot_stats() const { return shot_stats_; }
+
+    std::size_t patches() const { return n_; }
+    std::size_t slots() const { return n_ + 2; }  // patches and the two sky slots
+    std::size_t sky_front() const { return n_; }
+    std::size_t sky_back() const { return n_ + 1; }
+    bool glossy() const { return glossy_; }
+    bool is_glossy(std::size_t j) const { return patch_glossy_[j] != 0; }
+    const scenes::Scene& scene() const { return scene_; }
+
+    // The direction of travel along which patch i receives when the matrix is used for
+    // w alone (w) or for both w and -w (whichever of the two it faces).
+    Vec3 arrival(std::size_t i, const Vec3& w, bool both) const {
+        return both && normal_[i].dot(w) > 0.0 ? Vec3(-w) : w;
+    }
+    // The direction patch j sends along (the same rule from the source side).
+    Vec3 departure(std::size_t j, const Vec3& w, bool both) const {
+        return both && normal_[j].dot(w) < 0.0 ? Vec3(-w) : w;
+    }
+
+    // Radiance patch j emits towards `out` (front side): own emission plus the
+    // first shot's reflection. For diffuse patches it does not depend on `out`.
+    Rgb emitted(std::size_t j, const Vec3& out) const;
+    // The same, without the emitted radiance of the patches themselves (first shot only).
+    Rgb shot_reflected(std::size_t j, const Vec3& out) const;
+    // 4 pi f_j(in, out) irr: the radiance leaving j towards `out` due to irradiance
+    // `irr` (cosine-weighted incoming radiance) that arrived travelling along `in`.
+    Rgb reflected(std::size_t j, const Vec3& in, const Vec3& out, const Rgb& irr) const;
+    // The diffuse 4 pi f = 4 albedo of patch j (what reflected() uses for diffuse patches).
+    const Rgb& diffuse_reflectance(std::size_t j) const { return reflect_[j]; }
+    // Own emission only (front side).
+    const Rgb& own_emission(std::size_t j) const { return emission_[j]; }
+
+    // Sets the two sky slots of an outgoing-radiance vector for direction w.
+    void set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const;
+
+    // next += weight * A(w) outgoing; with `both` also along -w (each entry carries
+    // light from the receiver back to the source). Vectors have slots() entries.
+    void gather(const visibility::GeometryMatrix& m, const std::vector<Rgb>& outgoing, std::vector<Rgb>& next,
+                bool both, double weight) const;
+
+private:
+    void init(const FirstShot* shot);
+
+    const scenes::Scene& scene_;
+    std::size_t n_;
+    bool glossy_;
+    std::vector<double> inv_area_;  // slots(); zero at the sky slots
+    std::vector<Vec3> normal_;
+    std::vector<Rgb> emission_, shot_diffuse_, emitted_diffuse_, reflect_;
+    std::vector<char> patch_glossy_;
+    // Glossy patches lit by point lights: per patch, a range into hits_.
+    std::vector<std::uint32_t> hit_begin_;
+    std::vector<FirstShot::Hit> hits_;
+    ShotStats shot_stats_;
+};
+
+}  // namespace raybundle::solver

@@ -1,0 +1,203 @@
+// The first shot (point lights, 004 section 9) and the sky (section 6) against
+// closed-form answers.
+#include "scenes/scene.h"
+#include "scenes/subdivide.h"
+#include "solver/global_walks.h"
+#include "solver/stochastic_iteration.h"
+#include "visibility/backend.h"
+
+#include <catch2/catch.hpp>
+
+#include <array>
+#include <cmath>
+
+using namespace raybundle;
+using scenes::Rgb;
+using scenes::Vec3;
+
+namespace {
+
+// A square plane z = 0 of side 2 centred at the origin, facing +z, albedo rho.
+scenes::Scene plane(double rho, double patch_size) {
+    scenes::Scene s;
+    scenes::Material m;
+    m.name = "ground";
+    m.albedo = Rgb::Constant(rho);
+    const int mat = s.add_material(m);
+    s.add_object({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, mat);
+    s.finalize();
+    scenes::subdivide(s, patch_size);
+    s.camera.eye = Vec3(0, -3, 2);
+    s.camera.target = Vec3(0, 0, 0);
+    s.camera.up = Vec3(0, 0, 1);
+    return s;
+}
+
+// Mean of f over a triangle: centroid rule on 4^levels congruent sub-triangles.
+template <class F>
+double triangle_mean(const std::array<Vec3, 3>& t, int levels, F&& f) {
+    if (levels == 0) return f((t[0] + t[1] + t[2]) / 3.0);
+    const Vec3 m01 = 0.5 * (t[0] + t[1]), m12 = 0.5 * (t[1] + t[2]), m20 = 0.5 * (t[2] + t[0]);
+    return 0.25 * (triangle_mean({t[0], m01, m20}, levels - 1, f) + triangle_mean({m01, t[1], m12}, levels - 1, f) +
+                   triangle_mean({m20, m12, t[2]}, levels - 1, f) + triangle_mean({m01, m12, m20}, levels - 1, f));
+}
+
+solver::RadianceField iterate(const scenes::Scene& scene, const std::string& backend_name, long steps,
+                              std::uint64_t seed = 1) {
+    visibility::BackendOptions bo;
+    bo.sky = scene.sky.has_value();
+    auto backend = visibility::make_backend(backend_name, scene, bo);
+    solver::IterationOptions opt;
+    opt.iterations = steps;
+    opt.seed = seed;
+    solver::StochasticIteration it(scene, *backend, opt);
+    it.run();
+    return it.field();
+}
+
+}  // namespace
+
+TEST_CASE("point light over a plane: radiance = rho I cos / (pi r^2), patch-averaged, within 1 %",
+          "[solver][first-shot]") {
+    const double rho = 0.6;
+    auto scene = plane(rho, 0.15);
+    const Vec3 light(0.2, -0.1, 0.5);
+    const Rgb intensity(4.0, 2.0, 1.0);
+    scene.point_lights.push_back({light, intensity});
+    const solver::Transport transport(scene);
+    CHECK(transport.shot_stats().lights == 1);
+    CHECK(transport.shot_stats().shadow_rays > 0);
+    // Nothing else in the scene: the plane cannot see itself, so the iteration adds
+    // nothing to the first shot.
+    const auto field = iterate(scene, "painter", 20);
+    const auto& pos = scene.vertex_positions();
+    double worst = 0.0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+        const auto& p = scene.patch_list()[i];
+        const double e = triangle_mean({pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]}, 6, [&](const Vec3& x) {
+            const Vec3 d = light - x;
+            return d.z() / d.norm() / d.squaredNorm();
+        });
+        for (int c = 0; c < 3; ++c) {
+            const double exact = rho * intensity[c] * e / M_PI;
+            worst = std::max(worst, std::abs(field.radiance[i][c] / exact - 1.0));
+        }
+    }
+    INFO("worst relative deviation " << worst);
+    CHECK(worst < 0.01);
+}
+
+TEST_CASE("point light: shadows are exact, and a light behind a patch gives nothing", "[solver][first-shot]") {
+    auto scene = plane(0.5, 0.06);
+    // An occluder 0.25 x 0.25 at z = 0.25 under a light at z = 1 (facing up, so it
+    // sends nothing down): its umbra on the plane is the square |x|, |y| < 1/6.
+    scenes::Material occ;
+    occ.name = "occluder";
+    occ.albedo = Rgb::Constant(0.5);
+    const int m = scene.add_material(occ);
+    scene.add_object({{-0.125, -0.125, 0.25}, {0.125, -0.125, 0.25}, {0.125, 0.125, 0.25}, {-0.125, 0.125, 0.25}},
+                     {{{0, 1, 2}}, {{0, 2, 3}}}, m);
+    scene.finalize();
+    scene.point_lights.push_back({Vec3(0, 0, 1), Rgb::Constant(1.0)});
+    scene.point_lights.push_back({Vec3(0, 0, -1), Rgb::Constant(1.0)});  // below the plane: no effect
+    solver::FirstShot shot;
+    {
+        const scenes::RayCaster caster(scene);
+        shot = solver::first_shot(scene, caster);
+    }
+    const auto& pos = scene.vertex_positions();
+    int in_umbra = 0, lit = 0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+        const auto& p = scene.patch_list()[i];
+        if (p.material != 0) continue;
+        double reach = 0.0;  // the farthest corner from the axis (max norm)
+        for (int k = 0; k < 3; ++k) reach = std::max({reach, std::abs(pos[p.v[k]].x()), std::abs(pos[p.v[k]].y())});
+        if (reach < 1.0 / 6.0 - 1e-9) {
+            ++in_umbra;
+            CHECK(shot.irradiance[i][0] == 0.0);
+        } else if (std::abs(p.centroid.x()) > 0.3 || std::abs(p.centroid.y()) > 0.3) {
+            ++lit;
+            CHECK(shot.irradiance[i][0] > 0.0);
+        }
+    }
+    CHECK(in_umbra > 0);
+    CHECK(lit > 0);
+}
+
+TEST_CASE("open plane under a uniform sky: radiance = albedo x sky radiance", "[solver][sky]") {
+    auto scene = plane(0.5, 0.25);
+    scenes::Sky sky;
+    sky.radiance = Rgb(1.0, 2.0, 0.5);
+    sky.up = Vec3(0, 0, 1);
+    scene.sky = sky;
+    const auto backend = GENERATE(as<std::string>{}, "painter", "global-zbuffer", "raycast");
+    const auto field = iterate(scene, backend, 4000);
+    const double mean = field.mean_radiance(scene);
+    INFO(backend << ": mean radiance " << mean << ", expected " << 0.5 * sky.radiance.mean());
+    // Every patch, every channel within 3 %; the mean (all patches share directions)
+    // within 2 %.
+    CHECK(mean == Approx(0.5 * sky.radiance.mean()).epsilon(0.02));
+    for (std::size_t i = 0; i < scene.patch_count(); ++i)
+        for (int c = 0; c < 3; ++c) CHECK(field.radiance[i][c] == Approx(0.5 * sky.radiance[c]).epsilon(0.03));
+}
+
+TEST_CASE("CIE overcast sky: an open plane gets 7/9 albedo x zenith radiance", "[solver][sky]") {
+    // E = int L_z (1 + 2 cos t) / 3 cos t dw = 7 pi L_z / 9, so L = rho E / pi = 7 rho L_z / 9.
+    auto scene = plane(0.5, 0.25);
+    scenes::Sky sky;
+    sky.radiance = Rgb::Constant(1.0);
+    sky.up = Vec3(0, 0, 1);
+    sky.model = scenes::Sky::Model::overcast;
+    scene.sky = sky;
+    const auto field = iterate(scene, "painter", 4000);
+    CHECK(field.mean_radiance(scene) == Approx(7.0 * 0.5 / 9.0).epsilon(0.02));
+}
+
+TEST_CASE("a closed box under a sky sees none of it", "[solver][sky]") {
+    // The sky entries must not leak into a closed scene: the homogeneous box stays at 1.
+    auto scene = scenes::Scene();
+    {
+        // The walls of a unit cube facing inwards, albedo 0.5, emission 0.5.
+        scenes::Material m;
+        m.name = "wall";
+        m.albedo = Rgb::Constant(0.5);
+        m.emission = Rgb::Constant(0.5);
+        const int mat = scene.add_material(m);
+        const std::array<std::array<Vec3, 4>, 6> q = {{
+            {{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}},
+            {{{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}}},
+            {{{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}}},
+            {{{1, 0, 0}, {1, 0, 1}, {1, 1, 1}, {1, 1, 0}}},
+            {{{0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}}},
+            {{{0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}}},
+        }};
+        for (const auto& f : q) scene.add_object({f[0], f[1], f[2], f[3]}, {{{0, 1, 2}}, {{0, 2, 3}}}, mat);
+        scene.finalize();
+        scenes::subdivide(scene, 0.34);
+    }
+    scenes::Sky sky;
+    sky.radiance = Rgb::Constant(5.0);
+    scene.sky = sky;
+    const auto field = iterate(scene, "painter", 2000);
+    CHECK(field.mean_radiance(scene) == Approx(1.0).epsilon(0.01));
+}
+
+TEST_CASE("walks use the sky and the first shot too", "[solver][sky][walks]") {
+    auto scene = plane(0.5, 0.25);
+    scenes::Sky sky;
+    sky.radiance = Rgb::Constant(1.0);
+    sky.up = Vec3(0, 0, 1);
+    scene.sky = sky;
+    visibility::BackendOptions bo;
+    bo.sky = true;
+    auto backend = visibility::make_backend("painter", scene, bo);
+    const solver::Transport transport(scene);
+    solver::WalkOptions opt;
+    opt.method = solver::WalkMethod::bidirectional;
+    opt.depth = 2;
+    opt.walks = 1000;
+    solver::GlobalWalks w(transport, *backend, opt);
+    w.run();
+    // One bounce is all there is on an open plane: truncation changes nothing.
+    CHECK(w.field().mean_radiance(scene) == Approx(0.5).epsilon(0.02));
+}
