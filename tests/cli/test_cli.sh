@@ -69,6 +69,16 @@ expect_bad "unknown backend" "unknown visibility backend 'zbufer' (known: painte
 expect_bad "unknown built-in" "unknown built-in scene 'teapot'" solve --builtin teapot
 expect_bad "scene and built-in" "exactly one of" solve good.json --builtin homogeneous-box
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
+expect_bad "unknown method" "--method" solve good.json --method metropolis
+expect_bad "QMC for iteration" "stochastic iteration needs independent consecutive directions" \
+  solve good.json --sampler halton
+expect_bad "unbiased iteration" "--unbiased applies to the walk methods" solve good.json --unbiased
+expect_bad "depth for iteration" "--depth applies to the walk methods" solve good.json --depth 3
+expect_bad "bidirectional flag for walks" "for walks use --method bidirectional" \
+  solve good.json --method walk --bidirectional
+expect_bad "sobol depth" "the sobol sampler supports depths up to 15" solve good.json --method walk --sampler sobol --depth 20
+scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
+expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.json
 # A missing output directory is found before solving, and nothing is written.
 rm -f side.exr
 "$bin" solve good.json -o side.exr --png nowhere/x.png >out.txt 2>err.txt
@@ -101,14 +111,26 @@ if "$bin" solve --builtin homogeneous-box --iterations 200 -o h.exr --png h.png 
   for f in h.exr h.png h.json h.csv h-patches.csv h.ply; do [ -s "$f" ] || { fail "good run: $f missing"; ok=0; }; done
   [ "$(head -1 h-patches.csv)" = "id,cx,cy,cz,nx,ny,nz,area,r,g,b" ] || { fail "patch CSV header"; ok=0; }
   [ "$(head -1 h.csv)" = "iteration,seconds,relative_l1_error,mean_radiance" ] || { fail "convergence CSV header"; ok=0; }
-  for key in patches iterations resolution visibility seconds_total seconds_per_iteration mean_radiance \
-             relative_l1_error decisions; do
+  for key in patches iterations directions resolution visibility seconds_total seconds_per_iteration mean_radiance \
+             exact_radiance relative_l1_error memory_per_patch_bytes decisions first_shot sky; do
     grep -q "\"$key\"" h.json || { fail "stats lack $key"; ok=0; }
   done
   [ "$(ls | grep -c partial)" -eq 0 ] || { fail "temporary files left"; ok=0; }
   [ "$ok" -eq 1 ] && passed=$((passed + 1))
 else
   fail "good run failed: $(cat err.txt)"
+fi
+
+# Walks: their stats name depth, sampler and the truncated exact value 1 - 2^-(D+1).
+if "$bin" solve --builtin homogeneous-box --patch-size 0.34 --method combined --depth 3 --sampler sobol \
+     --iterations 20 -o w.exr --stats w.json 2>err.txt; then
+  ok=1
+  for key in walks depth sampler unbiased storage; do grep -q "\"$key\"" w.json || { fail "walk stats lack $key"; ok=0; }; done
+  grep -q '"exact_radiance": 0.9375' w.json || { fail "walk stats: exact_radiance is not 0.9375"; ok=0; }
+  grep -q '"directions": 60' w.json || { fail "walk stats: 20 walks of 3 should make 60 directions"; ok=0; }
+  [ "$ok" -eq 1 ] && passed=$((passed + 1))
+else
+  fail "walk run failed: $(cat err.txt)"
 fi
 
 # Determinism through the CLI: same seed, byte-identical per-patch output.

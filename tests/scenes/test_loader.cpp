@@ -56,6 +56,24 @@ TEST_CASE("a valid scene loads with its camera, materials and patches", "[scenes
     for (const auto& p : s.patch_list()) CHECK(p.normal.z() == Approx(1.0));  // counter-clockwise front
 }
 
+TEST_CASE("point lights and the sky load", "[scenes]") {
+    const Scene s = parse(scene_text(kCamera, kMaterials, kQuad,
+                                     R"(, "point_lights": [{"position": [0, 0, 2], "intensity": [10, 5, 1]}],
+                                         "sky": {"radiance": [1, 1, 2], "up": [0, 0, 3], "model": "overcast"})"));
+    REQUIRE(s.point_lights.size() == 1);
+    CHECK(s.point_lights[0].position.z() == 2.0);
+    CHECK(s.point_lights[0].intensity[1] == 5.0);
+    REQUIRE(s.sky);
+    CHECK(s.sky->up.z() == Approx(1.0));  // normalised
+    CHECK(s.sky->model == Sky::Model::overcast);
+    // Travelling down (from the zenith): the zenith radiance; up: black.
+    CHECK(s.sky->arriving_along(Vec3(0, 0, -1))[2] == Approx(2.0));
+    CHECK((s.sky->arriving_along(Vec3(0, 0, 1)) == 0.0).all());
+    const Scene plain = parse(scene_text(kCamera, kMaterials, kQuad));
+    CHECK(plain.point_lights.empty());
+    CHECK(!plain.sky);
+}
+
 TEST_CASE("meshes load through OpenMesh with polygons triangulated", "[scenes]") {
     TempDir dir;
     dir.write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
@@ -162,6 +180,24 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
         fails_with(scene_text(kCamera, kMaterials, ""), "the scene has no patches");
         fails_with(scene_text(kCamera, kMaterials, R"({"triangle": [[0,0,0],[1,0,0],[2,0,0]], "material": "white"})"),
                    "the scene has no patches");
+    }
+    SECTION("bad point lights and sky") {
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "point_lights": {"position": [0,0,1]})"),
+                   "point_lights: expected an array, got object");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "point_lights": [{"position": [0,0,1]}])"),
+                   "point_lights[0].intensity: missing");
+        fails_with(scene_text(kCamera, kMaterials, kQuad,
+                              R"(, "point_lights": [{"position": [0,0,1], "intensity": [1,-1,1]}])"),
+                   "point_lights[0].intensity: negative intensity [1, -1, 1]");
+        fails_with(scene_text(kCamera, kMaterials, kQuad,
+                              R"(, "point_lights": [{"position": [0,0,1], "intensity": [1,1,1], "radius": 2}])"),
+                   "point_lights[0]: unknown key 'radius'");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "sky": {"radiance": [1,1,1], "up": [0,0,0]})"),
+                   "sky.up: is the zero vector");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "sky": {"radiance": [1,1,1], "model": "clear"})"),
+                   "sky.model: unknown sky model 'clear' (known: constant, overcast)");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "sky": {"radiance": [1,-2,1]})"),
+                   "sky.radiance: negative radiance");
     }
     SECTION("wrong types") {
         fails_with(scene_text(R"("camera": {"eye": [0,0,5], "target": [0,0,0], "fov_y": "wide"})", kMaterials, kQuad),
