@@ -13,6 +13,7 @@
 #include "scenes/ray_caster.h"
 #include "scenes/scene_error.h"
 #include "solver/global_walks.h"
+#include "solver/linear_basis.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
 
@@ -55,6 +56,7 @@ struct SolveOptions {
     bool depth_given = false;
     bool unbiased = false;
     std::string sampler = "random";
+    std::string basis = "constant";
 };
 
 // An error in what the user gave us: reported as one line, exit code 2.
@@ -88,6 +90,13 @@ int run_solve(const SolveOptions& o) {
         throw UsageError("--bidirectional/--no-bidirectional apply to --method iteration; for walks use "
                          "--method bidirectional");
     }
+    if (o.basis == "linear") {
+        if (o.method != "iteration")
+            throw UsageError("--basis linear works with --method iteration (got --method " + o.method + ")");
+        if (o.visibility != "painter")
+            throw UsageError("--basis linear needs --visibility painter (the basis lives in its rasteriser; got " +
+                             o.visibility + ")");
+    }
     if (o.sampler == "sobol" && o.depth > rb::sampling::WalkSampler::kMaxSobolDepth)
         throw UsageError("--depth " + std::to_string(o.depth) + ": the sobol sampler supports depths up to " +
                          std::to_string(rb::sampling::WalkSampler::kMaxSobolDepth));
@@ -105,14 +114,24 @@ int run_solve(const SolveOptions& o) {
     rb::visibility::BackendOptions bopt;
     bopt.resolution = o.resolution;
     bopt.sky = scene.sky.has_value();  // no sky: no sky entries in the maps
-    auto backend = rb::visibility::make_backend(o.visibility, scene, bopt);
+    // The linear basis brings its own (Gouraud) painter; the others use the backend.
+    std::unique_ptr<rb::visibility::Backend> backend;
+    if (o.basis == "constant") backend = rb::visibility::make_backend(o.visibility, scene, bopt);
 
     // The first shot (point lights) happens here, once, before any direction.
     const rb::solver::Transport transport(scene);
 
     std::optional<rb::solver::StochasticIteration> iteration;
     std::optional<rb::solver::GlobalWalks> walks;
-    if (o.method == "iteration") {
+    std::optional<rb::solver::LinearIteration> linear;
+    if (o.basis == "linear") {
+        rb::solver::IterationOptions sopt;
+        sopt.iterations = o.iterations;
+        sopt.seed = o.seed;
+        sopt.progress_every = o.csv_every;
+        sopt.bidirectional = o.bidirectional;
+        linear.emplace(transport, bopt, sopt);
+    } else if (o.method == "iteration") {
         rb::solver::IterationOptions sopt;
         sopt.iterations = o.iterations;
         sopt.seed = o.seed;
@@ -132,7 +151,9 @@ int run_solve(const SolveOptions& o) {
         wopt.progress_every = o.csv_every;
         walks.emplace(transport, *backend, wopt);
     }
-    auto current_field = [&]() { return iteration ? iteration->field() : walks->field(); };
+    auto current_field = [&]() {
+        return linear ? linear->field() : iteration ? iteration->field() : walks->field();
+    };
     // What the method converges to on a scene with a known answer: walks truncated at
     // D bounces converge to a known fraction of it on a homogeneous scene.
     std::optional<double> exact = scene.exact_radiance;
@@ -161,7 +182,9 @@ int run_solve(const SolveOptions& o) {
         if (exact) err = field.relative_l1_error(scene, *exact);
         rows.push_back({p.iteration, p.seconds, err, field.mean_radiance(scene)});
     };
-    if (iteration)
+    if (linear)
+        linear->run(on_progress);
+    else if (iteration)
         iteration->run(on_progress);
     else
         walks->run(on_progress);
@@ -202,8 +225,8 @@ int run_solve(const SolveOptions& o) {
         std::size_t entries_total;
         std::string shading;
     } st;
-    if (iteration) {
-        const auto& s = iteration->stats();
+    if (linear || iteration) {
+        const auto& s = linear ? linear->stats() : iteration->stats();
         st = {s.iterations, s.directions, s.seconds_visibility, s.seconds_transport, s.entries_total, s.shading};
     } else {
         const auto& s = walks->stats();
@@ -222,9 +245,10 @@ int run_solve(const SolveOptions& o) {
         {"method", o.method},
         {"iterations", st.steps},
         {"directions", st.directions},
-        {"visibility", backend->name()},
-        {"visibility_details", backend->details()},
-        {"resolution", backend->resolution()},
+        {"visibility", backend ? backend->name() : "painter"},
+        {"visibility_details", backend ? backend->details() : "Gouraud radiance map (--basis linear)"},
+        {"resolution", backend ? backend->resolution() : linear->resolution()},
+        {"basis", o.basis},
         {"seed", o.seed},
         {"threads", 1},
         {"threads_requested", o.threads},
@@ -249,11 +273,17 @@ int run_solve(const SolveOptions& o) {
           {"sky", sky_decision},
           {"threads", "1: the solver runs on one thread"}}},
     };
-    if (iteration) {
+    if (linear) {
+        stats["nodes"] = linear->nodes();
+        stats["memory_per_patch_bytes"] =
+            (3 * sizeof(rb::scenes::Rgb) * linear->nodes() + 6 * sizeof(rb::scenes::Rgb) * scene.patch_count()) /
+            scene.patch_count();
+    }
+    if (linear || iteration) {
         stats["decisions"]["directions_per_step"] = o.bidirectional
                                                         ? "w and -w from one geometry matrix (weight 1/2 each)"
                                                         : "w only (--no-bidirectional)";
-        stats["memory_per_patch_bytes"] = 4 * sizeof(rb::scenes::Rgb);
+        if (!linear) stats["memory_per_patch_bytes"] = 4 * sizeof(rb::scenes::Rgb);
     } else {
         const auto& ws = walks->stats();
         stats["walks"] = ws.walks;
@@ -309,6 +339,10 @@ int main(int argc, char** argv) {
         ->each([&](const std::string&) { o.depth_given = true; });
     solve->add_flag("--unbiased", o.unbiased,
                     "walks: correct the next walk's emission with this walk's last bounce (004 4.3)");
+    solve->add_option("--basis", o.basis,
+                      "constant (per patch) | linear (per vertex, Gouraud; iteration with the painter's map)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"constant", "linear"}));
     solve->add_option("--sampler", o.sampler, "walk directions: random | halton | sobol (randomised QMC)")
         ->capture_default_str()
         ->check(CLI::IsMember({"random", "halton", "sobol"}));

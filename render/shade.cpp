@@ -47,7 +47,8 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
 Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& g, Shading mode) {
     Image img(g.width, g.height);
     std::vector<std::array<Rgb, 3>> corners;
-    if (mode == Shading::Smooth) corners = corner_radiance(scene, field);
+    // The linear basis has its own corner values; the constant basis averages patches.
+    if (mode == Shading::Smooth) corners = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
     for (int y = 0; y < g.height; ++y)
         for (int x = 0; x < g.width; ++x) {
             const GSample& s = g.at(x, y);

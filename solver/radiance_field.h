@@ -2,6 +2,7 @@
 // The solved radiance of every patch, and what the renderer needs to show it.
 #include "scenes/scene.h"
 
+#include <array>
 #include <vector>
 
 namespace raybundle::solver {
@@ -11,6 +12,9 @@ struct RadianceField {
     // this is its (view-independent) radiance.
     std::vector<scenes::Rgb> radiance;
     bool view_dependent = false;
+    // With the linear basis: per patch, the radiance at its three corners (the
+    // renderer interpolates them). Empty for the constant basis.
+    std::vector<std::array<scenes::Rgb, 3>> corners;
 
     // Patch-area-weighted mean radiance, averaged over the channels.
     double mean_radiance(const scenes::Scene& scene) const;

@@ -45,6 +45,23 @@ inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
     }
 }
 
+// Sort keys along w, upstream first: the centre's depth quantised to 32 bits, then
+// "is a source" (receivers first at equal depth), then the patch index.
+void sort_along(const Vec3& w, const std::vector<Vec3>& normals, const std::vector<Vec3>& centroids,
+                const Vec3& center, double radius, std::vector<std::uint64_t>& keys,
+                std::vector<std::uint64_t>& scratch) {
+    const std::size_t n = normals.size();
+    keys.resize(n);
+    const double depth_scale = 0.5 * 4294967295.0 / radius;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double depth = w.dot(centroids[i] - center);
+        const double q = std::clamp((depth + radius) * depth_scale, 0.0, 4294967295.0);
+        const std::uint64_t source = normals[i].dot(w) > 0.0 ? 1 : 0;
+        keys[i] = (static_cast<std::uint64_t>(q) << 32) | (source << 31) | i;
+    }
+    radix_sort_top33(keys, scratch);
+}
+
 }  // namespace
 
 PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options)
@@ -72,18 +89,12 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     // first, so a two-sided panel of two coincident opposite triangles does not leak.
     // A stable LSD radix sort on the top 33 bits keeps equal keys in index order.
     const std::size_t n = normals_.size();
-    keys_.resize(n);
     side_.resize(n);
-    const double depth_scale = 0.5 * 4294967295.0 / radius;
     for (std::size_t i = 0; i < n; ++i) {
-        const double depth = direction.dot(centroids_[i] - center);
-        const double q = std::clamp((depth + radius) * depth_scale, 0.0, 4294967295.0);
         const double facing = normals_[i].dot(direction);
         side_[i] = facing > 0.0 ? 1 : (facing < 0.0 ? -1 : 0);
-        const std::uint64_t source = side_[i] > 0 ? 1 : 0;
-        keys_[i] = (static_cast<std::uint64_t>(q) << 32) | (source << 31) | i;
     }
-    radix_sort_top33(keys_, scratch_);
+    sort_along(direction, normals_, centroids_, center, radius, keys_, scratch_);
 
     const auto open_sky = static_cast<std::int32_t>(n);
     map_.assign(static_cast<std::size_t>(W) * W, sky_ ? open_sky : -1);
@@ -148,6 +159,78 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
             counts_[j] = 0;
         }
         touched_.clear();
+    }
+}
+
+GouraudPainter::GouraudPainter(const scenes::Scene& scene, const BackendOptions& options)
+    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {
+    for (const auto& p : scene.patch_list()) {
+        normals_.push_back(p.normal);
+        centroids_.push_back(p.centroid);
+    }
+}
+
+void GouraudPainter::transfer(const Vec3& w, const Eigen::Vector2d& jitter, const std::vector<scenes::Rgb>& corner_out,
+                              const scenes::Rgb& sky, std::vector<scenes::Rgb>& corner_in) {
+    using scenes::Rgb;
+    grid_.project(w, jitter);
+    const int W = grid_.width();
+    const std::size_t n = normals_.size();
+    sort_along(w, normals_, centroids_, grid_.center(), grid_.radius(), keys_, scratch_);
+    map_.assign(static_cast<std::size_t>(W) * W, sky);
+    corner_in.assign(3 * n, Rgb::Zero());
+    const double S = kSubpixel, H = 0.5 * kSubpixel;
+    const double pixel_area = grid_.pixel_area();
+    for (const std::uint64_t key : keys_) {
+        const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
+        const double facing = normals_[i].dot(w);
+        double X[3], Y[3];
+        grid_.triangle(i, X, Y);
+        // Barycentric coordinates as affine functions of the pixel centre (sub-pixels).
+        const double det = (X[1] - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (Y[1] - Y[0]);
+        if (det == 0.0 || facing == 0.0) {
+            // No pixels, or edge-on: it only blocks what it covers.
+            rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
+                Rgb* row = map_.data() + static_cast<std::size_t>(y) * W;
+                std::fill(row + x0, row + x1, Rgb::Zero());
+            });
+            continue;
+        }
+        const double a1x = (Y[2] - Y[0]) / det, a1y = -(X[2] - X[0]) / det;
+        const double a2x = -(Y[1] - Y[0]) / det, a2y = (X[1] - X[0]) / det;
+        auto lambda = [&](double px, double py, double& l1, double& l2) {
+            l1 = a1x * (px - X[0]) + a1y * (py - Y[0]);
+            l2 = a2x * (px - X[0]) + a2y * (py - Y[0]);
+        };
+        if (facing > 0.0) {
+            // A source: Gouraud-interpolate its corners' radiance.
+            const Rgb& c0 = corner_out[3 * i];
+            const Rgb d1 = corner_out[3 * i + 1] - c0, d2 = corner_out[3 * i + 2] - c0;
+            rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
+                Rgb* row = map_.data() + static_cast<std::size_t>(y) * W;
+                double l1, l2;
+                lambda(x0 * S + H, y * S + H, l1, l2);
+                for (int x = x0; x < x1; ++x, l1 += a1x * S, l2 += a2x * S) row[x] = c0 + l1 * d1 + l2 * d2;
+            });
+        } else {
+            // A receiver: hat-weighted reads, then block.
+            Rgb sum[3] = {Rgb::Zero(), Rgb::Zero(), Rgb::Zero()};
+            rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
+                Rgb* row = map_.data() + static_cast<std::size_t>(y) * W;
+                double l1, l2;
+                lambda(x0 * S + H, y * S + H, l1, l2);
+                for (int x = x0; x < x1; ++x, l1 += a1x * S, l2 += a2x * S) {
+                    const Rgb L = row[x];
+                    row[x] = Rgb::Zero();
+                    // Pixel centres lie inside the snapped triangle: lambdas in [0, 1] up to rounding.
+                    const double b1 = std::clamp(l1, 0.0, 1.0), b2 = std::clamp(l2, 0.0, 1.0 - b1);
+                    sum[0] += (1.0 - b1 - b2) * L;
+                    sum[1] += b1 * L;
+                    sum[2] += b2 * L;
+                }
+            });
+            for (int k = 0; k < 3; ++k) corner_in[3 * i + k] = pixel_area * sum[k];
+        }
     }
 }
 

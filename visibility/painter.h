@@ -42,4 +42,34 @@ private:
     std::vector<std::uint32_t> touched_;
 };
 
+// The painter's algorithm with a radiance map (004 section 5.3.1), for the piecewise
+// linear basis: sources are drawn with their corners' radiance interpolated across
+// them (Gouraud), and a receiver reads the map over its own pixels, weighting each
+// pixel by the receiver's three hat functions (barycentric coordinates), before it
+// blocks them. The map starts at the sky radiance (zero without a sky).
+//
+// Per receiver corner k the result is  pixel_area * sum_pixels lambda_k L : divided
+// by A_i / 3 it estimates the cosine-weighted irradiance at the corner, averaged with
+// the hat as weight. (The paper samples the map at the vertex itself: a point on the
+// boundary of the patches around it, whose pixel belongs to whichever was drawn last,
+// and which a patch smaller than a pixel misses; the hat-weighted read uses every
+// pixel of the receiver and has neither problem.)
+class GouraudPainter {
+public:
+    GouraudPainter(const scenes::Scene& scene, const BackendOptions& options);
+    int resolution() const { return grid_.resolution(); }
+
+    // corner_out[3 j + k]: radiance source j sends along w at its corner k.
+    // corner_in[3 i + k] (resized to 3n, overwritten): pixel_area sum lambda_k L over
+    // receiver i's pixels; zero for patches that do not face against w.
+    void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, const std::vector<scenes::Rgb>& corner_out,
+                  const scenes::Rgb& sky, std::vector<scenes::Rgb>& corner_in);
+
+private:
+    MapGrid grid_;
+    std::vector<Vec3> normals_, centroids_;
+    std::vector<std::uint64_t> keys_, scratch_;
+    std::vector<scenes::Rgb> map_;
+};
+
 }  // namespace raybundle::visibility

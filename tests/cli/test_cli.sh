@@ -77,6 +77,9 @@ expect_bad "depth for iteration" "--depth applies to the walk methods" solve goo
 expect_bad "bidirectional flag for walks" "for walks use --method bidirectional" \
   solve good.json --method walk --bidirectional
 expect_bad "sobol depth" "the sobol sampler supports depths up to 15" solve good.json --method walk --sampler sobol --depth 20
+expect_bad "linear basis with another backend" "--basis linear needs --visibility painter" \
+  solve good.json --basis linear --visibility raycast
+expect_bad "linear basis with walks" "--basis linear works with --method iteration" solve good.json --basis linear --method walk
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
 expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.json
 # A missing output directory is found before solving, and nothing is written.

@@ -1,5 +1,6 @@
 // The first shot (point lights, 004 section 9) and the sky (section 6) against
 // closed-form answers.
+#include "reference.h"
 #include "scenes/scene.h"
 #include "scenes/subdivide.h"
 #include "solver/global_walks.h"
@@ -14,6 +15,7 @@
 using namespace raybundle;
 using scenes::Rgb;
 using scenes::Vec3;
+using testing::triangle_mean;
 
 namespace {
 
@@ -31,15 +33,6 @@ scenes::Scene plane(double rho, double patch_size) {
     s.camera.target = Vec3(0, 0, 0);
     s.camera.up = Vec3(0, 0, 1);
     return s;
-}
-
-// Mean of f over a triangle: centroid rule on 4^levels congruent sub-triangles.
-template <class F>
-double triangle_mean(const std::array<Vec3, 3>& t, int levels, F&& f) {
-    if (levels == 0) return f((t[0] + t[1] + t[2]) / 3.0);
-    const Vec3 m01 = 0.5 * (t[0] + t[1]), m12 = 0.5 * (t[1] + t[2]), m20 = 0.5 * (t[2] + t[0]);
-    return 0.25 * (triangle_mean({t[0], m01, m20}, levels - 1, f) + triangle_mean({m01, t[1], m12}, levels - 1, f) +
-                   triangle_mean({m20, m12, t[2]}, levels - 1, f) + triangle_mean({m01, m12, m20}, levels - 1, f));
 }
 
 solver::RadianceField iterate(const scenes::Scene& scene, const std::string& backend_name, long steps,

@@ -1,0 +1,131 @@
+#include "solver/linear_basis.h"
+
+#include "sampling/directions.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace raybundle::solver {
+
+using Clock = std::chrono::steady_clock;
+
+LinearIteration::LinearIteration(const Transport& transport, const visibility::BackendOptions& map,
+                                 IterationOptions options)
+    : t_(transport), scene_(transport.scene()), options_(options), painter_(transport.scene(), map) {
+    if (transport.glossy())
+        throw std::invalid_argument("--basis linear supports diffuse scenes only (this scene has glossy materials)");
+    const auto& patches = scene_.patch_list();
+    const std::size_t n = patches.size();
+
+    // Corners around each vertex, as a compressed row list.
+    const std::size_t nv = scene_.vertex_positions().size();
+    std::vector<std::size_t> start(nv + 1, 0);
+    for (const auto& p : patches)
+        for (int v : p.v) ++start[v + 1];
+    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+    std::vector<std::uint32_t> corners(start.back());
+    {
+        std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+        for (std::size_t i = 0; i < n; ++i)
+            for (int k = 0; k < 3; ++k) corners[fill[patches[i].v[k]]++] = static_cast<std::uint32_t>(3 * i + k);
+    }
+    // Cluster each vertex's corners into nodes: same material, normal within 30 degrees
+    // of the node's first patch.
+    const double crease = std::cos(30.0 * M_PI / 180.0);
+    node_of_corner_.assign(3 * n, 0);
+    std::vector<std::uint32_t> seeds;  // the first corner of each node at this vertex
+    for (std::size_t v = 0; v < nv; ++v) {
+        seeds.clear();
+        const std::size_t first_node = mass_.size();
+        for (std::size_t e = start[v]; e < start[v + 1]; ++e) {
+            const std::uint32_t c = corners[e];
+            const auto& p = patches[c / 3];
+            std::size_t node = mass_.size();
+            for (std::size_t s = 0; s < seeds.size(); ++s) {
+                const auto& q = patches[seeds[s] / 3];
+                if (q.material == p.material && q.normal.dot(p.normal) >= crease) {
+                    node = first_node + s;
+                    break;
+                }
+            }
+            if (node == mass_.size()) {
+                seeds.push_back(c);
+                mass_.push_back(0.0);
+                emission_.push_back(Rgb::Zero());
+                reflect_.push_back(t_.diffuse_reflectance(c / 3));
+            }
+            node_of_corner_[c] = static_cast<std::uint32_t>(node);
+            const double a = p.area / 3.0;
+            mass_[node] += a;
+            emission_[node] += a * t_.emitted(c / 3, p.normal);
+        }
+    }
+    for (std::size_t k = 0; k < mass_.size(); ++k) emission_[k] /= mass_[k];
+    irradiance_.assign(mass_.size(), Rgb::Zero());
+    next_.assign(mass_.size(), Rgb::Zero());
+    sum_.assign(mass_.size(), Rgb::Zero());
+    corner_out_.assign(3 * n, Rgb::Zero());
+    stats_.shading = "linear basis: vertex values interpolated (Gouraud), no smoothing pass";
+}
+
+void LinearIteration::pass(const Vec3& w, const Eigen::Vector2d& jitter, double weight) {
+    const Rgb sky = scene_.sky ? scene_.sky->arriving_along(w) : Rgb::Zero();
+    const auto t0 = Clock::now();
+    painter_.transfer(w, jitter, corner_out_, sky, corner_in_);
+    const auto t1 = Clock::now();
+    for (std::size_t c = 0; c < corner_in_.size(); ++c) next_[node_of_corner_[c]] += weight * corner_in_[c];
+    stats_.seconds_visibility += std::chrono::duration<double>(t1 - t0).count();
+    stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
+    ++stats_.directions;
+}
+
+void LinearIteration::run(const Callback& progress) {
+    sampling::RandomDirections directions(options_.seed);
+    sampling::Rng jitter(options_.seed, /*stream=*/0x717e4 + options_.jitter_stream);
+    const long total = options_.iterations;
+    const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
+    const bool both = options_.bidirectional;
+    const auto start = Clock::now();
+    for (long m = 0; m < total; ++m) {
+        const Vec3 w = directions.next();
+        const Eigen::Vector2d offset(jitter.uniform(), jitter.uniform());
+        // Radiance at every corner: its node's emission and reflection of the last step.
+        for (std::size_t c = 0; c < corner_out_.size(); ++c) {
+            const std::uint32_t k = node_of_corner_[c];
+            corner_out_[c] = emission_[k] + reflect_[k] * irradiance_[k];
+        }
+        std::fill(next_.begin(), next_.end(), Rgb::Zero());
+        pass(w, offset, both ? 0.5 : 1.0);
+        if (both) pass(-w, offset, 0.5);
+        for (std::size_t k = 0; k < mass_.size(); ++k) {
+            irradiance_[k] = next_[k] / mass_[k];
+            sum_[k] += irradiance_[k];
+        }
+        ++steps_;
+        ++stats_.iterations;
+        if (progress && ((m + 1) % every == 0 || m + 1 == total))
+            progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+    }
+}
+
+RadianceField LinearIteration::field() const {
+    RadianceField f;
+    const std::size_t n = scene_.patch_count();
+    f.radiance.resize(n);
+    f.corners.resize(n);
+    const double inv_m = steps_ > 0 ? 1.0 / static_cast<double>(steps_) : 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        Rgb mean = Rgb::Zero();
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t node = node_of_corner_[3 * i + k];
+            f.corners[i][k] = emission_[node] + reflect_[node] * sum_[node] * inv_m;
+            mean += f.corners[i][k] / 3.0;
+        }
+        // The patch's mean radiance: the mean of a linear function over a triangle.
+        f.radiance[i] = mean;
+    }
+    return f;
+}
+
+}  // namespace raybundle::solver
