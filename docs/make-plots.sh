@@ -62,3 +62,38 @@ plot "< awk -F, '$3==\"no\"' resolution-study.csv" using 1:4 with linespoints lw
 GP
 fi
 ls -1 *.png
+
+if [ -f convergence.csv ]; then
+# One curve per method and sampler: colour by method, dash by sampler.
+curves() {  # x column
+  local x=$1 sep="" c dt
+  for m in walk combined bidirectional; do
+    case $m in walk) c=1 ;; combined) c=2 ;; bidirectional) c=3 ;; esac
+    for s in random halton sobol; do
+      case $s in random) dt=1 ;; halton) dt=2 ;; sobol) dt=4 ;; esac
+      printf '%s"< awk -F, '"'"'$1==\\"%s\\" \&\& $2==\\"%s\\"'"'"' convergence.csv" using %s:5 with lines lw 2 lc %s dt %s title "%s %s"' \
+        "$sep" "$m" "$s" "$x" "$c" "$dt" "$m" "$s"
+      sep=", "
+    done
+  done
+  printf ', "< awk -F, '"'"'$1==\\"bidirectional-unbiased\\"'"'"' convergence.csv" using %s:5 with lines lw 2 lc 4 title "bidirectional random --unbiased (vs 1)"' "$x"
+}
+gnuplot <<GP
+set datafile separator ","
+set terminal pngcairo size 1100,600 font ",10"
+set logscale xy
+set grid
+set key outside right
+set output "convergence-walks.png"
+set title "Global walks on the homogeneous box (D = 5): error vs walks, mean of 4 seeds (cf. 004 Fig. 6)"
+set xlabel "global walks (5 directions each)"
+set ylabel "relative L1 error vs own exact value"
+plot $(curves 3)
+set output "convergence-seconds.png"
+set title "Run time vs error on the homogeneous box: walks (D = 5) and stochastic iteration, mean of 4 seeds"
+set xlabel "seconds"
+plot $(curves 4), \
+  "< awk -F, '\$1==\"iteration\"' convergence.csv" using 4:5 with lines lw 3 lc 7 title "iteration (w and -w)", \
+  "< awk -F, '\$1==\"iteration-w-only\"' convergence.csv" using 4:5 with lines lw 3 lc 8 title "iteration (w only)"
+GP
+fi
