@@ -57,6 +57,7 @@ struct SolveOptions {
     bool unbiased = false;
     std::string sampler = "random";
     std::string basis = "constant";
+    bool diffuse_shot = false;
 };
 
 // An error in what the user gave us: reported as one line, exit code 2.
@@ -119,7 +120,7 @@ int run_solve(const SolveOptions& o) {
     if (o.basis == "constant") backend = rb::visibility::make_backend(o.visibility, scene, bopt);
 
     // The first shot (point lights) happens here, once, before any direction.
-    const rb::solver::Transport transport(scene);
+    const rb::solver::Transport transport(scene, rb::solver::ShotOptions{o.diffuse_shot});
 
     std::optional<rb::solver::StochasticIteration> iteration;
     std::optional<rb::solver::GlobalWalks> walks;
@@ -159,7 +160,9 @@ int run_solve(const SolveOptions& o) {
     std::optional<double> exact = scene.exact_radiance;
     if (exact && walks && !o.unbiased) {
         if (scene.homogeneous_albedo)
-            *exact *= rb::solver::GlobalWalks::truncation_factor(*scene.homogeneous_albedo, o.depth, false);
+            // The diffuse shot adds the first bounce exactly: D + 1 bounces.
+            *exact *= rb::solver::GlobalWalks::truncation_factor(*scene.homogeneous_albedo,
+                                                                 o.depth + (o.diffuse_shot ? 1 : 0), false);
         else
             exact.reset();
     }
@@ -258,6 +261,7 @@ int run_solve(const SolveOptions& o) {
         {"seconds_per_iteration", st.steps > 0 ? seconds_solve / st.steps : 0.0},
         {"seconds_per_direction", st.directions > 0 ? seconds_solve / st.directions : 0.0},
         {"seconds_first_shot", shot.seconds},
+        {"seconds_diffuse_shot", shot.diffuse_seconds},
         {"seconds_visibility", st.seconds_visibility},
         {"seconds_transport", st.seconds_transport},
         {"seconds_render", seconds_render},
@@ -271,6 +275,10 @@ int run_solve(const SolveOptions& o) {
                                                  std::to_string(shot.shadow_rays) +
                                                  " shadow rays, then they leave the iteration"},
           {"sky", sky_decision},
+          {"diffuse_shot", o.diffuse_shot ? std::to_string(shot.emitters) + " emissive patches, " +
+                                                std::to_string(shot.diffuse_rays) +
+                                                " shadow rays: direct light computed once, the emission moves no more"
+                                          : std::string("off (--diffuse-shot computes the area lights' direct light once)")},
           {"threads", "1: the solver runs on one thread"}}},
     };
     if (linear) {
@@ -343,6 +351,8 @@ int main(int argc, char** argv) {
                       "constant (per patch) | linear (per vertex, Gouraud; iteration with the painter's map)")
         ->capture_default_str()
         ->check(CLI::IsMember({"constant", "linear"}));
+    solve->add_flag("--diffuse-shot", o.diffuse_shot,
+                    "compute the area lights' direct light once with shadow rays (004 9.1; diffuse scenes)");
     solve->add_option("--sampler", o.sampler, "walk directions: random | halton | sobol (randomised QMC)")
         ->capture_default_str()
         ->check(CLI::IsMember({"random", "halton", "sobol"}));

@@ -1,12 +1,119 @@
 #include "solver/first_shot.h"
 
+#include "solver/form_factor.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace raybundle::solver {
 
 using scenes::Rgb;
 using scenes::Vec3;
+
+namespace {
+
+// Calls f(u, v) at the centroids of the N^2 congruent sub-triangles of the unit
+// triangle: "upright" (s + t < N) and "inverted" (s + t < N - 1), all of area 1/N^2.
+template <class F>
+void subtriangle_centroids(int N, F&& f) {
+    for (int s = 0; s < N; ++s)
+        for (int t = 0; s + t < N; ++t) {
+            f((s + 1.0 / 3.0) / N, (t + 1.0 / 3.0) / N);
+            if (s + t < N - 1) f((s + 2.0 / 3.0) / N, (t + 2.0 / 3.0) / N);
+        }
+}
+
+double longest_edge(const Vec3& a, const Vec3& b, const Vec3& c) {
+    return std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+}
+
+// The part of triangle tri in front of the plane n . (p - x) > 0, as a polygon
+// (Sutherland-Hodgman against one plane: 0, 3 or 4 corners).
+int clip_front(const std::array<Vec3, 3>& tri, const Vec3& x, const Vec3& n, std::array<Vec3, 4>& out) {
+    int count = 0;
+    for (int k = 0; k < 3; ++k) {
+        const Vec3& p = tri[k];
+        const Vec3& q = tri[(k + 1) % 3];
+        const double dp = n.dot(p - x), dq = n.dot(q - x);
+        if (dp > 0.0) out[count++] = p;
+        if ((dp > 0.0) != (dq > 0.0) && dp != dq) {
+            const Vec3 cut = p + (dp / (dp - dq)) * (q - p);
+            if (count < 4) out[count++] = cut;
+        }
+    }
+    return count;
+}
+
+}  // namespace
+
+std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays) {
+    const std::size_t n = scene.patch_count();
+    const auto& patches = scene.patch_list();
+    const auto& pos = scene.vertex_positions();
+    std::vector<std::uint32_t> emitters;
+    for (std::size_t j = 0; j < n; ++j)
+        if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
+    std::vector<Rgb> irradiance(n, Rgb::Zero());
+    const double offset = 1e-6 * scene.bounds_radius();
+    std::vector<Vec3> targets;
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto& p = patches[i];
+        const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
+        const double edge_i = longest_edge(a, b, c);
+        for (const std::uint32_t j : emitters) {
+            if (j == i) continue;
+            const auto& q = patches[j];
+            const std::array<Vec3, 3> tri = {pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]};
+            // One-sided: the receiver must be (partly) in front of the emitter and see its front.
+            const double dist = (q.centroid - p.centroid).norm();
+            const int Ni = std::clamp(static_cast<int>(std::ceil(4.0 * edge_i / dist)), 1, 16);
+            const double edge_j = longest_edge(tri[0], tri[1], tri[2]);
+            const int Nj = std::clamp(static_cast<int>(std::ceil(2.0 * edge_j / dist)), 1, 4);
+            targets.clear();
+            subtriangle_centroids(Nj, [&](double u, double v) {
+                targets.push_back(tri[0] + u * (tri[1] - tri[0]) + v * (tri[2] - tri[0]));
+            });
+            double sum = 0.0;
+            subtriangle_centroids(Ni, [&](double u, double v) {
+                const Vec3 x = a + u * (b - a) + v * (c - a);
+                if (q.normal.dot(x - tri[0]) <= 0.0) return;  // behind the emitter
+                // The emitter's part in front of x's plane, and its form factor.
+                std::array<Vec3, 4> poly;
+                const int m = clip_front(tri, x, p.normal, poly);
+                if (m < 3) return;
+                double F = point_to_triangle(x, p.normal, {poly[0], poly[1], poly[2]});
+                if (m == 4) F += point_to_triangle(x, p.normal, {poly[0], poly[2], poly[3]});
+                if (F <= 0.0) return;
+                // Visibility: the fraction of shadow rays to the emitter's points that arrive.
+                const Vec3 from = x + offset * p.normal;
+                int seen = 0, cast = 0;
+                for (const Vec3& y : targets) {
+                    const Vec3 d = y - from;
+                    const double r = d.norm();
+                    if (p.normal.dot(d) <= 0.0 || q.normal.dot(d) >= 0.0) continue;  // point not mutually visible
+                    ++cast;
+                    if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) ++seen;
+                }
+                rays += cast;
+                if (cast == 0) {
+                    // Every sample point lies behind a plane (a sliver in front): visible
+                    // unless something blocks the line to the clipped polygon's centre.
+                    Vec3 centre = Vec3::Zero();
+                    for (int k = 0; k < m; ++k) centre += poly[k] / m;
+                    const Vec3 d = centre - from;
+                    const double r = d.norm();
+                    ++rays;
+                    if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
+                    return;
+                }
+                sum += M_PI * F * seen / cast;
+            });
+            irradiance[i] += scene.material_of(j).emission * (sum / (static_cast<double>(Ni) * Ni));
+        }
+    }
+    return irradiance;
+}
 
 FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster) {
     FirstShot shot;
@@ -39,13 +146,7 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                 if (hit.valid()) return;
                 sum += cos_theta / (r * r);
             };
-            // Centroids of the N^2 sub-triangles: "upright" (i + j < N) and "inverted"
-            // (i + j < N - 1), all of area A / N^2.
-            for (int s = 0; s < N; ++s)
-                for (int t = 0; s + t < N; ++t) {
-                    sample((s + 1.0 / 3.0) / N, (t + 1.0 / 3.0) / N);
-                    if (s + t < N - 1) sample((s + 2.0 / 3.0) / N, (t + 2.0 / 3.0) / N);
-                }
+            subtriangle_centroids(N, sample);
             const Rgb e = light.intensity * (sum / (static_cast<double>(N) * N));
             if ((e == 0.0).all()) continue;
             shot.irradiance[i] += e;

@@ -33,4 +33,13 @@ struct FirstShot {
 // Computes the first shot of every point light of the scene.
 FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster);
 
+// The diffuse shot (004 section 9.1): the direct irradiance of every patch from every
+// emissive patch (W/m^2 per channel, patch average), for scenes with medium-sized
+// area lights whose direct light a bundle of parallel rays samples poorly. At points
+// of the receiver (the centroid rule on N^2 sub-triangles, N = ceil(4 edge / distance),
+// 1..16) the emitter's unoccluded form factor is Lambert's closed form (exact, also
+// next to a shared edge), times the fraction of shadow rays to points of the emitter
+// (N = ceil(2 edge / distance), 1..4) that arrive. Counts its shadow rays in `rays`.
+std::vector<scenes::Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays);
+
 }  // namespace raybundle::solver

@@ -241,9 +241,9 @@ RadianceField GlobalWalks::field() const {
     for (std::size_t i = 0; i < n; ++i) {
         if (glossy_) {
             const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
-            f.radiance[i] = (front ? t_.emitted(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
+            f.radiance[i] = (front ? t_.displayed(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
         } else {
-            f.radiance[i] = t_.emitted(i, Vec3::Zero()) + t_.diffuse_reflectance(i) * sum_[i] * inv_m;
+            f.radiance[i] = t_.displayed(i, Vec3::Zero()) + t_.diffuse_reflectance(i) * sum_[i] * inv_m;
         }
     }
     return f;

@@ -53,15 +53,20 @@ LinearIteration::LinearIteration(const Transport& transport, const visibility::B
                 seeds.push_back(c);
                 mass_.push_back(0.0);
                 emission_.push_back(Rgb::Zero());
+                display_.push_back(Rgb::Zero());
                 reflect_.push_back(t_.diffuse_reflectance(c / 3));
             }
             node_of_corner_[c] = static_cast<std::uint32_t>(node);
             const double a = p.area / 3.0;
             mass_[node] += a;
             emission_[node] += a * t_.emitted(c / 3, p.normal);
+            display_[node] += a * t_.displayed(c / 3, p.normal);
         }
     }
-    for (std::size_t k = 0; k < mass_.size(); ++k) emission_[k] /= mass_[k];
+    for (std::size_t k = 0; k < mass_.size(); ++k) {
+        emission_[k] /= mass_[k];
+        display_[k] /= mass_[k];
+    }
     irradiance_.assign(mass_.size(), Rgb::Zero());
     next_.assign(mass_.size(), Rgb::Zero());
     sum_.assign(mass_.size(), Rgb::Zero());
@@ -119,7 +124,7 @@ RadianceField LinearIteration::field() const {
         Rgb mean = Rgb::Zero();
         for (int k = 0; k < 3; ++k) {
             const std::uint32_t node = node_of_corner_[3 * i + k];
-            f.corners[i][k] = emission_[node] + reflect_[node] * sum_[node] * inv_m;
+            f.corners[i][k] = display_[node] + reflect_[node] * sum_[node] * inv_m;
             mean += f.corners[i][k] / 3.0;
         }
         // The patch's mean radiance: the mean of a linear function over a triangle.

@@ -51,7 +51,7 @@ private:
     visibility::GouraudPainter painter_;
     std::vector<std::uint32_t> node_of_corner_;  // 3 per patch
     std::vector<double> mass_;                    // sum of A/3 over the node's corners
-    std::vector<Rgb> emission_, reflect_;         // per node
+    std::vector<Rgb> emission_, display_, reflect_;  // per node: into the maps, shown, 4 albedo
     std::vector<Rgb> irradiance_, next_, sum_;    // per node
     std::vector<Rgb> corner_out_, corner_in_;     // 3 per patch
     long steps_ = 0;

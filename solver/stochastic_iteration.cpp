@@ -112,9 +112,9 @@ RadianceField StochasticIteration::field() const {
         if (glossy_) {
             // Emission leaves the front side only.
             const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
-            f.radiance[i] = (front ? transport_.emitted(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
+            f.radiance[i] = (front ? transport_.displayed(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
         } else {
-            f.radiance[i] = transport_.emitted(i, Vec3::Zero()) + transport_.diffuse_reflectance(i) * sum_[i] * inv_m;
+            f.radiance[i] = transport_.displayed(i, Vec3::Zero()) + transport_.diffuse_reflectance(i) * sum_[i] * inv_m;
         }
     }
     return f;

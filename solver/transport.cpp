@@ -4,16 +4,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 #include <cmath>
 
 namespace raybundle::solver {
 
 Transport::Transport(const scenes::Scene& scene, const FirstShot* shot)
     : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()) {
-    init(shot);
+    init(shot, nullptr);
 }
 
-void Transport::init(const FirstShot* shot) {
+void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
     const scenes::Scene& scene = scene_;
     const auto& patches = scene.patch_list();
     inv_area_.assign(n_ + 2, 0.0);
@@ -32,7 +33,8 @@ void Transport::init(const FirstShot* shot) {
         patch_glossy_[i] = m.glossy();
         // Diffuse reflection of the lights' irradiance E: albedo / pi E.
         if (shot) shot_diffuse_[i] = m.albedo * shot->irradiance[i] / M_PI;
-        emitted_diffuse_[i] = emission_[i] + shot_diffuse_[i];
+        // The diffuse shot: the emission moves no more; its diffuse reflection does.
+        emitted_diffuse_[i] = shot_diffuse_[i] + (direct ? Rgb(m.albedo * (*direct)[i] / M_PI) : emission_[i]);
     }
     if (shot && glossy_) {
         hits_ = shot->glossy_hits;
@@ -43,29 +45,31 @@ void Transport::init(const FirstShot* shot) {
     }
 }
 
-namespace {
-FirstShot shoot(const scenes::Scene& scene, double& seconds) {
-    const auto t0 = std::chrono::steady_clock::now();
-    FirstShot shot;
-    if (!scene.point_lights.empty()) {
-        const scenes::RayCaster caster(scene);
-        shot = first_shot(scene, caster);
-    }
-    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return shot;
-}
-}  // namespace
-
-Transport::Transport(const scenes::Scene& scene)
-    : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()) {
-    if (scene.point_lights.empty()) {
-        init(nullptr);
+Transport::Transport(const scenes::Scene& scene, ShotOptions options)
+    : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()), diffuse_shot_(options.diffuse_shot) {
+    if (diffuse_shot_ && glossy_)
+        throw std::invalid_argument("--diffuse-shot supports diffuse scenes only (this scene has glossy materials)");
+    if (scene.point_lights.empty() && !diffuse_shot_) {
+        init(nullptr, nullptr);
         return;
     }
-    double seconds = 0.0;
-    const FirstShot shot = shoot(scene, seconds);
-    init(&shot);
-    shot_stats_ = {scene.point_lights.size(), shot.shadow_rays, seconds};
+    const scenes::RayCaster caster(scene);
+    FirstShot shot;
+    if (!scene.point_lights.empty()) {
+        const auto t0 = std::chrono::steady_clock::now();
+        shot = first_shot(scene, caster);
+        shot_stats_.lights = scene.point_lights.size();
+        shot_stats_.shadow_rays = shot.shadow_rays;
+        shot_stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    std::vector<Rgb> direct;
+    if (diffuse_shot_) {
+        const auto t0 = std::chrono::steady_clock::now();
+        direct = diffuse_shot(scene, caster, shot_stats_.diffuse_rays);
+        for (std::size_t j = 0; j < n_; ++j) shot_stats_.emitters += scene.material_of(j).emissive();
+        shot_stats_.diffuse_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    init(scene.point_lights.empty() ? nullptr : &shot, diffuse_shot_ ? &direct : nullptr);
 }
 
 Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
@@ -79,6 +83,7 @@ Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
 
 Rgb Transport::emitted(std::size_t j, const Vec3& out) const {
     if (!patch_glossy_[j] || hits_.empty()) return emitted_diffuse_[j];
+    // (Glossy scenes have no diffuse shot.)
     return emission_[j] + shot_reflected(j, out);
 }
 

@@ -11,7 +11,9 @@
 //
 // Emission is the patches' own plus, with point lights, the first shot: what they
 // reflect of the lights' direct light (FirstShot). The lights then leave the
-// iteration (004 section 9).
+// iteration (004 section 9). With the diffuse shot (section 9.1) the direct light of
+// the emissive patches is computed once, too: the patches' own emission is then only
+// shown, and what moves along the geometry matrices starts from its reflection.
 #include "solver/first_shot.h"
 #include "visibility/backend.h"
 
@@ -22,19 +24,28 @@ namespace raybundle::solver {
 using scenes::Rgb;
 using scenes::Vec3;
 
+struct ShotOptions {
+    bool diffuse_shot = false;  // diffuse scenes only
+};
+
 class Transport {
 public:
-    // `shot` may be null (no point lights).
+    // `shot` may be null (no point lights). No diffuse shot.
     Transport(const scenes::Scene& scene, const FirstShot* shot);
     // Computes the first shot when the scene has point lights (building a ray caster),
-    // and skips it when it has none.
-    explicit Transport(const scenes::Scene& scene);
+    // and skips it when it has none; the diffuse shot when asked (throws
+    // std::invalid_argument for a scene with glossy materials).
+    explicit Transport(const scenes::Scene& scene, ShotOptions options = {});
 
-    // What the first shot did: point lights, shadow rays, seconds (zeros: skipped).
+    // What the first shot did: point lights, shadow rays, seconds (zeros: skipped),
+    // and the same for the diffuse shot.
     struct ShotStats {
         std::size_t lights = 0;
         long shadow_rays = 0;
         double seconds = 0.0;
+        std::size_t emitters = 0;  // diffuse shot
+        long diffuse_rays = 0;
+        double diffuse_seconds = 0.0;
     };
     const ShotStats& shot_stats() const { return shot_stats_; }
 
@@ -56,9 +67,17 @@ public:
         return both && normal_[j].dot(w) < 0.0 ? Vec3(-w) : w;
     }
 
-    // Radiance patch j emits towards `out` (front side): own emission plus the
-    // first shot's reflection. For diffuse patches it does not depend on `out`.
+    // Radiance patch j emits towards `out` (front side) into the geometry matrices:
+    // own emission plus the first shot's reflection (with the diffuse shot: its
+    // reflection of the emitters' direct light instead of its own emission). For
+    // diffuse patches it does not depend on `out`.
     Rgb emitted(std::size_t j, const Vec3& out) const;
+    // What the image shows of patch j besides the reflection of the solved
+    // irradiance: emitted(), plus the own emission with the diffuse shot.
+    Rgb displayed(std::size_t j, const Vec3& out) const {
+        return diffuse_shot_ ? emission_[j] + emitted(j, out) : emitted(j, out);
+    }
+    bool has_diffuse_shot() const { return diffuse_shot_; }
     // The same, without the emitted radiance of the patches themselves (first shot only).
     Rgb shot_reflected(std::size_t j, const Vec3& out) const;
     // 4 pi f_j(in, out) irr: the radiance leaving j towards `out` due to irradiance
@@ -78,11 +97,12 @@ public:
                 bool both, double weight) const;
 
 private:
-    void init(const FirstShot* shot);
+    void init(const FirstShot* shot, const std::vector<Rgb>* direct);
 
     const scenes::Scene& scene_;
     std::size_t n_;
     bool glossy_;
+    bool diffuse_shot_ = false;
     std::vector<double> inv_area_;  // slots(); zero at the sky slots
     std::vector<Vec3> normal_;
     std::vector<Rgb> emission_, shot_diffuse_, emitted_diffuse_, reflect_;

@@ -48,6 +48,7 @@ printf '{\n  "camera": {\n    "eye": [0, 0,, 1]\n' > malformed.json
 scene "$quad" ', "patchsize": 1' > unknown-key.json
 scene '{"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "red"}' > unknown-material.json
 printf '{%s, "materials": {"w": {"albedo": [0.6, 0.5, 0.5], "specular": [0.4, 0.1, 0.1], "exponent": 10}}, "objects": [%s]}\n' "$camera" "$quad" > albedo.json
+printf '{%s, "materials": {"w": {"albedo": [0.4, 0.4, 0.4], "specular": [0.4, 0.1, 0.1], "exponent": 10}}, "objects": [%s]}\n' "$camera" "$quad" > albedo-ok.json
 printf '{%s, "materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [0, -2, 0]}}, "objects": [%s]}\n' "$camera" "$quad" > emission.json
 printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "fov_y": 200}, %s, "objects": [%s]}\n' "$materials" "$quad" > fov.json
 scene "$quad" ', "patch_size": 0' > patch-size.json
@@ -79,6 +80,7 @@ expect_bad "bidirectional flag for walks" "for walks use --method bidirectional"
 expect_bad "sobol depth" "the sobol sampler supports depths up to 15" solve good.json --method walk --sampler sobol --depth 20
 expect_bad "linear basis with another backend" "--basis linear needs --visibility painter" \
   solve good.json --basis linear --visibility raycast
+expect_bad "diffuse shot in a glossy scene" "--diffuse-shot supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
 expect_bad "linear basis with walks" "--basis linear works with --method iteration" solve good.json --basis linear --method walk
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
 expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.json

@@ -4,6 +4,7 @@
 // deterministic radiosity solve of it.
 #include "scenes/builtin.h"
 #include "scenes/scene.h"
+#include "solver/form_factor.h"
 
 #include <array>
 #include <cmath>
@@ -15,18 +16,8 @@ namespace raybundle::testing {
 using scenes::Rgb;
 using scenes::Vec3;
 
-// Form factor from a differential area at x (normal n) to a triangle (Lambert).
-inline double point_to_triangle(const Vec3& x, const Vec3& n, const std::array<Vec3, 3>& tri) {
-    double sum = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        const Vec3 a = (tri[k] - x).normalized(), b = (tri[(k + 1) % 3] - x).normalized();
-        const Vec3 c = a.cross(b);
-        const double len = c.norm();
-        if (len < 1e-15) continue;
-        sum += std::atan2(len, a.dot(b)) * n.dot(c / len);
-    }
-    return std::abs(sum) / (2.0 * M_PI);
-}
+// Lambert's point-to-triangle form factor (the solver's diffuse shot uses it too).
+using solver::point_to_triangle;
 
 // Mean of f over a triangle: centroid rule on 4^levels congruent sub-triangles.
 template <class F>

@@ -1,6 +1,7 @@
 // The first shot (point lights, 004 section 9) and the sky (section 6) against
 // closed-form answers.
 #include "reference.h"
+#include "scenes/builtin.h"
 #include "scenes/scene.h"
 #include "scenes/subdivide.h"
 #include "solver/global_walks.h"
@@ -193,4 +194,50 @@ TEST_CASE("walks use the sky and the first shot too", "[solver][sky][walks]") {
     w.run();
     // One bounce is all there is on an open plane: truncation changes nothing.
     CHECK(w.field().mean_radiance(scene) == Approx(0.5).epsilon(0.02));
+}
+
+TEST_CASE("diffuse shot: the direct light in a closed box is rho Le sum F = 0.25 everywhere", "[solver][diffuse-shot]") {
+    // Le = 0.5, albedo 0.5, closed: E = pi Le sum_j F_ij = pi Le, so rho E / pi = 0.25,
+    // including patches next to a shared edge (Lambert's closed form is exact there).
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    long rays = 0;
+    std::vector<Rgb> E;
+    {
+        const scenes::RayCaster caster(scene);
+        E = solver::diffuse_shot(scene, caster, rays);
+    }
+    CHECK(rays > 0);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) worst = std::max(worst, std::abs(0.5 * E[i][0] / M_PI - 0.25));
+    INFO("worst deviation " << worst);
+    CHECK(worst < 0.25 * 0.005);
+}
+
+TEST_CASE("diffuse shot: the same solution, less noise", "[solver][diffuse-shot]") {
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    auto run = [&](bool shot, std::uint64_t seed) {
+        const solver::Transport transport(scene, solver::ShotOptions{shot});
+        auto backend = visibility::make_backend("painter", scene, {});
+        solver::IterationOptions opt;
+        opt.iterations = 1000;
+        opt.seed = seed;
+        solver::StochasticIteration it(transport, *backend, opt);
+        it.run();
+        return it.field();
+    };
+    double with = 0.0, without = 0.0;
+    for (int k = 0; k < 4; ++k) {
+        const auto a = run(true, 1 + k), b = run(false, 1 + k);
+        CHECK(a.mean_radiance(scene) == Approx(1.0).epsilon(0.01));
+        with += a.relative_l1_error(scene, 1.0);
+        without += b.relative_l1_error(scene, 1.0);
+    }
+    INFO("mean error over 4 seeds: with the diffuse shot " << with / 4 << ", without " << without / 4);
+    CHECK(with < 0.75 * without);
+    // Glossy scenes are refused.
+    auto glossy = scene;
+    glossy.materials[0].albedo = Rgb::Constant(0.25);
+    glossy.materials[0].specular = Rgb::Constant(0.25);
+    glossy.materials[0].exponent = 10.0;
+    CHECK_THROWS_WITH(solver::Transport(glossy, solver::ShotOptions{true}), Catch::Contains("diffuse scenes only"));
 }
