@@ -2,6 +2,10 @@
 # Installs raybundle's build dependencies from Debian 12 packages (apt-get only).
 # Idempotent: packages already present are not touched, and apt-get runs only
 # when something is missing.
+# Usage: scripts/setup-deps.sh [--tests]
+#   --tests   also the packages only the tests and benchmarks use: OpenCV with its
+#             contrib modules (the guided filter is compared with
+#             cv::ximgproc::guidedFilter). scripts/test.sh passes it.
 set -euo pipefail
 
 packages=(
@@ -11,6 +15,14 @@ packages=(
   catch2 libembree-dev libopenexr-dev libpng-dev
   nlohmann-json3-dev libcli11-dev libtbb-dev
 )
+test_packages=(libopencv-dev libopencv-contrib-dev)
+
+for arg in "$@"; do
+  case "$arg" in
+    --tests) packages+=("${test_packages[@]}") ;;
+    *) echo "setup-deps: unknown option '$arg' (known: --tests)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,101 @@
+#pragma once
+// Edge-aware image filters for the final gather's noisy indirect light (003 §3.3,
+// Table 2): He et al.'s guided image filter with a 1-, 3- or 4-channel guide, the
+// cross (joint) bilateral filter and Dammertz et al.'s edge-avoiding À-Trous filter.
+//
+// Call contract, common to all three:
+//  - `input` is the image to clean (RGB); `guide` is a noise-free feature image of the
+//    same size (normals, depth, position), interleaved `channels` floats per pixel.
+//  - The input and guide are only read; the result is a new image of the same size.
+//  - `threads` (>= 1) splits the rows between std::threads. The result is
+//    bit-identical for every thread count.
+//  - Bad arguments throw std::invalid_argument with one line that names the function,
+//    the parameter and the value; so do non-finite input or guide values (they would
+//    poison every window that holds them). An empty image gives an empty result.
+//
+// Guided filter (He, Sun, Tang 2010; 003 eq. 6-9). In every (2r+1)² window w_k the
+// output is a linear function of the guide, q_i = a_kᵀ I_i + b_k, fitted to the input
+// p by ridge regression: a_k = (Σ_k + diag(ε))⁻¹ cov_k(I, p), b_k = p̄_k − a_kᵀ Ī_k,
+// with Σ_k the C×C covariance of the guide in w_k. Each colour channel gets its own
+// a_k, b_k. The output at i averages the coefficients of all windows that contain i:
+// q_i = ā_iᵀ I_i + b̄_i. All window means are box filters computed with running sums
+// (O(1) per pixel whatever the radius) over BORDER_REFLECT-extended images, exactly as
+// OpenCV's cv::ximgproc::guidedFilter does (its boxFilter uses BORDER_REFLECT,
+// "fedcba|abcdefgh|hgfedcb"), so the two agree everywhere, borders included, up to
+// floating-point rounding (OpenCV works in float). One difference: OpenCV takes at
+// most 3 guide channels and, for 3 channels with ε < 0.01, replaces a covariance
+// determinant below 1e-6 by 1; here C = 1, 3 or 4 and the solve is always exact
+// (closed-form inverse for C = 3, LDLᵀ for C = 4, in double).
+//
+// Implementation: the guide and input channels are first centred on their mid-range
+// (the filter is equivariant to such shifts). Pass 1 slides (2r+1)-row column sums down
+// the image and a running sum along each row, solves every window, and hands rows of
+// a and b through a ring of 2r+2 rows to pass 2, which box-filters them the same way;
+// rows are stored channel-major so that the per-pixel work runs on vectors of pixels.
+//
+// Determinism and precision of the running sums: every summed value is rounded to an
+// integer multiple of a per-channel power-of-two quantum and summed in double, where
+// such sums are exact. The quantum is 2^(L−50) (L = ⌈log2((2r+1)²)⌉, i.e. 2^−37 at
+// r = 32) times a bound on the channel: its half range for the image channels and
+// their products, and for a and b the bounds that follow from the ridge term
+// (|a_i| ≤ R/√ε_i with R the input channel's half range, |b| ≤ R·(1 + (Σ h_i²/ε_i)^½)
+// with h_i the guide's half ranges). So the box means do not depend on the order of
+// summation, which is what makes any split into row bands give the same bits, and do
+// not drift over long running sums. The price: the quanta follow the range, so a
+// firefly 10⁴ times brighter than the rest coarsens them to about 10⁻⁸ (image sums)
+// and 10⁻⁶ (b, the loosest bound) of the other pixels' values at r = 32; the tests
+// hold such a case to 1e-6 of a double-precision evaluation.
+#include "render/image.h"
+
+#include <vector>
+
+namespace raybundle::render {
+
+// A feature image: `channels` floats per pixel, interleaved, rows top to bottom.
+// Conventions used by the filters: 1 channel = depth, 3 = normal, 4 = normal + depth,
+// 6 = normal + position (À-Trous only).
+struct Guide {
+    int width = 0, height = 0, channels = 0;
+    std::vector<float> data;
+
+    Guide() = default;
+    Guide(int w, int h, int c) : width(w), height(h), channels(c), data(static_cast<std::size_t>(w) * h * c, 0.0f) {}
+    float* at(int x, int y) { return &data[(static_cast<std::size_t>(y) * width + x) * channels]; }
+    const float* at(int x, int y) const { return &data[(static_cast<std::size_t>(y) * width + x) * channels]; }
+};
+
+// Guided filter with a 1-, 3- or 4-channel guide; `eps` regularises every channel
+// alike (ε·I). Typical: radius 24-32, ε = 0.01 for unit normals (003 §4). radius in
+// [1, kMaxGuidedRadius], eps > 0.
+constexpr int kMaxGuidedRadius = 1024;
+Image guided_filter(const Image& input, const Guide& guide, int radius, double eps, int threads = 1);
+
+// The same with one ε per guide channel (size 1 or guide.channels): Σ_k + diag(ε).
+// 003 §4 uses 0.01 for the normal channels and 0.01-0.03 for depth.
+Image guided_filter(const Image& input, const Guide& guide, int radius, const std::vector<double>& eps,
+                    int threads = 1);
+
+// Cross bilateral filter over the (2r+1)² window (pixels outside the image are left
+// out and the weights renormalised):
+//   w(p, q) = exp(−|p−q|²/2σ_s² − |n_p−n_q|²/2σ_n² − (z_p−z_q)²/2σ_z²)
+// with n the guide's normal channels (guides of 3 or 4 channels) and z its depth
+// channel (guides of 1 or 4 channels). Cost O(r²) per pixel. All sigmas > 0. The
+// bilateral and À-Trous weights use a polynomial exp (relative error below 4e-6) and
+// are summed in float.
+Image cross_bilateral_filter(const Image& input, const Guide& guide, int radius, double sigma_spatial,
+                             double sigma_normal, double sigma_depth, int threads = 1);
+
+// Edge-avoiding À-Trous wavelet filter (Dammertz et al. 2010): `iterations` passes of
+// the 5×5 B3-spline kernel h = (1, 4, 6, 4, 1)/16 ⊗ itself with holes, pass i taking
+// taps 2^i pixels apart, each tap weighted by
+//   exp(−|c_p−c_q|²/σ_c,i²) · exp(−|n_p−n_q|²/σ_n²) · exp(−|x_p−x_q|²/σ_x²)
+// where c is the current colour, σ_c,i = 2^−i σ_colour (halved every pass, as the paper
+// recommends), n the guide's normal channels (3, 4 or 6 channels) and x its position
+// (6 channels) or depth (1 or 4 channels). These are the paper's equations; the shader
+// listed in the paper also divides the normal distance by the step width², which lets
+// coarse passes blur across creases, and is not done here. Taps outside the image are
+// left out. iterations in [1, 16]; sigmas > 0.
+Image atrous_filter(const Image& input, const Guide& guide, int iterations, double sigma_colour,
+                    double sigma_normal, double sigma_position, int threads = 1);
+
+}  // namespace raybundle::render
