@@ -4,6 +4,7 @@
 #include "stats.h"
 
 #include "render/camera.h"
+#include "render/final_gather.h"
 #include "render/gbuffer.h"
 #include "render/image_io.h"
 #include "render/patch_io.h"
@@ -58,6 +59,14 @@ struct SolveOptions {
     std::string sampler = "random";
     std::string basis = "constant";
     bool diffuse_shot = false;
+    // Final gather (0 gather rays: the patch image).
+    int gather = 0;
+    int direct_samples = 4;
+    int spp = 1;
+    std::string filter = "guided";
+    int filter_radius = 8;
+    double eps_normal = 0.01, eps_depth = 1e-4;
+    std::string aov;
 };
 
 // An error in what the user gave us: reported as one line, exit code 2.
@@ -104,6 +113,15 @@ int run_solve(const SolveOptions& o) {
     for (const auto& [path, flag] : {std::pair{o.exr, "-o"}, {o.png, "--png"}, {o.stats, "--stats"},
                                      {o.csv, "--csv"}, {o.patches_csv, "--patches"}, {o.ply, "--ply"}})
         check_output_dir(path, flag);
+    if (!o.aov.empty()) {
+        struct stat st {};
+        if (::stat(o.aov.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+            throw UsageError("--aov " + o.aov + ": not a directory");
+    }
+    if (o.gather == 0) {
+        for (const auto& [given, flag] : {std::pair{o.spp != 1, "--spp"}, {!o.aov.empty(), "--aov"}})
+            if (given) throw UsageError(std::string(flag) + " needs the final gather (--gather N)");
+    }
 
     rb::scenes::Scene scene = o.builtin.empty() ? rb::scenes::load_scene(o.scene_file, o.patch_size)
                                                 : rb::scenes::make_builtin(o.builtin, o.patch_size);
@@ -198,11 +216,35 @@ int run_solve(const SolveOptions& o) {
     const auto t_render = Clock::now();
     rb::scenes::RayCaster caster(scene);
     const rb::render::PinholeCamera camera(scene.camera);
-    const auto gbuffer = rb::render::make_gbuffer(scene, caster, camera);
-    const auto image = rb::render::shade(scene, field, gbuffer, shading);
+    rb::render::Image image;
+    std::optional<rb::render::GatherResult> gathered;
+    rb::render::GatherOptions gopt;
+    if (o.gather > 0) {
+        gopt.gather_rays = o.gather;
+        gopt.direct_samples = o.direct_samples;
+        gopt.spp = o.spp;
+        gopt.filter = rb::render::parse_filter(o.filter);
+        gopt.radius = o.filter_radius;
+        gopt.eps_normal = o.eps_normal;
+        gopt.eps_depth = o.eps_depth;
+        gopt.seed = o.seed;
+        gopt.threads = o.threads;
+        gathered = rb::render::final_gather(scene, caster, field, camera, gopt);
+        image = gathered->image;
+    } else {
+        const auto gbuffer = rb::render::make_gbuffer(scene, caster, camera);
+        image = rb::render::shade(scene, field, gbuffer, shading);
+    }
     const double seconds_render = std::chrono::duration<double>(Clock::now() - t_render).count();
 
     if (!o.exr.empty()) rb::render::write_exr(o.exr, image);
+    if (gathered && !o.aov.empty()) {
+        rb::render::write_exr(o.aov + "/direct.exr", gathered->direct);
+        rb::render::write_exr(o.aov + "/indirect.exr", gathered->indirect);
+        rb::render::write_exr(o.aov + "/indirect-filtered.exr", gathered->indirect_filtered);
+        rb::render::write_exr(o.aov + "/normal.exr", gathered->normal);
+        rb::render::write_exr(o.aov + "/depth.exr", gathered->depth);
+    }
     if (!o.png.empty()) rb::render::write_png(o.png, image, o.exposure);
     if (!o.patches_csv.empty()) rb::render::write_patch_csv(o.patches_csv, scene, field);
     if (!o.ply.empty()) rb::render::write_patch_ply(o.ply, scene, field, o.exposure);
@@ -301,6 +343,26 @@ int run_solve(const SolveOptions& o) {
         stats["memory_per_patch_bytes"] = ws.bytes_per_patch;
         stats["decisions"]["storage"] = ws.storage;
     }
+    if (gathered) {
+        stats["final_gather"] = {{"gather_rays", o.gather},
+                                 {"direct_samples", o.direct_samples},
+                                 {"spp", o.spp},
+                                 {"filter", o.filter},
+                                 {"filter_radius", o.filter_radius},
+                                 {"eps_normal", o.eps_normal},
+                                 {"eps_depth", o.eps_depth},
+                                 {"threads", o.threads},
+                                 {"camera_rays", gathered->camera_rays},
+                                 {"shadow_rays", gathered->shadow_rays},
+                                 {"gather_rays_total", gathered->gather_rays},
+                                 {"seconds_guides", gathered->seconds_guides},
+                                 {"seconds_filter", gathered->seconds_filter},
+                                 {"seconds_samples", gathered->seconds_samples}};
+        stats["decisions"]["image"] = "final gather: direct light per sample, indirect at guide rays, " + o.filter +
+                                      " filter";
+    } else {
+        stats["decisions"]["image"] = "the patch radiance (" + o.shading + " shading); --gather N for a final gather";
+    }
     if (exact) {
         stats["exact_radiance"] = *exact;
         stats["relative_l1_error"] = field.relative_l1_error(scene, *exact);
@@ -334,7 +396,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     solve->add_option("--seed", o.seed, "random seed; the same seed gives bit-identical output")
         ->capture_default_str();
-    solve->add_option("--threads", o.threads, "worker threads (the solver runs on one for now)")
+    solve->add_option("--threads", o.threads, "worker threads for the final gather and its filters (the solver runs on one)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1024));
     solve->add_option("--method", o.method,
@@ -353,6 +415,30 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"constant", "linear"}));
     solve->add_flag("--diffuse-shot", o.diffuse_shot,
                     "compute the area lights' direct light once with shadow rays (004 9.1; diffuse scenes)");
+    solve->add_option("--gather", o.gather,
+                      "final gather (003) with N cosine-weighted rays per pixel for the indirect light (0: off)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 1 << 20));
+    solve->add_option("--direct-samples", o.direct_samples, "final gather: light-source samples per camera sample")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 1 << 16));
+    solve->add_option("--spp", o.spp, "final gather: camera samples per pixel (the first is the guide ray)")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 4096));
+    solve->add_option("--filter", o.filter, "final gather: filter for the indirect light: guided | bilateral | atrous | none")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"guided", "bilateral", "atrous", "none"}));
+    solve->add_option("--filter-radius", o.filter_radius, "final gather: filter window radius in pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1024));
+    solve->add_option("--eps-normal", o.eps_normal, "guided filter: regularisation of the normal channels")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    solve->add_option("--eps-depth", o.eps_depth, "guided filter: regularisation of the depth channel")
+        ->capture_default_str()
+        ->check(CLI::PositiveNumber);
+    solve->add_option("--aov", o.aov,
+                      "final gather: also write direct, indirect, indirect-filtered, normal, depth EXRs into DIR");
     solve->add_option("--sampler", o.sampler, "walk directions: random | halton | sobol (randomised QMC)")
         ->capture_default_str()
         ->check(CLI::IsMember({"random", "halton", "sobol"}));

@@ -97,3 +97,21 @@ plot $(curves 4), \
   "< awk -F, '\$1==\"iteration-w-only\"' convergence.csv" using 4:5 with lines lw 3 lc 8 title "iteration (w only)"
 GP
 fi
+
+if [ -f gather-pipeline.csv ]; then
+gnuplot <<'GP'
+set datafile separator ","
+set terminal pngcairo size 900,600 font ",10"
+set output "gather-pipeline.png"
+set title "Final gather on the Cornell box (256^2): image MSE vs seconds (solve + gather)\nlabels: gather rays = direct samples per pixel"
+set logscale xy
+set grid
+set key outside right
+set xlabel "seconds (solve + final gather, 2 threads for the gather)"
+set ylabel "MSE against a 20,000-step, 2,048-ray reference"
+plot for [it in "250 1000 4000"] "< awk -F, -v it=".it." '$1==it && $3==\"none\"' gather-pipeline.csv" \
+       using 6:7 with linespoints lw 2 dt 2 title it." steps, unfiltered", \
+     for [it in "250 1000 4000"] "< awk -F, -v it=".it." '$1==it && $3==\"guided\"' gather-pipeline.csv" \
+       using 6:7 with linespoints lw 2 title it." steps, guided filter"
+GP
+fi

@@ -82,6 +82,9 @@ expect_bad "linear basis with another backend" "--basis linear needs --visibilit
   solve good.json --basis linear --visibility raycast
 expect_bad "diffuse shot in a glossy scene" "--diffuse-shot supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
 expect_bad "linear basis with walks" "--basis linear works with --method iteration" solve good.json --basis linear --method walk
+expect_bad "spp without gather" "--spp needs the final gather" solve good.json --spp 4
+expect_bad "unknown filter" "--filter" solve good.json --gather 4 --filter median
+expect_bad "aov not a directory" "--aov nowhere: not a directory" solve good.json --gather 4 --aov nowhere
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
 expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.json
 # A missing output directory is found before solving, and nothing is written.
@@ -136,6 +139,20 @@ if "$bin" solve --builtin homogeneous-box --patch-size 0.34 --method combined --
   [ "$ok" -eq 1 ] && passed=$((passed + 1))
 else
   fail "walk run failed: $(cat err.txt)"
+fi
+
+# The final gather: image, AOVs and its stats.
+mkdir -p aov
+if "$bin" solve --builtin cornell-box --patch-size 100 --iterations 50 --gather 4 --spp 2 --aov aov \
+     -o g.exr --stats g.json 2>err.txt; then
+  ok=1
+  for f in g.exr aov/direct.exr aov/indirect.exr aov/indirect-filtered.exr aov/normal.exr aov/depth.exr; do
+    [ -s "$f" ] || { fail "gather run: $f missing"; ok=0; }
+  done
+  for key in final_gather gather_rays shadow_rays seconds_filter; do grep -q "\"$key\"" g.json || { fail "gather stats lack $key"; ok=0; }; done
+  [ "$ok" -eq 1 ] && passed=$((passed + 1))
+else
+  fail "gather run failed: $(cat err.txt)"
 fi
 
 # Determinism through the CLI: same seed, byte-identical per-patch output.
