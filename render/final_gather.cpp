@@ -59,9 +59,24 @@ int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>
     return best;
 }
 
-Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, double depth_scale,
-                      const GatherOptions& o) {
+Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
+                      double depth_scale, double position_scale, const GatherOptions& o) {
     if (o.filter == Filter::none) return indirect;
+    if (o.filter == Filter::atrous) {
+        Guide guide(indirect.width, indirect.height, 6);
+        for (int y = 0; y < indirect.height; ++y)
+            for (int x = 0; x < indirect.width; ++x) {
+                float* g = guide.at(x, y);
+                const float* n = normal.at(x, y);
+                const float* p = position.at(x, y);
+                for (int k = 0; k < 3; ++k) {
+                    g[k] = n[k];
+                    g[3 + k] = static_cast<float>(p[k] * position_scale);
+                }
+            }
+        return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
+                             o.threads);
+    }
     Guide guide(indirect.width, indirect.height, 4);
     for (int y = 0; y < indirect.height; ++y)
         for (int x = 0; x < indirect.width; ++x) {
@@ -80,8 +95,6 @@ Image filter_indirect(const Image& indirect, const Image& normal, const Image& d
             return cross_bilateral_filter(indirect, guide, o.radius, o.sigma_spatial, o.sigma_normal, o.sigma_depth,
                                           o.threads);
         case Filter::atrous:
-            return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
-                                 o.threads);
         case Filter::none: break;
     }
     return indirect;
@@ -273,6 +286,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     r.indirect = Image(W, H);
     r.normal = Image(W, H);
     r.depth = Image(W, H);
+    r.position = Image(W, H);
     std::vector<int> guide_patch(static_cast<std::size_t>(W) * H, -1);
     std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), lookups(H, 0), across(H, 0);
 
@@ -291,6 +305,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             guide_patch[p] = hit.patch;
             put(r.normal, x, y, patch.normal);
             put(r.depth, x, y, Rgb::Constant(hit.t));
+            put(r.position, x, y, point);
             const Rgb direct = scene.material_of(hit.patch).emission +
                                g.direct(hit.patch, point, -d, o.direct_samples, rng, shadow_rays[y]);
             put(r.direct, x, y, direct);
@@ -301,7 +316,13 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
 
     // Pass 2: filter the incident indirect light.
     const double depth_scale = 1.0 / ((camera.eye() - scene.bounds_center()).norm() + scene.bounds_radius());
-    r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, depth_scale, o);
+    // Positions relative to the scene's centre, over the same scale as depth.
+    Image centred = r.position;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            if (guide_patch[static_cast<std::size_t>(y) * W + x] >= 0)
+                put(centred, x, y, get(r.position, x, y).matrix().cast<double>() - scene.bounds_center());
+    r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, centred, depth_scale, depth_scale, o);
     const auto t2 = Clock::now();
 
     // Pass 3: compose; further samples look the indirect light up at the guides.

@@ -66,9 +66,9 @@ struct GatherOptions {
     double eps_normal = 0.01;
     double eps_depth = 1e-4;
     // Cross bilateral (normal, depth) and A-Trous (colour, normal, depth) parameters.
-    double sigma_spatial = 8.0, sigma_normal = 0.3, sigma_depth = 0.02;
+    double sigma_spatial = 4.0, sigma_normal = 0.3, sigma_depth = 0.02;  // bilateral radius: --filter-radius
     int atrous_iterations = 5;
-    double sigma_colour = 1.0;
+    double sigma_colour = 1.0;  // A-Trous; its position term uses sigma_depth (scaled positions)
     std::uint64_t seed = 1;
     int threads = 1;
 };
@@ -80,6 +80,7 @@ struct GatherResult {
     Image indirect_filtered;  // E after the filter (= indirect with Filter::none)
     Image normal;             // guide normals (unit; zero for background)
     Image depth;              // guide depth (distance from the eye; zero for background)
+    Image position;           // guide hit point (world space; zero for background)
     long camera_rays = 0, shadow_rays = 0, gather_rays = 0;
     // Extra samples that took their indirect light from a guide (spp > 1), and those
     // of them whose guide's depth differs from theirs by more than 10 % (a lookup
@@ -100,8 +101,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
 int most_similar_guide(const scenes::Vec3& normal, double depth, const std::vector<scenes::Vec3>& normals,
                        const std::vector<double>& depths);
 
-// Filters the incident indirect image with the guide (normal, depth scaled to [0, 1]).
-Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, double depth_scale,
-                      const GatherOptions& options);
+// Filters the incident indirect image with the guide: normal and depth (scaled to
+// [0, 1] by depth_scale) for the guided and bilateral filters; normal and position
+// (scaled by position_scale) for A-Trous, which stops at edges in position.
+Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
+                      double depth_scale, double position_scale, const GatherOptions& options);
 
 }  // namespace raybundle::render
