@@ -34,8 +34,13 @@ struct Result {
     double seconds_per_iteration;
 };
 
+struct Method {
+    bool bidirectional = true;
+    bool diffuse_shot = false;
+};
+
 Result solve(const rb::scenes::Scene& scene, int resolution, bool jitter, long iterations, std::uint64_t seed,
-             std::uint64_t stream = 0) {
+             const Method& method, std::uint64_t stream = 0) {
     rb::visibility::BackendOptions opt;
     opt.resolution = resolution;
     opt.jitter = jitter;
@@ -44,7 +49,9 @@ Result solve(const rb::scenes::Scene& scene, int resolution, bool jitter, long i
     it_opt.iterations = iterations;
     it_opt.seed = seed;
     it_opt.jitter_stream = stream;
-    rb::solver::StochasticIteration it(scene, *backend, it_opt);
+    it_opt.bidirectional = method.bidirectional;
+    const rb::solver::Transport transport(scene, rb::solver::ShotOptions{method.diffuse_shot});
+    rb::solver::StochasticIteration it(transport, *backend, it_opt);
     const auto t0 = std::chrono::steady_clock::now();
     it.run();
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -81,12 +88,15 @@ int main(int argc, char** argv) {
     app.add_option("--iterations", iterations, "iterations per run")->capture_default_str();
     app.add_option("--seed", seed, "seed shared by every run")->capture_default_str();
     app.add_option("--csv", csv, "write the table as CSV");
+    Method method;
+    app.add_flag("--bidirectional,!--no-bidirectional", method.bidirectional, "use w and -w per step (default)");
+    app.add_flag("--diffuse-shot", method.diffuse_shot, "compute the area light's direct light once");
     CLI11_PARSE(app, argc, argv);
 
     const auto scene = rb::scenes::make_builtin(scene_name);
     double mean_area = scene.total_area() / static_cast<double>(scene.patch_count());
     std::fprintf(stderr, "reference: %d^2, jittered, %ld iterations\n", reference_resolution, iterations);
-    const Result ref = solve(scene, reference_resolution, true, iterations, seed);
+    const Result ref = solve(scene, reference_resolution, true, iterations, seed, method);
 
     std::ofstream out;
     if (!csv.empty()) {
@@ -98,7 +108,7 @@ int main(int argc, char** argv) {
                 "mean of K streams (K)", "ms/iteration");
     for (const int r : resolutions)
         for (const bool jitter : {false, true}) {
-            const Result run = (jitter && r == reference_resolution) ? ref : solve(scene, r, jitter, iterations, seed);
+            const Result run = (jitter && r == reference_resolution) ? ref : solve(scene, r, jitter, iterations, seed, method);
             const double pixel = 2.0 * scene.bounds_radius() / r;
             // The mean projected patch over all directions is half its area (mean |cos| = 1/2).
             const double ppp = 0.5 * mean_area / (pixel * pixel);
@@ -109,7 +119,7 @@ int main(int argc, char** argv) {
             if (jitter && r <= streams_up_to && r != reference_resolution && streams > 1) {
                 rb::solver::RadianceField mean = run.field;
                 for (int k = 1; k < streams; ++k) {
-                    const Result more = solve(scene, r, true, iterations, seed, static_cast<std::uint64_t>(k));
+                    const Result more = solve(scene, r, true, iterations, seed, method, static_cast<std::uint64_t>(k));
                     for (std::size_t i = 0; i < mean.radiance.size(); ++i) mean.radiance[i] += more.field.radiance[i];
                 }
                 for (auto& L : mean.radiance) L /= static_cast<double>(streams);

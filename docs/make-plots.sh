@@ -47,18 +47,22 @@ fi
 if [ -f resolution-study.csv ]; then
 gnuplot <<'GP'
 set datafile separator ","
-set terminal png size 900,600 font ",11"
+set terminal pngcairo size 1000,600 font ",10"
 set output "resolution-study.png"
-set title "Residual error of stochastic iteration vs map resolution (Cornell box, 10,000 steps)"
+set title "Residual error of stochastic iteration vs map resolution (Cornell box, 10,000 steps, jittered grid)"
 set logscale xy
 set xlabel "resolution (pixels per side)"
 set ylabel "relative L1 error vs 1000^2 reference"
-set key right top
+set key outside right
 set grid
-plot "< awk -F, '$3==\"no\"' resolution-study.csv" using 1:4 with linespoints lw 2 title "fixed grid", \
-     "< awk -F, '$3==\"yes\"' resolution-study.csv" using 1:4 with linespoints lw 2 title "jittered grid", \
-     "< awk -F, '$3==\"yes\" && $6>1' resolution-study.csv" using 1:5 with linespoints lw 2 title "jittered, mean of 16 jitter streams", \
-     "paper-table2.csv" every ::1 using 1:3 with linespoints lw 2 dt 2 title "004 Table 2 (upper bounds '<0.01' drawn at 0.01)"
+plot "< awk -F, '$3==\"yes\"' resolution-study-w-only.csv" using 1:4 with linespoints lw 2 lc 1 title "w only", \
+     "< awk -F, '$3==\"yes\" && $6>1' resolution-study-w-only.csv" using 1:5 with linespoints lw 2 lc 1 dt 2 title "w only, mean of 16 streams", \
+     "< awk -F, '$3==\"yes\"' resolution-study.csv" using 1:4 with linespoints lw 2 lc 2 title "w and -w (default)", \
+     "< awk -F, '$3==\"yes\" && $6>1' resolution-study.csv" using 1:5 with linespoints lw 2 lc 2 dt 2 title "w and -w, mean of 16 streams", \
+     "< awk -F, '$3==\"yes\"' resolution-study-diffuse-shot.csv" using 1:4 with linespoints lw 2 lc 3 title "w and -w, diffuse shot", \
+     "< awk -F, '$3==\"yes\" && $6>1' resolution-study-diffuse-shot.csv" using 1:5 with linespoints lw 2 lc 3 dt 2 title "diffuse shot, mean of 16 streams", \
+     "paper-table2.csv" every ::1 using 1:3 with linespoints lw 2 lc 8 dt 3 title "004 Table 2 ('<0.01' drawn at 0.01)", \
+     0.01 with lines lc 0 dt 4 title "the issue's goal at 50^2"
 GP
 fi
 ls -1 *.png

@@ -16,15 +16,7 @@ Shading parse_shading(const std::string& name) {
 std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field) {
     const auto& patches = scene.patch_list();
     const std::size_t n = patches.size();
-    // Vertex -> incident patches, as a compressed row list.
-    std::vector<std::size_t> start(scene.vertex_positions().size() + 1, 0);
-    for (const auto& p : patches)
-        for (int v : p.v) ++start[v + 1];
-    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-    std::vector<std::uint32_t> incident(start.back());
-    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-        for (int v : patches[i].v) incident[fill[v]++] = static_cast<std::uint32_t>(i);
+    const scenes::VertexCorners star = scenes::vertex_corners(scene);
 
     const double crease = std::cos(30.0 * M_PI / 180.0);
     std::vector<std::array<Rgb, 3>> corners(n);
@@ -33,10 +25,11 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
             const int v = patches[i].v[k];
             Rgb sum = Rgb::Zero();
             double weight = 0.0;
-            for (std::size_t e = start[v]; e < start[v + 1]; ++e) {
-                const auto& q = patches[incident[e]];
+            for (std::size_t e = star.start[v]; e < star.start[v + 1]; ++e) {
+                const std::uint32_t j = star.corners[e] / 3;
+                const auto& q = patches[j];
                 if (q.material != patches[i].material || q.normal.dot(patches[i].normal) < crease) continue;
-                sum += q.area * field.radiance[incident[e]];
+                sum += q.area * field.radiance[j];
                 weight += q.area;
             }
             corners[i][k] = sum / weight;  // weight > 0: patch i itself always qualifies

@@ -114,4 +114,18 @@ bool Scene::has_emission() const {
     return std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.emissive(); });
 }
 
+VertexCorners vertex_corners(const Scene& scene) {
+    const auto& patches = scene.patch_list();
+    VertexCorners vc;
+    vc.start.assign(scene.vertex_positions().size() + 1, 0);
+    for (const auto& p : patches)
+        for (int v : p.v) ++vc.start[v + 1];
+    for (std::size_t k = 1; k < vc.start.size(); ++k) vc.start[k] += vc.start[k - 1];
+    vc.corners.resize(vc.start.back());
+    std::vector<std::size_t> fill(vc.start.begin(), vc.start.end() - 1);
+    for (std::size_t i = 0; i < patches.size(); ++i)
+        for (int k = 0; k < 3; ++k) vc.corners[fill[patches[i].v[k]]++] = static_cast<std::uint32_t>(3 * i + k);
+    return vc;
+}
+
 }  // namespace raybundle::scenes

@@ -137,6 +137,15 @@ private:
     double area_sum = 0.0;
 };
 
+// The patch corners around every vertex, as a compressed row list: the corners
+// 3 i + k (patch i, its corner k) at vertex v are corners[start[v] .. start[v + 1]),
+// in patch order.
+struct VertexCorners {
+    std::vector<std::size_t> start;
+    std::vector<std::uint32_t> corners;
+};
+VertexCorners vertex_corners(const Scene& scene);
+
 inline Vec3 to_eigen(const OpenMesh::Vec3d& p) { return {p[0], p[1], p[2]}; }
 inline OpenMesh::Vec3d to_om(const Vec3& p) { return {p.x(), p.y(), p.z()}; }
 

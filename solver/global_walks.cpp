@@ -74,9 +74,7 @@ GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backen
     }
     stats_.bytes_per_patch = vectors * sizeof(Rgb);
     if (glossy_) {
-        const auto& patches = scene_.patch_list();
-        to_eye_.resize(n);
-        for (std::size_t i = 0; i < n; ++i) to_eye_[i] = (scene_.camera.eye - patches[i].centroid).normalized();
+        to_eye_ = t_.directions_to_eye();
         stats_.shading = "every walk, towards the eye (the scene has glossy materials)";
     } else {
         stats_.shading = "once at the end (purely diffuse scene)";
@@ -231,22 +229,6 @@ void GlobalWalks::run(const Callback& progress) {
     }
 }
 
-RadianceField GlobalWalks::field() const {
-    RadianceField f;
-    f.view_dependent = glossy_;
-    const std::size_t n = t_.patches();
-    f.radiance.resize(n);
-    const double inv_m = walks_done_ > 0 ? 1.0 / static_cast<double>(walks_done_) : 0.0;
-    const auto& patches = scene_.patch_list();
-    for (std::size_t i = 0; i < n; ++i) {
-        if (glossy_) {
-            const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
-            f.radiance[i] = (front ? t_.displayed(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
-        } else {
-            f.radiance[i] = t_.displayed(i, Vec3::Zero()) + t_.diffuse_reflectance(i) * sum_[i] * inv_m;
-        }
-    }
-    return f;
-}
+RadianceField GlobalWalks::field() const { return t_.field_from(sum_, walks_done_, to_eye_); }
 
 }  // namespace raybundle::solver

@@ -18,18 +18,8 @@ LinearIteration::LinearIteration(const Transport& transport, const visibility::B
     const auto& patches = scene_.patch_list();
     const std::size_t n = patches.size();
 
-    // Corners around each vertex, as a compressed row list.
-    const std::size_t nv = scene_.vertex_positions().size();
-    std::vector<std::size_t> start(nv + 1, 0);
-    for (const auto& p : patches)
-        for (int v : p.v) ++start[v + 1];
-    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-    std::vector<std::uint32_t> corners(start.back());
-    {
-        std::vector<std::size_t> fill(start.begin(), start.end() - 1);
-        for (std::size_t i = 0; i < n; ++i)
-            for (int k = 0; k < 3; ++k) corners[fill[patches[i].v[k]]++] = static_cast<std::uint32_t>(3 * i + k);
-    }
+    const scenes::VertexCorners star = scenes::vertex_corners(scene_);
+    const std::size_t nv = star.start.size() - 1;
     // Cluster each vertex's corners into nodes: same material, normal within 30 degrees
     // of the node's first patch.
     const double crease = std::cos(30.0 * M_PI / 180.0);
@@ -38,8 +28,8 @@ LinearIteration::LinearIteration(const Transport& transport, const visibility::B
     for (std::size_t v = 0; v < nv; ++v) {
         seeds.clear();
         const std::size_t first_node = mass_.size();
-        for (std::size_t e = start[v]; e < start[v + 1]; ++e) {
-            const std::uint32_t c = corners[e];
+        for (std::size_t e = star.start[v]; e < star.start[v + 1]; ++e) {
+            const std::uint32_t c = star.corners[e];
             const auto& p = patches[c / 3];
             std::size_t node = mass_.size();
             for (std::size_t s = 0; s < seeds.size(); ++s) {

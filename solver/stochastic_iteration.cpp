@@ -28,14 +28,12 @@ StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility:
 
 void StochasticIteration::init() {
     const std::size_t n = transport_.patches();
-    const auto& patches = scene_.patch_list();
     irradiance_.assign(n + 2, Rgb::Zero());
     next_.assign(n + 2, Rgb::Zero());
     outgoing_.assign(n + 2, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
     if (glossy_) {
-        to_eye_.resize(n);
-        for (std::size_t i = 0; i < n; ++i) to_eye_[i] = (scene_.camera.eye - patches[i].centroid).normalized();
+        to_eye_ = transport_.directions_to_eye();
         stats_.shading = "every step, towards the eye (the scene has glossy materials)";
     } else {
         stats_.shading = "once at the end (purely diffuse scene)";
@@ -101,23 +99,6 @@ void StochasticIteration::run(const Callback& progress) {
     }
 }
 
-RadianceField StochasticIteration::field() const {
-    RadianceField f;
-    f.view_dependent = glossy_;
-    const std::size_t n = transport_.patches();
-    f.radiance.resize(n);
-    const double inv_m = steps_ > 0 ? 1.0 / static_cast<double>(steps_) : 0.0;
-    const auto& patches = scene_.patch_list();
-    for (std::size_t i = 0; i < n; ++i) {
-        if (glossy_) {
-            // Emission leaves the front side only.
-            const bool front = patches[i].normal.dot(to_eye_[i]) > 0.0;
-            f.radiance[i] = (front ? transport_.displayed(i, to_eye_[i]) : Rgb::Zero()) + sum_[i] * inv_m;
-        } else {
-            f.radiance[i] = transport_.displayed(i, Vec3::Zero()) + transport_.diffuse_reflectance(i) * sum_[i] * inv_m;
-        }
-    }
-    return f;
-}
+RadianceField StochasticIteration::field() const { return transport_.field_from(sum_, steps_, to_eye_); }
 
 }  // namespace raybundle::solver

@@ -92,6 +92,29 @@ Rgb Transport::reflected(std::size_t j, const Vec3& in, const Vec3& out, const R
     return 4.0 * M_PI * brdf(scene_.material_of(j), normal_[j], in, out) * irr;
 }
 
+std::vector<Vec3> Transport::directions_to_eye() const {
+    std::vector<Vec3> to_eye(n_);
+    const auto& patches = scene_.patch_list();
+    for (std::size_t i = 0; i < n_; ++i) to_eye[i] = (scene_.camera.eye - patches[i].centroid).normalized();
+    return to_eye;
+}
+
+RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const {
+    RadianceField f;
+    f.view_dependent = glossy_;
+    f.radiance.resize(n_);
+    const double inv = count > 0 ? 1.0 / static_cast<double>(count) : 0.0;
+    for (std::size_t i = 0; i < n_; ++i) {
+        if (glossy_) {
+            const bool front = normal_[i].dot(to_eye[i]) > 0.0;
+            f.radiance[i] = (front ? displayed(i, to_eye[i]) : Rgb::Zero()) + sum[i] * inv;
+        } else {
+            f.radiance[i] = displayed(i, Vec3::Zero()) + reflect_[i] * sum[i] * inv;
+        }
+    }
+    return f;
+}
+
 void Transport::set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const {
     if (scene_.sky) {
         outgoing[n_] = scene_.sky->arriving_along(w);

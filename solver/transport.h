@@ -15,6 +15,7 @@
 // the emissive patches is computed once, too: the patches' own emission is then only
 // shown, and what moves along the geometry matrices starts from its reflection.
 #include "solver/first_shot.h"
+#include "solver/radiance_field.h"
 #include "visibility/backend.h"
 
 #include <vector>
@@ -87,6 +88,14 @@ public:
     const Rgb& diffuse_reflectance(std::size_t j) const { return reflect_[j]; }
     // Own emission only (front side).
     const Rgb& own_emission(std::size_t j) const { return emission_[j]; }
+
+    // Per patch, the unit direction from its centroid to the camera (glossy scenes
+    // accumulate the radiance sent that way).
+    std::vector<Vec3> directions_to_eye() const;
+    // The field from per-patch sums over `count` estimates: of irradiance in a
+    // diffuse scene (L = shown + 4 albedo sum / count), of the radiance towards the
+    // eye in a glossy one (L = shown towards the eye, front side only, + sum / count).
+    RadianceField field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const;
 
     // Sets the two sky slots of an outgoing-radiance vector for direction w.
     void set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const;

@@ -33,6 +33,21 @@ Run solve(const scenes::Scene& scene, long iterations, std::uint64_t seed, long 
     return run;
 }
 
+// Least-squares slope of log(error) (the values) against log(M) (the keys).
+double log_log_slope(const std::map<long, double>& log_error) {
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (const auto& [m, y] : log_error) {
+        const double x = std::log(static_cast<double>(m));
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+        ++n;
+    }
+    return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
 }  // namespace
 
 TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][convergence]") {
@@ -45,17 +60,9 @@ TEST_CASE("homogeneous box: error, M^-1/2 convergence and bias", "[solver][conve
     CHECK(e1000 < 0.05);
 
     // Least-squares slope of log(error) against log(M) over 100..10,000.
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int n = 0;
-    for (const auto& [m, e] : run.error) {
-        const double x = std::log(static_cast<double>(m)), y = std::log(e);
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-        ++n;
-    }
-    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    std::map<long, double> log_error;
+    for (const auto& [m, e] : run.error) log_error[m] = std::log(e);
+    const double slope = log_log_slope(log_error);
     INFO("fitted slope (w alone): " << slope);
     CHECK(slope > -0.65);
     CHECK(slope < -0.35);
@@ -75,17 +82,7 @@ TEST_CASE("iteration with both w and -w converges as M^-1/2", "[solver][converge
     std::map<long, double> log_error;
     for (int k = 0; k < K; ++k)
         for (const auto& [m, e] : solve(scene, 10000, 1 + k, 100, true).error) log_error[m] += std::log(e) / K;
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int n = 0;
-    for (const auto& [m, y] : log_error) {
-        const double x = std::log(static_cast<double>(m));
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-        ++n;
-    }
-    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    const double slope = log_log_slope(log_error);
     INFO("fitted slope (w and -w, 4 seeds): " << slope << ", error at 1000: " << std::exp(log_error.at(1000)));
     CHECK(slope > -0.65);
     CHECK(slope < -0.35);
