@@ -61,7 +61,7 @@ struct SolveOptions {
     bool diffuse_shot = false;
     // Final gather (0 gather rays: the patch image).
     int gather = 0;
-    int direct_samples = 4;
+    int direct_samples = 16;
     int spp = 1;
     std::string filter = "guided";
     int filter_radius = 8;

@@ -161,9 +161,11 @@ public:
             auto light_pdf = [&](std::uint32_t j, double r, double cos_y) {
                 return power_[j] / patches_[j].area * r * r / cos_y;
             };
+            // Stratified: sample k picks its emitter in the k-th of `samples` equal slices
+            // of the power CDF, and its cosine direction in the k-th slice of azimuth.
             for (int k = 0; k < samples; ++k) {
                 {  // A point on an emitter.
-                    const double pick = rng.uniform();
+                    const double pick = (k + rng.uniform()) / samples;
                     const std::size_t e = std::min<std::size_t>(
                         static_cast<std::size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), pick) - cdf_.begin()),
                         emitters_.size() - 1);
@@ -184,7 +186,7 @@ public:
                     }
                 }
                 {  // A cosine-weighted direction.
-                    const double u1 = rng.uniform(), u2 = rng.uniform();
+                    const double u1 = rng.uniform(), u2 = (k + rng.uniform()) / samples;
                     const double rr = std::sqrt(u1), phi = 2.0 * M_PI * u2;
                     const Vec3 w =
                         rr * std::cos(phi) * u + rr * std::sin(phi) * v + std::sqrt(std::max(0.0, 1.0 - u1)) * n;

@@ -55,7 +55,7 @@ const char* filter_name(Filter f);
 
 struct GatherOptions {
     int gather_rays = 64;     // N, per guide sample
-    int direct_samples = 4;   // K, per camera sample
+    int direct_samples = 16;  // K, per camera sample
     int spp = 1;              // camera samples per pixel (the first is the guide)
     Filter filter = Filter::guided;
     // Guided filter. 003 section 4 uses radius 24-32, eps 0.01 (normals) and 0.01-0.03

@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Command 1 of the README: install the dependencies, build, and solve the built-in
-# Cornell box, writing out/cornell.{exr,png} and out/cornell-{stats.json,convergence.csv}.
+# Cornell box (stochastic iteration with the diffuse shot), then render it with the
+# final gather and the guided filter, writing out/cornell.{exr,png},
+# out/cornell.ply (the patch radiance) and out/cornell-{stats.json,convergence.csv}.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup-deps.sh
 bash scripts/build.sh
 mkdir -p out
-./build/apps/raybundle solve --builtin cornell-box --iterations "${RAYBUNDLE_ITERATIONS:-20000}" \
-  -o out/cornell.exr --png out/cornell.png --exposure 1 \
+./build/apps/raybundle solve --builtin cornell-box --iterations "${RAYBUNDLE_ITERATIONS:-20000}" --diffuse-shot \
+  --gather 16 --direct-samples 32 --threads "$(nproc)" \
+  -o out/cornell.exr --png out/cornell.png --exposure 1 --ply out/cornell.ply \
   --stats out/cornell-stats.json --csv out/cornell-convergence.csv
-echo "wrote out/cornell.exr, out/cornell.png, out/cornell-stats.json, out/cornell-convergence.csv"
+echo "wrote out/cornell.exr, out/cornell.png, out/cornell.ply, out/cornell-stats.json, out/cornell-convergence.csv"
