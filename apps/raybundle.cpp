@@ -321,7 +321,8 @@ int run_solve(const SolveOptions& o) {
                                                 std::to_string(shot.diffuse_rays) +
                                                 " shadow rays: direct light computed once, the emission moves no more"
                                           : std::string("off (--diffuse-shot computes the area lights' direct light once)")},
-          {"threads", "1: the solver runs on one thread"}}},
+          {"threads", o.gather > 0 ? "solver: 1; final gather and filters: " + std::to_string(o.threads)
+                                   : std::string("1: the solver runs on one thread (--threads serves the final gather)")}}},
     };
     if (linear) {
         stats["nodes"] = linear->nodes();

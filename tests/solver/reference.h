@@ -64,6 +64,16 @@ inline scenes::Scene six_albedo_box(double patch_size) {
     return scene;
 }
 
+// The homogeneous box with half its albedo made glossy (modified Phong, exponent
+// 10): the hemispherical albedo is at most 0.5 at every incidence.
+inline scenes::Scene glossy_box(double patch_size) {
+    auto scene = scenes::make_builtin("homogeneous-box", patch_size);
+    scene.materials[0].albedo = Rgb::Constant(0.25);
+    scene.materials[0].specular = Rgb::Constant(0.25);
+    scene.materials[0].exponent = 10.0;
+    return scene;
+}
+
 // Form factors F[i n + j] of a closed scene of planar walls (coplanar pairs: 0), by
 // the centroid rule on 4^levels points over each receiver.
 inline std::vector<double> form_factors(const scenes::Scene& scene, int levels) {

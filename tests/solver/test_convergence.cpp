@@ -1,5 +1,6 @@
 // Stochastic iteration on the homogeneous box, whose exact radiance is 1 everywhere:
 // error level, M^(-1/2) convergence, bias, determinism.
+#include "reference.h"
 #include "scenes/builtin.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
@@ -138,10 +139,7 @@ TEST_CASE("a glossy scene takes the view-dependent path and stays unbiased", "[s
     // The homogeneous box with half the albedo made glossy: the hemispherical albedo at
     // every incidence is <= 0.5, so the mean radiance must fall below 1, but the
     // emission keeps it above 0.5.
-    auto scene = scenes::make_builtin("homogeneous-box", 0.34);
-    scene.materials[0].albedo = scenes::Rgb::Constant(0.25);
-    scene.materials[0].specular = scenes::Rgb::Constant(0.25);
-    scene.materials[0].exponent = 10.0;
+    auto scene = testing::glossy_box(0.34);
     auto backend = visibility::make_backend("painter", scene, {});
     solver::IterationOptions opt;
     opt.iterations = 2000;

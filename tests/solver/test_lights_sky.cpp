@@ -235,9 +235,6 @@ TEST_CASE("diffuse shot: the same solution, less noise", "[solver][diffuse-shot]
     INFO("mean error over 4 seeds: with the diffuse shot " << with / 4 << ", without " << without / 4);
     CHECK(with < 0.75 * without);
     // Glossy scenes are refused.
-    auto glossy = scene;
-    glossy.materials[0].albedo = Rgb::Constant(0.25);
-    glossy.materials[0].specular = Rgb::Constant(0.25);
-    glossy.materials[0].exponent = 10.0;
+    auto glossy = testing::glossy_box(0.34);
     CHECK_THROWS_WITH(solver::Transport(glossy, solver::ShotOptions{true}), Catch::Contains("diffuse scenes only"));
 }

@@ -127,10 +127,7 @@ TEST_CASE("linear basis: the six-albedo box agrees with the constant basis, and 
 }
 
 TEST_CASE("linear basis: glossy scenes are refused with a message", "[solver][linear]") {
-    auto scene = scenes::make_builtin("homogeneous-box", 0.5);
-    scene.materials[0].albedo = Rgb::Constant(0.25);
-    scene.materials[0].specular = Rgb::Constant(0.25);
-    scene.materials[0].exponent = 10.0;
+    auto scene = testing::glossy_box(0.5);
     const solver::Transport transport(scene);
     CHECK_THROWS_WITH(solver::LinearIteration(transport, {}, {}), Catch::Contains("diffuse scenes only"));
 }

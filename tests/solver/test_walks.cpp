@@ -1,6 +1,7 @@
 // Global walks on the homogeneous box (004 sections 4.1-4.3, Fig. 6): truncated walks
 // converge to 1 - 2^-(D+1), unbiased walks to 1; combined and bi-directional walks
 // beat plain walks at equal walks, and QMC beats random directions.
+#include "reference.h"
 #include "scenes/builtin.h"
 #include "solver/global_walks.h"
 #include "visibility/backend.h"
@@ -137,10 +138,7 @@ TEST_CASE("walks: memory per patch follows the method, and the same seed is bit-
 TEST_CASE("glossy walks keep the full table and stay below the diffuse answer", "[solver][walks][glossy]") {
     // Half the albedo made glossy: the mean must stay below the diffuse truncated value
     // (1 - 2^-(D+1)) and above the emission.
-    auto scene = scenes::make_builtin("homogeneous-box", 0.34);
-    scene.materials[0].albedo = scenes::Rgb::Constant(0.25);
-    scene.materials[0].specular = scenes::Rgb::Constant(0.25);
-    scene.materials[0].exponent = 10.0;
+    auto scene = testing::glossy_box(0.34);
     auto backend = visibility::make_backend("painter", scene, {});
     const solver::Transport transport(scene);
     solver::WalkOptions opt;
