@@ -17,6 +17,7 @@
 #include "solver/linear_basis.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
+#include "visibility/parallel.h"
 
 #include <CLI/CLI.hpp>
 
@@ -134,8 +135,12 @@ int run_solve(const SolveOptions& o) {
     bopt.resolution = o.resolution;
     bopt.sky = scene.sky.has_value();  // no sky: no sky entries in the maps
     // The linear basis brings its own (Gouraud) painter; the others use the backend.
-    std::unique_ptr<rb::visibility::Backend> backend;
-    if (o.basis == "constant") backend = rb::visibility::make_backend(o.visibility, scene, bopt);
+    // One backend per thread: the visibility of several directions is computed side by
+    // side, the light moves along them in order (results identical for any --threads).
+    std::unique_ptr<rb::visibility::BackendSet> backends;
+    if (o.basis == "constant")
+        backends = std::make_unique<rb::visibility::BackendSet>(o.visibility, scene, bopt, o.threads);
+    rb::visibility::Backend* backend = backends ? &backends->front() : nullptr;
 
     // The first shot (point lights) happens here, once, before any direction.
     const rb::solver::Transport transport(scene, rb::solver::ShotOptions{o.diffuse_shot});
@@ -156,7 +161,7 @@ int run_solve(const SolveOptions& o) {
         sopt.seed = o.seed;
         sopt.progress_every = o.csv_every;
         sopt.bidirectional = o.bidirectional;
-        iteration.emplace(transport, *backend, sopt);
+        iteration.emplace(transport, *backends, sopt);
     } else {
         rb::solver::WalkOptions wopt;
         wopt.method = o.method == "walk"       ? rb::solver::WalkMethod::walk
@@ -168,7 +173,7 @@ int run_solve(const SolveOptions& o) {
         wopt.sampler = rb::sampling::parse_sampler(o.sampler);
         wopt.seed = o.seed;
         wopt.progress_every = o.csv_every;
-        walks.emplace(transport, *backend, wopt);
+        walks.emplace(transport, *backends, wopt);
     }
     auto current_field = [&]() {
         return linear ? linear->field() : iteration ? iteration->field() : walks->field();
@@ -295,7 +300,7 @@ int run_solve(const SolveOptions& o) {
         {"resolution", backend ? backend->resolution() : linear->resolution()},
         {"basis", o.basis},
         {"seed", o.seed},
-        {"threads", 1},
+        {"threads", backends ? backends->threads() : 1},
         {"threads_requested", o.threads},
         {"image", {{"width", camera.width()}, {"height", camera.height()}, {"shading", o.shading}}},
         {"seconds_total", std::chrono::duration<double>(Clock::now() - t_start).count()},
@@ -321,8 +326,10 @@ int run_solve(const SolveOptions& o) {
                                                 std::to_string(shot.diffuse_rays) +
                                                 " shadow rays: direct light computed once, the emission moves no more"
                                           : std::string("off (--diffuse-shot computes the area lights' direct light once)")},
-          {"threads", o.gather > 0 ? "solver: 1; final gather and filters: " + std::to_string(o.threads)
-                                   : std::string("1: the solver runs on one thread (--threads serves the final gather)")}}},
+          {"threads", "visibility: " + std::to_string(backends ? backends->threads() : 1) +
+                          (backends && backends->threads() < o.threads ? " (the zbuffer backend has one context)" : "") +
+                          " (one backend each; the light moves in order, so any count gives the same result)" +
+                          (o.gather > 0 ? "; final gather and filters: " + std::to_string(o.threads) : "")}}},
     };
     if (linear) {
         stats["nodes"] = linear->nodes();

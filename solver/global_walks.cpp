@@ -35,9 +35,17 @@ double GlobalWalks::truncation_factor(double albedo, int depth, bool unbiased) {
 }
 
 GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options)
+    : GlobalWalks(transport, std::make_unique<visibility::BackendSet>(backend), nullptr, options) {}
+
+GlobalWalks::GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkOptions options)
+    : GlobalWalks(transport, nullptr, &backends, options) {}
+
+GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
+                         visibility::BackendSet* backends, WalkOptions options)
     : t_(transport),
       scene_(transport.scene()),
-      backend_(backend),
+      own_set_(std::move(own)),
+      backends_(own_set_ ? *own_set_ : *backends),
       options_(options),
       glossy_(transport.glossy()),
       sampler_(options.sampler, options.depth, options.seed),
@@ -81,13 +89,14 @@ GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backen
     }
 }
 
-void GlobalWalks::transfer(const Vec3& w) {
-    const Eigen::Vector2d offset(jitter_.uniform(), jitter_.uniform());
+void GlobalWalks::transfer_all() {
+    jitters_.clear();
+    for (std::size_t d = 0; d < dirs_.size(); ++d) jitters_.emplace_back(jitter_.uniform(), jitter_.uniform());
     const auto t0 = Clock::now();
-    backend_.transfer(w, offset, matrix_);
+    backends_.transfer_batch(dirs_, jitters_, matrices_);
     stats_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
-    stats_.entries_total += matrix_.entries.size();
-    ++stats_.directions;
+    for (const auto& m : matrices_) stats_.entries_total += m.entries.size();
+    stats_.directions += static_cast<long>(matrices_.size());
 }
 
 Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
@@ -113,7 +122,7 @@ void GlobalWalks::walk_plain() {
     Vec3 prev = Vec3::Zero();
     for (int d = 0; d < D; ++d) {
         const Vec3& w = dirs_[d];
-        transfer(w);
+        const auto& matrix = matrices_[d];
         const auto t0 = Clock::now();
         // I <- A(w) (Le + C + 4 pi F I)
         for (std::size_t j = 0; j < n; ++j) {
@@ -122,7 +131,7 @@ void GlobalWalks::walk_plain() {
         }
         t_.set_sky(w, out_);
         std::fill(next_.begin(), next_.end(), Rgb::Zero());
-        t_.gather(matrix_, out_, next_, false, 1.0);
+        t_.gather(matrix, out_, next_, false, 1.0);
         irr_.swap(next_);
         if (unbiased) {
             // J <- A(w) 4 pi F J, started from the emission (and sky): exactly d bounces.
@@ -133,7 +142,7 @@ void GlobalWalks::walk_plain() {
             else
                 out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
             std::fill(next_.begin(), next_.end(), Rgb::Zero());
-            t_.gather(matrix_, out_, next_, false, 1.0);
+            t_.gather(matrix, out_, next_, false, 1.0);
             chain_.swap(next_);
         }
         prev = w;
@@ -158,7 +167,7 @@ void GlobalWalks::walk_combined(bool both) {
     auto slot = [&](int b, int t) -> std::vector<Rgb>& { return glossy_ ? table_[table_index(b, t)] : table_[b]; };
     for (int t = 0; t < D; ++t) {
         const Vec3& w = dirs_[t];
-        transfer(w);
+        const auto& matrix = matrices_[t];
         const auto t0 = Clock::now();
         // Highest bounce first, so that (diffuse) the running sums still hold only the
         // directions before w_t.
@@ -177,11 +186,11 @@ void GlobalWalks::walk_combined(bool both) {
                 }
             }
             out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
-            t_.gather(matrix_, out_, slot(b, t), both, 1.0);
+            t_.gather(matrix, out_, slot(b, t), both, 1.0);
         }
         for (std::size_t j = 0; j < n; ++j) out_[j] = walk_emission(j, t_.departure(j, w, both));
         t_.set_sky(w, out_);
-        t_.gather(matrix_, out_, slot(0, t), both, 1.0);
+        t_.gather(matrix, out_, slot(0, t), both, 1.0);
         stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
     }
     // Each b-bounce sample set: C(D, b+1) subsequences, times 2^(b+1) sign choices.
@@ -218,6 +227,7 @@ void GlobalWalks::run(const Callback& progress) {
     for (long m = 0; m < total; ++m) {
         sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
         for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
+        transfer_all();
         if (options_.method == WalkMethod::walk)
             walk_plain();
         else

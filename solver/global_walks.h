@@ -35,6 +35,7 @@
 #include "solver/stochastic_iteration.h"
 #include "solver/transport.h"
 #include "visibility/backend.h"
+#include "visibility/parallel.h"
 
 #include <cstdint>
 #include <memory>
@@ -75,6 +76,9 @@ public:
 
     // The transport (patch constants, first shot) must outlive the solver.
     GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options);
+    // With one backend per thread: the D matrices of a walk are computed side by side
+    // (bit-identical results for any thread count).
+    GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkOptions options);
 
     void run(const Callback& progress = {});
 
@@ -86,9 +90,12 @@ public:
     static double truncation_factor(double albedo, int depth, bool unbiased);
 
 private:
+    GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
+                visibility::BackendSet* backends, WalkOptions options);
     void walk_plain();
     void walk_combined(bool both);
-    void transfer(const Vec3& w);
+    // The geometry matrices of the walk's directions, dirs_ -> matrices_.
+    void transfer_all();
     // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
     // sum_: the irradiance itself (diffuse scene) or the radiance it sends to the eye.
     void accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance);
@@ -97,14 +104,16 @@ private:
 
     const Transport& t_;
     const scenes::Scene& scene_;
-    visibility::Backend& backend_;
+    std::unique_ptr<visibility::BackendSet> own_set_;
+    visibility::BackendSet& backends_;
     WalkOptions options_;
     bool glossy_;
     sampling::WalkSampler sampler_;
     sampling::Rng jitter_;
     std::vector<Vec3> dirs_;
     std::vector<Vec3> to_eye_;
-    visibility::GeometryMatrix matrix_;
+    std::vector<Eigen::Vector2d> jitters_;
+    std::vector<visibility::GeometryMatrix> matrices_;  // one per direction of the walk
 
     // Per patch (slots() long): plain walk: max-bounce irradiance I and, with
     // `unbiased`, the exact-bounce chain J; combined: the table (glossy) or the running

@@ -14,15 +14,31 @@ using Clock = std::chrono::steady_clock;
 
 StochasticIteration::StochasticIteration(const Transport& transport, visibility::Backend& backend,
                                          IterationOptions options)
-    : transport_(transport), scene_(transport.scene()), backend_(backend), options_(options),
+    : transport_(transport),
+      scene_(transport.scene()),
+      own_set_(std::make_unique<visibility::BackendSet>(backend)),
+      backends_(*own_set_),
+      options_(options),
+      glossy_(transport.glossy()) {
+    init();
+}
+
+StochasticIteration::StochasticIteration(const Transport& transport, visibility::BackendSet& backends,
+                                         IterationOptions options)
+    : transport_(transport), scene_(transport.scene()), backends_(backends), options_(options),
       glossy_(transport.glossy()) {
     init();
 }
 
 StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend,
                                          IterationOptions options)
-    : own_(std::make_unique<Transport>(scene)), transport_(*own_), scene_(scene), backend_(backend),
-      options_(options), glossy_(scene.has_glossy()) {
+    : own_(std::make_unique<Transport>(scene)),
+      transport_(*own_),
+      scene_(scene),
+      own_set_(std::make_unique<visibility::BackendSet>(backend)),
+      backends_(*own_set_),
+      options_(options),
+      glossy_(scene.has_glossy()) {
     init();
 }
 
@@ -40,7 +56,7 @@ void StochasticIteration::init() {
     }
 }
 
-void StochasticIteration::step(const Vec3& w) {
+void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& matrix) {
     const Transport& t = transport_;
     const std::size_t n = t.patches();
     const bool both = options_.bidirectional;
@@ -61,7 +77,7 @@ void StochasticIteration::step(const Vec3& w) {
     // With both directions, every entry also carries light along -w. Each patch faces
     // exactly one of +-w, so it receives once; weight 1/2 keeps the expectation: the
     // pair (w, -w) is sampled with twice the density of w alone.
-    t.gather(matrix_, outgoing_, next_, both, both ? 0.5 : 1.0);
+    t.gather(matrix, outgoing_, next_, both, both ? 0.5 : 1.0);
     irradiance_.swap(next_);
     previous_ = w;
     ++steps_;
@@ -80,22 +96,34 @@ void StochasticIteration::run(const Callback& progress) {
     sampling::Rng jitter(options_.seed, /*stream=*/0x717e4 + options_.jitter_stream);
     const long total = options_.iterations;
     const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
+    // One direction at a time on one thread; batches of 4 per thread otherwise. The
+    // directions and jitters are drawn in the same order either way.
+    const int threads = backends_.threads();
+    const long batch = threads == 1 ? 1 : 4L * threads;
+    std::vector<Vec3> ws;
+    std::vector<Eigen::Vector2d> offsets;
     const auto start = Clock::now();
-    for (long m = 0; m < total; ++m) {
-        const Vec3 w = directions.next();
-        const Eigen::Vector2d offset(jitter.uniform(), jitter.uniform());
+    for (long m = 0; m < total;) {
+        const long count = std::min(batch, total - m);
+        ws.clear();
+        offsets.clear();
+        for (long b = 0; b < count; ++b) {
+            ws.push_back(directions.next());
+            offsets.emplace_back(jitter.uniform(), jitter.uniform());
+        }
         const auto t0 = Clock::now();
-        backend_.transfer(w, offset, matrix_);
-        const auto t1 = Clock::now();
-        step(w);
-        const auto t2 = Clock::now();
-        stats_.seconds_visibility += std::chrono::duration<double>(t1 - t0).count();
-        stats_.seconds_transport += std::chrono::duration<double>(t2 - t1).count();
-        stats_.entries_total += matrix_.entries.size();
-        ++stats_.directions;
-        ++stats_.iterations;
-        if (progress && ((m + 1) % every == 0 || m + 1 == total))
-            progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+        backends_.transfer_batch(ws, offsets, matrices_);
+        stats_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+        for (long b = 0; b < count; ++b, ++m) {
+            const auto t1 = Clock::now();
+            step(ws[b], matrices_[b]);
+            stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
+            stats_.entries_total += matrices_[b].entries.size();
+            ++stats_.directions;
+            ++stats_.iterations;
+            if (progress && ((m + 1) % every == 0 || m + 1 == total))
+                progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+        }
     }
 }
 

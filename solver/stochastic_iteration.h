@@ -17,6 +17,7 @@
 #include "solver/radiance_field.h"
 #include "solver/transport.h"
 #include "visibility/backend.h"
+#include "visibility/parallel.h"
 
 #include <cstdint>
 #include <functional>
@@ -62,6 +63,9 @@ public:
     // The same with a transport of its own (computing the first shot if the scene has
     // point lights).
     StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend, IterationOptions options);
+    // With one backend per thread: the visibility of a batch of directions is computed
+    // on all of them, then the steps run in order (bit-identical for any count).
+    StochasticIteration(const Transport& transport, visibility::BackendSet& backends, IterationOptions options);
 
     void run(const Callback& progress = {});
 
@@ -71,14 +75,15 @@ public:
     bool view_dependent() const { return glossy_; }
 
 private:
-    void step(const scenes::Vec3& direction);
+    void step(const scenes::Vec3& direction, const visibility::GeometryMatrix& matrix);
 
     void init();
 
     std::unique_ptr<Transport> own_;
     const Transport& transport_;
     const scenes::Scene& scene_;
-    visibility::Backend& backend_;
+    std::unique_ptr<visibility::BackendSet> own_set_;
+    visibility::BackendSet& backends_;
     IterationOptions options_;
     bool glossy_;
     std::vector<scenes::Vec3> to_eye_;             // glossy path only
@@ -86,7 +91,7 @@ private:
     std::vector<scenes::Rgb> sum_;                 // sum of I (diffuse) or of 4 pi F(w, eye) I (glossy)
     scenes::Vec3 previous_ = scenes::Vec3::Zero();
     long steps_ = 0;
-    visibility::GeometryMatrix matrix_;
+    std::vector<visibility::GeometryMatrix> matrices_;  // one batch
     IterationStats stats_;
 };
 

@@ -153,3 +153,42 @@ TEST_CASE("glossy walks keep the full table and stay below the diffuse answer", 
     CHECK(mean > 0.7);
     CHECK(mean < 0.9375);
 }
+
+TEST_CASE("solvers: one backend per thread gives bit-identical results for any thread count", "[solver][threads]") {
+    const auto scene = scenes::make_builtin("cornell-box", 100.0);
+    const solver::Transport transport(scene);
+    auto same = [](const solver::RadianceField& a, const solver::RadianceField& b) {
+        bool equal = a.radiance.size() == b.radiance.size();
+        for (std::size_t i = 0; equal && i < a.radiance.size(); ++i) equal = (a.radiance[i] == b.radiance[i]).all();
+        return equal;
+    };
+    std::vector<solver::RadianceField> iterated, walked;
+    for (const int threads : {1, 2, 3}) {
+        visibility::BackendSet set("painter", scene, {}, threads);
+        CHECK(set.threads() == threads);
+        solver::IterationOptions io;
+        io.iterations = 50;
+        solver::StochasticIteration it(transport, set, io);
+        it.run();
+        iterated.push_back(it.field());
+        solver::WalkOptions wo;
+        wo.method = WalkMethod::bidirectional;
+        wo.depth = 4;
+        wo.walks = 10;
+        wo.unbiased = true;
+        solver::GlobalWalks w(transport, set, wo);
+        w.run();
+        walked.push_back(w.field());
+    }
+    CHECK(same(iterated[0], iterated[1]));
+    CHECK(same(iterated[0], iterated[2]));
+    CHECK(same(walked[0], walked[1]));
+    CHECK(same(walked[0], walked[2]));
+    // And the same as the single-backend constructors.
+    auto backend = visibility::make_backend("painter", scene, {});
+    solver::IterationOptions io;
+    io.iterations = 50;
+    solver::StochasticIteration single(transport, *backend, io);
+    single.run();
+    CHECK(same(single.field(), iterated[0]));
+}

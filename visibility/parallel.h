@@ -1,0 +1,38 @@
+#pragma once
+// Geometry matrices of a batch of directions on several threads: one backend per
+// thread, each matrix a function of its direction and jitter alone, so that the
+// result does not depend on the number of threads. The solvers compute the
+// visibility of a batch this way and then move the light along the matrices in order,
+// which keeps their results bit-identical for any thread count.
+//
+// Call order: make a BackendSet once (it makes one backend per thread through the
+// factory), then transfer_batch() as often as needed.
+#include "visibility/backend.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace raybundle::visibility {
+
+class BackendSet {
+public:
+    // `threads` backends of the named kind; backends that cannot run side by side
+    // (the OpenGL z-buffer: one context) are made once, and threads() says so.
+    BackendSet(const std::string& name, const scenes::Scene& scene, const BackendOptions& options, int threads);
+    // Wraps one backend that the caller owns (one thread).
+    explicit BackendSet(Backend& single);
+
+    Backend& front() { return *all_.front(); }
+    int threads() const { return static_cast<int>(all_.size()); }
+
+    // out[k] = A(directions[k]) with jitters[k]; out is resized to the batch.
+    void transfer_batch(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
+                        std::vector<GeometryMatrix>& out);
+
+private:
+    std::vector<std::unique_ptr<Backend>> owned_;
+    std::vector<Backend*> all_;
+};
+
+}  // namespace raybundle::visibility
