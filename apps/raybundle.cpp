@@ -404,7 +404,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     solve->add_option("--seed", o.seed, "random seed; the same seed gives bit-identical output")
         ->capture_default_str();
-    solve->add_option("--threads", o.threads, "worker threads for the final gather and its filters (the solver runs on one)")
+    solve->add_option("--threads", o.threads, "threads: one visibility backend each, and the final gather (same result for any count)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1024));
     solve->add_option("--method", o.method,
