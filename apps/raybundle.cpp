@@ -68,6 +68,7 @@ struct SolveOptions {
     int filter_radius = 8;
     double eps_normal = 0.01, eps_depth = 1e-4;
     std::string aov;
+    std::vector<std::string> gather_flags_given;  // final-gather flags on the command line
 };
 
 // An error in what the user gave us: reported as one line, exit code 2.
@@ -82,7 +83,41 @@ void check_output_dir(const std::string& path, const char* flag) {
     struct stat st {};
     if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
         throw UsageError(std::string(flag) + " " + path + ": directory '" + dir + "' does not exist");
+    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+        throw UsageError(std::string(flag) + " " + path + ": is a directory, not a file");
 }
+
+// A CLI11 validator: a finite number (NaN and infinities pass CLI11's ranges).
+const CLI::Validator kFinite(
+    [](std::string& text) {
+        try {
+            std::size_t used = 0;
+            const double x = std::stod(text, &used);
+            if (used == text.size() && std::isfinite(x)) return std::string();
+        } catch (const std::exception&) {
+        }
+        return "'" + text + "' is not a finite number";
+    },
+    "FINITE");
+
+// A CLI11 validator: a finite number > 0.
+const CLI::Validator kPositiveFinite(
+    [](std::string& text) {
+        std::string copy = text;
+        std::string bad = kFinite(copy);
+        if (!bad.empty()) return bad;
+        return std::stod(text) > 0.0 ? std::string() : "'" + text + "' is not > 0";
+    },
+    "POSITIVE");
+
+// A CLI11 validator: a non-negative integer written in decimal digits (an unsigned
+// option would otherwise take -1 as 2^64 - 1).
+const CLI::Validator kDigits(
+    [](std::string& text) {
+        if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) return std::string();
+        return "'" + text + "' is not a non-negative integer";
+    },
+    "UINT");
 
 int run_solve(const SolveOptions& o) {
     using Clock = std::chrono::steady_clock;
@@ -111,18 +146,25 @@ int run_solve(const SolveOptions& o) {
     if (o.sampler == "sobol" && o.depth > rb::sampling::WalkSampler::kMaxSobolDepth)
         throw UsageError("--depth " + std::to_string(o.depth) + ": the sobol sampler supports depths up to " +
                          std::to_string(rb::sampling::WalkSampler::kMaxSobolDepth));
-    for (const auto& [path, flag] : {std::pair{o.exr, "-o"}, {o.png, "--png"}, {o.stats, "--stats"},
-                                     {o.csv, "--csv"}, {o.patches_csv, "--patches"}, {o.ply, "--ply"}})
-        check_output_dir(path, flag);
+    const std::pair<std::string, const char*> outputs[] = {{o.exr, "-o"},          {o.png, "--png"},
+                                                           {o.stats, "--stats"},   {o.csv, "--csv"},
+                                                           {o.patches_csv, "--patches"}, {o.ply, "--ply"}};
+    for (const auto& [path, flag] : outputs) check_output_dir(path, flag);
+    for (std::size_t a = 0; a < std::size(outputs); ++a)
+        for (std::size_t b = a + 1; b < std::size(outputs); ++b)
+            if (!outputs[a].first.empty() && outputs[a].first == outputs[b].first)
+                throw UsageError(std::string(outputs[a].second) + " and " + outputs[b].second + " name the same file " +
+                                 outputs[a].first);
     if (!o.aov.empty()) {
         struct stat st {};
         if (::stat(o.aov.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
             throw UsageError("--aov " + o.aov + ": not a directory");
     }
-    if (o.gather == 0) {
-        for (const auto& [given, flag] : {std::pair{o.spp != 1, "--spp"}, {!o.aov.empty(), "--aov"}})
-            if (given) throw UsageError(std::string(flag) + " needs the final gather (--gather N)");
-    }
+    if (o.gather == 0 && !o.gather_flags_given.empty())
+        throw UsageError(o.gather_flags_given.front() + " needs the final gather (--gather N)");
+    if (o.unbiased && o.sampler != "random")
+        throw UsageError("--unbiased needs --sampler random: the correction carries one walk's light into the next, "
+                         "and consecutive " + o.sampler + " points are correlated");
 
     rb::scenes::Scene scene = o.builtin.empty() ? rb::scenes::load_scene(o.scene_file, o.patch_size)
                                                 : rb::scenes::make_builtin(o.builtin, o.patch_size);
@@ -393,6 +435,7 @@ int main(int argc, char** argv) {
     solve->add_option("-o,--output", o.exr, "linear EXR image")->capture_default_str();
     solve->add_option("--png", o.png, "sRGB PNG image (tone map: see --exposure)");
     solve->add_option("--exposure", o.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")
+        ->check(kFinite)
         ->capture_default_str();
     solve->add_option("--shading", o.shading, "image from the patch radiance: smooth | flat")->capture_default_str();
     solve->add_option("--iterations", o.iterations, "stochastic iteration steps, or walks for the walk methods")
@@ -403,6 +446,7 @@ int main(int argc, char** argv) {
     solve->add_option("--visibility", o.visibility, "visibility backend (see `raybundle backends`)")
         ->capture_default_str();
     solve->add_option("--seed", o.seed, "random seed; the same seed gives bit-identical output")
+        ->check(kDigits)
         ->capture_default_str();
     solve->add_option("--threads", o.threads, "threads: one visibility backend each, and the final gather (same result for any count)")
         ->capture_default_str()
@@ -436,15 +480,16 @@ int main(int argc, char** argv) {
     solve->add_option("--filter", o.filter, "final gather: filter for the indirect light: guided | bilateral | atrous | none")
         ->capture_default_str()
         ->check(CLI::IsMember({"guided", "bilateral", "atrous", "none"}));
-    solve->add_option("--filter-radius", o.filter_radius, "final gather: filter window radius in pixels")
+    solve->add_option("--filter-radius", o.filter_radius,
+                      "final gather: window radius in pixels of the guided and bilateral filters (A-Trous: 5 passes)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1024));
     solve->add_option("--eps-normal", o.eps_normal, "guided filter: regularisation of the normal channels")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveFinite);
     solve->add_option("--eps-depth", o.eps_depth, "guided filter: regularisation of the depth channel")
         ->capture_default_str()
-        ->check(CLI::PositiveNumber);
+        ->check(kPositiveFinite);
     solve->add_option("--aov", o.aov,
                       "final gather: also write direct, indirect, indirect-filtered, normal, depth EXRs into DIR");
     solve->add_option("--sampler", o.sampler, "walk directions: random | halton | sobol (randomised QMC)")
@@ -473,6 +518,9 @@ int main(int argc, char** argv) {
         std::cerr << "raybundle: error: " << e.what() << "\n";
         return kExitBadInput;
     }
+    for (const char* flag : {"--spp", "--aov", "--direct-samples", "--filter", "--filter-radius", "--eps-normal",
+                             "--eps-depth"})
+        if (solve->count(flag) > 0) o.gather_flags_given.emplace_back(flag);
 
     try {
         if (scenes_cmd->parsed()) {

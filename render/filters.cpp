@@ -1,5 +1,7 @@
 #include "render/filters.h"
 
+#include "scenes/threads.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -132,21 +134,10 @@ void parallel_rows(int rows, int threads, const Body& body) {
         body(0, rows);
         return;
     }
-    std::vector<std::exception_ptr> errors(n);
-    auto run = [&](int t) {
-        try {
-            body(static_cast<int>(static_cast<long long>(rows) * t / n),
-                 static_cast<int>(static_cast<long long>(rows) * (t + 1) / n));
-        } catch (...) {
-            errors[t] = std::current_exception();
-        }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < n; ++t) pool.emplace_back(run, t);
-    run(0);
-    for (auto& th : pool) th.join();
-    for (auto& e : errors)
-        if (e) std::rethrow_exception(e);
+    run_threads(n, [&](int t) {
+        body(static_cast<int>(static_cast<long long>(rows) * t / n),
+             static_cast<int>(static_cast<long long>(rows) * (t + 1) / n));
+    });
 }
 
 // ---------------------------------------------------------------- exact box sums

@@ -2,6 +2,7 @@
 
 #include "render/shade.h"
 #include "sampling/directions.h"
+#include "scenes/threads.h"
 #include "sampling/rng.h"
 #include "solver/brdf.h"
 
@@ -106,16 +107,9 @@ namespace {
 template <class F>
 void parallel_rows(int height, int threads, F&& body) {
     threads = std::max(1, std::min(threads, height));
-    if (threads == 1) {
-        for (int y = 0; y < height; ++y) body(y);
-        return;
-    }
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t)
-        pool.emplace_back([&, t]() {
-            for (int y = t; y < height; y += threads) body(y);
-        });
-    for (auto& th : pool) th.join();
+    run_threads(threads, [&](int t) {
+        for (int y = t; y < height; y += threads) body(y);
+    });
 }
 
 class Gatherer {
@@ -241,7 +235,11 @@ public:
             const Vec3 w = r * std::cos(phi) * u + r * std::sin(phi) * v + std::sqrt(std::max(0.0, 1.0 - u1)) * n;
             ++rays;
             const auto hit = caster_.intersect(from, w);
-            if (!hit.valid()) continue;
+            if (!hit.valid()) {
+                // Out into the open: the sky (light from direction w travels along -w).
+                if (scene_.sky) sum += scene_.sky->arriving_along(-w);
+                continue;
+            }
             const auto& q = patches_[hit.patch];
             if (q.normal.dot(w) >= 0.0) continue;  // the back of a patch sends nothing
             const auto& c = corners_[hit.patch];
@@ -261,6 +259,11 @@ private:
     std::vector<double> cdf_;
     std::vector<double> power_;  // per patch: the probability that light sampling picks it
 };
+
+// Random streams of the pixels, apart from the solver's (small stream numbers): the
+// guide sample of pixel p draws from kGuideStreams + p, its further samples from
+// kSampleStreams + p.
+constexpr std::uint64_t kGuideStreams = 1ull << 40, kSampleStreams = 2ull << 40;
 
 void put(Image& img, int x, int y, const Rgb& c) {
     float* p = img.at(x, y);
@@ -297,7 +300,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     parallel_rows(H, o.threads, [&](int y) {
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
-            sampling::Rng rng(o.seed, p);
+            sampling::Rng rng(o.seed, kGuideStreams + p);
             const Vec3 d = camera.direction(x + 0.5, y + 0.5);
             ++camera_rays[y];
             const auto hit = caster.intersect(camera.eye(), d);
@@ -339,7 +342,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                 sum = get(r.direct, x, y) + scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
             if (o.spp > 1) {
                 // The stream after the guide's numbers: its own, so the guide pass is unchanged.
-                sampling::Rng rng(o.seed ^ 0x5a5a5a5a5a5a5a5aull, p);
+                sampling::Rng rng(o.seed, kSampleStreams + p);
                 for (int s = 1; s < o.spp; ++s) {
                     const double fx = x + rng.uniform(), fy = y + rng.uniform();
                     const Vec3 d = camera.direction(fx, fy);

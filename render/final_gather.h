@@ -17,10 +17,12 @@
 //    centre, 003 section 3.2): `gather_rays` cosine-weighted rays; each hit gives the
 //    radiance the solved field reflects there (interpolated smoothly across the
 //    patch; its emission excluded, since direct light is counted above; nothing from
-//    the back of a patch). Their mean is the incident indirect radiance E (the
-//    cosine-weighted irradiance divided by pi), an image that the guided filter
-//    cleans with the guide sample's normal (3 channels) and depth (scaled to [0, 1] by
-//    the eye's distance to the far side of the scene's bounding sphere).
+//    the back of a patch; the sky's radiance where a ray leaves the scene, so that
+//    sky light counts here, gathered and filtered). Their mean is the incident
+//    indirect radiance E (the cosine-weighted irradiance divided by pi), an image
+//    that the guided filter cleans with the guide sample's normal (3 channels) and
+//    depth (scaled to [0, 1] by the eye's distance to the far side of the scene's
+//    bounding sphere).
 //  - Further samples of a pixel (spp > 1, uniform in the pixel) compute their own
 //    direct light and take E from the most similar of the four guide pixels around
 //    them: similarity s = s_n s_d with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2

@@ -66,7 +66,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
             const auto& q = patches[j];
             const std::array<Vec3, 3> tri = {pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]};
             // One-sided: the receiver must be (partly) in front of the emitter and see its front.
-            const double dist = (q.centroid - p.centroid).norm();
+            const double dist = std::max((q.centroid - p.centroid).norm(), 1e-9 * scene.bounds_radius());
             const int Ni = std::clamp(static_cast<int>(std::ceil(4.0 * edge_i / dist)), 1, 16);
             const double edge_j = longest_edge(tri[0], tri[1], tri[2]);
             const int Nj = std::clamp(static_cast<int>(std::ceil(2.0 * edge_j / dist)), 1, 4);

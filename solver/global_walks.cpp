@@ -51,6 +51,10 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
       sampler_(options.sampler, options.depth, options.seed),
       jitter_(options.seed, /*stream=*/0x717e4 + options.jitter_stream) {
     if (options.walks < 1) throw std::invalid_argument("walks must be >= 1, got " + std::to_string(options.walks));
+    if (options.unbiased && options.sampler != sampling::SamplerKind::random)
+        throw std::invalid_argument(std::string("--unbiased needs --sampler random: the correction carries one walk's "
+                                                "light into the next, and consecutive ") +
+                                    sampling::sampler_name(options.sampler) + " points are correlated");
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));

@@ -20,7 +20,10 @@
 // (4.3) the previous walk's estimate of its D-th bounce, T^D (Le + C), is added to
 // the emission C of the next walk's transfers, so that walk m estimates bounces up to
 // (m+1) D and the average converges to the full solution; only the first walks miss
-// their highest bounces (an energy defect that fades as 1/M).
+// their highest bounces (an energy defect that fades as 1/M). The correction needs
+// consecutive walks to be independent: random directions only (QMC walks are
+// refused, as for stochastic iteration; consecutive Sobol points biased the
+// homogeneous box by up to 17x).
 //
 // What is stored (skip what a scene does not need): in a purely diffuse scene the
 // combined table collapses to one running sum per bounce (D vectors instead of

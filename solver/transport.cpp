@@ -106,8 +106,10 @@ RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, con
     const double inv = count > 0 ? 1.0 / static_cast<double>(count) : 0.0;
     for (std::size_t i = 0; i < n_; ++i) {
         if (glossy_) {
-            const bool front = normal_[i].dot(to_eye[i]) > 0.0;
-            f.radiance[i] = (front ? displayed(i, to_eye[i]) : Rgb::Zero()) + sum[i] * inv;
+            // Emission leaves the front side only; a diffuse patch's radiance (its first
+            // shot included) does not depend on the direction at all.
+            const bool shown = !patch_glossy_[i] || normal_[i].dot(to_eye[i]) > 0.0;
+            f.radiance[i] = (shown ? displayed(i, to_eye[i]) : Rgb::Zero()) + sum[i] * inv;
         } else {
             f.radiance[i] = displayed(i, Vec3::Zero()) + reflect_[i] * sum[i] * inv;
         }

@@ -1,8 +1,8 @@
 #include "visibility/parallel.h"
 
+#include "scenes/threads.h"
+
 #include <algorithm>
-#include <exception>
-#include <thread>
 
 namespace raybundle::visibility {
 
@@ -27,20 +27,10 @@ void BackendSet::transfer_batch(const std::vector<Vec3>& directions, const std::
         return;
     }
     // Thread t takes the directions t, t + T, ...; the first runs here.
-    std::vector<std::exception_ptr> errors(T);
-    auto work = [&](std::size_t t) {
-        try {
-            for (std::size_t k = t; k < n; k += T) all_[t]->transfer(directions[k], jitters[k], out[k]);
-        } catch (...) {
-            errors[t] = std::current_exception();
-        }
-    };
-    std::vector<std::thread> pool;
-    for (std::size_t t = 1; t < T; ++t) pool.emplace_back(work, t);
-    work(0);
-    for (auto& th : pool) th.join();
-    for (const auto& e : errors)
-        if (e) std::rethrow_exception(e);
+    run_threads(static_cast<int>(T), [&](int t) {
+        for (std::size_t k = static_cast<std::size_t>(t); k < n; k += T)
+            all_[static_cast<std::size_t>(t)]->transfer(directions[k], jitters[k], out[k]);
+    });
 }
 
 }  // namespace raybundle::visibility

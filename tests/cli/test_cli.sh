@@ -82,6 +82,25 @@ expect_bad "linear basis with another backend" "--basis linear needs --visibilit
   solve good.json --basis linear --visibility raycast
 expect_bad "diffuse shot in a glossy scene" "--diffuse-shot supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
 expect_bad "linear basis with walks" "--basis linear works with --method iteration" solve good.json --basis linear --method walk
+expect_bad "negative seed" "--seed: '-1' is not a non-negative integer" solve good.json --seed -1
+expect_bad "exposure nan" "--exposure: 'nan' is not a finite number" solve good.json --exposure nan
+expect_bad "eps inf" "--eps-depth: 'inf' is not a finite number" solve good.json --gather 2 --eps-depth inf
+# Outputs that collide or are directories (expect_bad names every output itself).
+mkdir -p adir
+for case in "-o same.exr --png same.exr|-o and --png name the same file" "--stats adir|--stats adir: is a directory"; do
+  args=${case%%|*}
+  text=${case#*|}
+  # shellcheck disable=SC2086
+  "$bin" solve good.json $args >out.txt 2>err.txt
+  rc=$?
+  if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF -- "$text" err.txt && [ ! -e same.exr ]; then
+    passed=$((passed + 1))
+  else
+    fail "$args: exit $rc, $(cat err.txt)"
+  fi
+done
+expect_bad "filter without gather" "--filter needs the final gather" solve good.json --filter atrous
+expect_bad "unbiased QMC walks" "--unbiased needs --sampler random" solve good.json --method walk --unbiased --sampler sobol
 expect_bad "spp without gather" "--spp needs the final gather" solve good.json --spp 4
 expect_bad "unknown filter" "--filter" solve good.json --gather 4 --filter median
 expect_bad "aov not a directory" "--aov nowhere: not a directory" solve good.json --gather 4 --aov nowhere

@@ -240,3 +240,42 @@ TEST_CASE("final gather: guided <= bilateral and <= A-Trous, all far below unfil
         CHECK(atrous < 0.5 * unfiltered);
     }
 }
+
+TEST_CASE("final gather: the sky lights an open plane (rho L_sky)", "[render][gather][sky]") {
+    scenes::Scene s;
+    scenes::Material m;
+    m.name = "ground";
+    m.albedo = Rgb::Constant(0.5);
+    s.add_object({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, s.add_material(m));
+    s.finalize();
+    scenes::subdivide(s, 0.25);
+    scenes::Sky sky;
+    sky.radiance = Rgb(1.0, 2.0, 0.5);
+    sky.up = Vec3(0, 0, 1);
+    s.sky = sky;
+    s.camera.eye = Vec3(0, -0.5, 2);
+    s.camera.target = Vec3(0, 0, 0);
+    s.camera.up = Vec3(0, 0, 1);
+    s.camera.fov_y = 30;
+    s.camera.width = s.camera.height = 16;
+    const auto field = solve(s, 200);
+    const scenes::RayCaster caster(s);
+    const render::PinholeCamera camera(s.camera);
+    render::GatherOptions o;
+    o.gather_rays = 256;
+    o.filter = render::Filter::none;
+    const auto r = render::final_gather(s, caster, field, camera, o);
+    Rgb sum = Rgb::Zero();
+    int n = 0;
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) {
+            if (r.depth.at(x, y)[0] <= 0.0f) continue;
+            const float* p = r.image.at(x, y);
+            sum += Rgb(p[0], p[1], p[2]);
+            ++n;
+        }
+    REQUIRE(n > 200);
+    const Rgb mean = sum / n;
+    INFO("mean pixel " << mean.transpose());
+    for (int c = 0; c < 3; ++c) CHECK(mean[c] == Approx(0.5 * sky.radiance[c]).epsilon(0.02));
+}

@@ -238,3 +238,26 @@ TEST_CASE("diffuse shot: the same solution, less noise", "[solver][diffuse-shot]
     auto glossy = testing::glossy_box(0.34);
     CHECK_THROWS_WITH(solver::Transport(glossy, solver::ShotOptions{true}), Catch::Contains("diffuse scenes only"));
 }
+
+TEST_CASE("glossy scenes keep the first shot of diffuse patches that face away from the eye", "[solver][first-shot]") {
+    // A glossy panel faces the camera, a diffuse one faces away, lit by a point light
+    // on its side: its radiance (direction-independent) must not drop to zero.
+    scenes::Scene s;
+    scenes::Material glossy, matte;
+    glossy.name = "glossy";
+    glossy.albedo = Rgb::Constant(0.3);
+    glossy.specular = Rgb::Constant(0.3);
+    glossy.exponent = 20;
+    matte.name = "matte";
+    matte.albedo = Rgb::Constant(0.5);
+    const int g = s.add_material(glossy), d = s.add_material(matte);
+    s.add_object({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, g);    // faces +z
+    s.add_object({{-1, -1, -1}, {-1, 1, -1}, {1, 1, -1}, {1, -1, -1}}, {{{0, 1, 2}}, {{0, 2, 3}}}, d);  // faces -z
+    s.finalize();
+    s.camera.eye = Vec3(0, 0, 5);
+    s.point_lights.push_back({Vec3(0, 0, -2), Rgb::Constant(1.0)});
+    const solver::Transport t(s);
+    const auto field = t.field_from(std::vector<Rgb>(s.patch_count(), Rgb::Zero()), 1, t.directions_to_eye());
+    for (std::size_t i = 0; i < s.patch_count(); ++i)
+        if (s.patch_list()[i].material == d) CHECK(field.radiance[i][0] > 0.0);
+}

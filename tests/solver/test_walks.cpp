@@ -128,8 +128,8 @@ TEST_CASE("walks: memory per patch follows the method, and the same seed is bit-
     // Diffuse: the table collapses to D sums (D + 2 vectors), not D(D+1)/2 + 2.
     CHECK(bytes(WalkMethod::combined, false) == 7 * sizeof(scenes::Rgb));
 
-    const auto a = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true, sampling::SamplerKind::sobol);
-    const auto b = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true, sampling::SamplerKind::sobol);
+    const auto a = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true);
+    const auto b = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true);
     bool same = true;
     for (std::size_t i = 0; i < a.radiance.size(); ++i) same = same && (a.radiance[i] == b.radiance[i]).all();
     CHECK(same);
@@ -191,4 +191,16 @@ TEST_CASE("solvers: one backend per thread gives bit-identical results for any t
     solver::StochasticIteration single(transport, *backend, io);
     single.run();
     CHECK(same(single.field(), iterated[0]));
+}
+
+TEST_CASE("walks: --unbiased needs independent consecutive walks (random directions)", "[solver][walks]") {
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.5);
+    auto backend = visibility::make_backend("painter", scene, {});
+    const solver::Transport transport(scene);
+    solver::WalkOptions opt;
+    opt.unbiased = true;
+    for (auto s : {sampling::SamplerKind::halton, sampling::SamplerKind::sobol}) {
+        opt.sampler = s;
+        CHECK_THROWS_WITH(solver::GlobalWalks(transport, *backend, opt), Catch::Contains("--sampler random"));
+    }
 }
