@@ -78,7 +78,6 @@ public:
     Rgb displayed(std::size_t j, const Vec3& out) const {
         return diffuse_shot_ ? emission_[j] + emitted(j, out) : emitted(j, out);
     }
-    bool has_diffuse_shot() const { return diffuse_shot_; }
     // The same, without the emitted radiance of the patches themselves (first shot only).
     Rgb shot_reflected(std::size_t j, const Vec3& out) const;
     // 4 pi f_j(in, out) irr: the radiance leaving j towards `out` due to irradiance
@@ -86,8 +85,6 @@ public:
     Rgb reflected(std::size_t j, const Vec3& in, const Vec3& out, const Rgb& irr) const;
     // The diffuse 4 pi f = 4 albedo of patch j (what reflected() uses for diffuse patches).
     const Rgb& diffuse_reflectance(std::size_t j) const { return reflect_[j]; }
-    // Own emission only (front side).
-    const Rgb& own_emission(std::size_t j) const { return emission_[j]; }
 
     // Per patch, the unit direction from its centroid to the camera (glossy scenes
     // accumulate the radiance sent that way).
