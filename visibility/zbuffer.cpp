@@ -117,6 +117,7 @@ struct ZBufferBackend::Impl {
     GLsizei vertex_count = 0;
     std::vector<std::uint32_t> layer, next_layer;
     std::vector<std::uint64_t> pairs;
+    long directions = 0, layers = 0;  // drawn so far: the cost grows with the layers
 
     GLuint compile(GLenum type, const char* source) {
         const GLuint s = gl->CreateShader(type);
@@ -235,7 +236,14 @@ int ZBufferBackend::resolution() const { return impl_->resolution; }
 
 std::string ZBufferBackend::details() const {
     impl_->context->make_current();
-    return impl_->context->describe();
+    std::string d = impl_->context->describe();
+    if (impl_->directions > 0) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "; %.1f depth layers per direction",
+                      static_cast<double>(impl_->layers) / static_cast<double>(impl_->directions));
+        d += buf;
+    }
+    return d;
 }
 
 void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
@@ -285,6 +293,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
         gl.Finish();  // OSMesa fills buffers only after glFinish()
         GLuint any = 0;
         gl.GetQueryObjectuiv(s.query, GL_QUERY_RESULT, &any);
+        ++s.layers;
         if (!any) break;
         gl.ReadPixels(0, 0, W, W, GL_RED_INTEGER, GL_UNSIGNED_INT, s.next_layer.data());
         // A source in layer k - 1 right before a receiver in layer k.
@@ -296,6 +305,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
             }
         s.layer.swap(s.next_layer);
     }
+    ++s.directions;
     s.check("transfer");
     entries_from_pairs(s.pairs, pixel * pixel, out.entries);
 }
