@@ -190,19 +190,14 @@ int run_solve(const SolveOptions& o) {
     std::optional<rb::solver::StochasticIteration> iteration;
     std::optional<rb::solver::GlobalWalks> walks;
     std::optional<rb::solver::LinearIteration> linear;
+    rb::solver::IterationOptions sopt;
+    sopt.iterations = o.iterations;
+    sopt.seed = o.seed;
+    sopt.progress_every = o.csv_every;
+    sopt.bidirectional = o.bidirectional;
     if (o.basis == "linear") {
-        rb::solver::IterationOptions sopt;
-        sopt.iterations = o.iterations;
-        sopt.seed = o.seed;
-        sopt.progress_every = o.csv_every;
-        sopt.bidirectional = o.bidirectional;
         linear.emplace(transport, bopt, sopt);
     } else if (o.method == "iteration") {
-        rb::solver::IterationOptions sopt;
-        sopt.iterations = o.iterations;
-        sopt.seed = o.seed;
-        sopt.progress_every = o.csv_every;
-        sopt.bidirectional = o.bidirectional;
         iteration.emplace(transport, *backends, sopt);
     } else {
         rb::solver::WalkOptions wopt;

@@ -61,7 +61,7 @@ int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>
 }
 
 Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
-                      double depth_scale, double position_scale, const GatherOptions& o) {
+                      const Vec3& origin, double depth_scale, double position_scale, const GatherOptions& o) {
     if (o.filter == Filter::none) return indirect;
     if (o.filter == Filter::atrous) {
         Guide guide(indirect.width, indirect.height, 6);
@@ -70,9 +70,10 @@ Image filter_indirect(const Image& indirect, const Image& normal, const Image& d
                 float* g = guide.at(x, y);
                 const float* n = normal.at(x, y);
                 const float* p = position.at(x, y);
+                const bool hit = n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;  // background: all zero
                 for (int k = 0; k < 3; ++k) {
                     g[k] = n[k];
-                    g[3 + k] = static_cast<float>(p[k] * position_scale);
+                    g[3 + k] = hit ? static_cast<float>((p[k] - origin[k]) * position_scale) : 0.0f;
                 }
             }
         return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
@@ -321,13 +322,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
 
     // Pass 2: filter the incident indirect light.
     const double depth_scale = 1.0 / ((camera.eye() - scene.bounds_center()).norm() + scene.bounds_radius());
-    // Positions relative to the scene's centre, over the same scale as depth.
-    Image centred = r.position;
-    for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x)
-            if (guide_patch[static_cast<std::size_t>(y) * W + x] >= 0)
-                put(centred, x, y, get(r.position, x, y).matrix().cast<double>() - scene.bounds_center());
-    r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, centred, depth_scale, depth_scale, o);
+    // Positions (for A-Trous) relative to the scene's centre, over the same scale as depth.
+    r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, r.position, scene.bounds_center(),
+                                          depth_scale, depth_scale, o);
     const auto t2 = Clock::now();
 
     // Pass 3: compose; further samples look the indirect light up at the guides.

@@ -105,8 +105,10 @@ int most_similar_guide(const scenes::Vec3& normal, double depth, const std::vect
 
 // Filters the incident indirect image with the guide: normal and depth (scaled to
 // [0, 1] by depth_scale) for the guided and bilateral filters; normal and position
-// (scaled by position_scale) for A-Trous, which stops at edges in position.
+// (relative to `origin`, scaled by position_scale) for A-Trous, which stops at edges
+// in position. Background pixels have zero normal, depth and position.
 Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
-                      double depth_scale, double position_scale, const GatherOptions& options);
+                      const scenes::Vec3& origin, double depth_scale, double position_scale,
+                      const GatherOptions& options);
 
 }  // namespace raybundle::render
