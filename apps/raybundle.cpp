@@ -10,6 +10,7 @@
 #include "render/patch_io.h"
 #include "render/shade.h"
 #include "scenes/builtin.h"
+#include "scenes/diagnostics.h"
 #include "scenes/loader.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene_error.h"
@@ -45,7 +46,7 @@ struct SolveOptions {
     std::string png, stats, csv, patches_csv, ply;
     long iterations = 1000;
     int resolution = 0;
-    std::string visibility = "painter";
+    std::string visibility;  // empty: the default backend (the linear basis: its own painter)
     std::uint64_t seed = 1;
     int threads = 1;
     std::string shading = "smooth";
@@ -139,9 +140,9 @@ int run_solve(const SolveOptions& o) {
     if (o.basis == "linear") {
         if (o.method != "iteration")
             throw UsageError("--basis linear works with --method iteration (got --method " + o.method + ")");
-        if (o.visibility != "painter")
-            throw UsageError("--basis linear needs --visibility painter (the basis lives in its rasteriser; got " +
-                             o.visibility + ")");
+        if (!o.visibility.empty() && o.visibility != "painter")
+            throw UsageError("--basis linear uses the centre-sorted painter's radiance map (the basis lives in its "
+                             "rasteriser); got --visibility " + o.visibility);
     }
     if (o.sampler == "sobol" && o.depth > rb::sampling::WalkSampler::kMaxSobolDepth)
         throw UsageError("--depth " + std::to_string(o.depth) + ": the sobol sampler supports depths up to " +
@@ -171,6 +172,11 @@ int run_solve(const SolveOptions& o) {
     if (scene.dropped_degenerate > 0)
         std::cerr << "raybundle: warning: " << scene.name << ": dropped " << scene.dropped_degenerate
                   << " zero-area triangles\n";
+    const auto overlaps = rb::scenes::coplanar_overlaps(scene);
+    if (overlaps.pairs > 0)
+        std::cerr << "raybundle: warning: " << scene.name << ": " << overlaps.pairs
+                  << " pairs of coplanar overlapping patches face the same way (e.g. patches " << overlaps.first
+                  << " and " << overlaps.second << "): no visibility map can order them; the higher patch index is in front\n";
     const auto shading = rb::render::parse_shading(o.shading);
 
     rb::visibility::BackendOptions bopt;
@@ -181,7 +187,8 @@ int run_solve(const SolveOptions& o) {
     // side, the light moves along them in order (results identical for any --threads).
     std::unique_ptr<rb::visibility::BackendSet> backends;
     if (o.basis == "constant")
-        backends = std::make_unique<rb::visibility::BackendSet>(o.visibility, scene, bopt, o.threads);
+        backends = std::make_unique<rb::visibility::BackendSet>(
+            o.visibility.empty() ? rb::visibility::kDefaultBackend : o.visibility, scene, bopt, o.threads);
     rb::visibility::Backend* backend = backends ? &backends->front() : nullptr;
 
     // The first shot (point lights) happens here, once, before any direction.
@@ -329,11 +336,13 @@ int run_solve(const SolveOptions& o) {
         {"scene", scene.name},
         {"patches", scene.patch_count()},
         {"dropped_degenerate_triangles", scene.dropped_degenerate},
+        {"coplanar_overlaps", overlaps.pairs},
         {"method", o.method},
         {"iterations", st.steps},
         {"directions", st.directions},
         {"visibility", backend ? backend->name() : "painter"},
-        {"visibility_details", backend ? backend->details() : "Gouraud radiance map (--basis linear)"},
+        {"visibility_details", backend ? backend->details() : "centre-sorted Gouraud radiance map (--basis linear)"},
+        {"visibility_exact", backend ? rb::visibility::backend_info(backend->name()).exact : false},
         {"resolution", backend ? backend->resolution() : linear->resolution()},
         {"basis", o.basis},
         {"seed", o.seed},
@@ -364,7 +373,7 @@ int run_solve(const SolveOptions& o) {
                                                 " shadow rays: direct light computed once, the emission moves no more"
                                           : std::string("off (--diffuse-shot computes the area lights' direct light once)")},
           {"threads", "visibility: " + std::to_string(backends ? backends->threads() : 1) +
-                          (backends && backends->threads() < o.threads ? " (the zbuffer backend has one context)" : "") +
+                          (backends && backends->threads() < o.threads ? " (this backend runs one at a time)" : "") +
                           " (one backend each; the light moves in order, so any count gives the same result)" +
                           (o.gather > 0 ? "; final gather and filters: " + std::to_string(o.threads) : "")}}},
     };
@@ -438,8 +447,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1L, 1000000000L));
     solve->add_option("--resolution", o.resolution, "visibility map pixels per side (default: from the scene)")
         ->check(CLI::Range(1, 16384));
-    solve->add_option("--visibility", o.visibility, "visibility backend (see `raybundle backends`)")
-        ->capture_default_str();
+    solve->add_option("--visibility", o.visibility,
+                      std::string("visibility backend (see `raybundle backends`; default: ") +
+                          rb::visibility::kDefaultBackend + ")");
     solve->add_option("--seed", o.seed, "random seed; the same seed gives bit-identical output")
         ->check(kDigits)
         ->capture_default_str();
@@ -525,7 +535,8 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (backends_cmd->parsed()) {
-            for (const auto& n : rb::visibility::backend_names()) std::printf("%s\n", n.c_str());
+            for (const auto& b : rb::visibility::backend_infos())
+                std::printf("%-15s %-11s %s\n", b.name.c_str(), b.exact ? "exact" : "approximate", b.summary.c_str());
             return 0;
         }
         return run_solve(o);

@@ -30,7 +30,7 @@ namespace {
 solver::RadianceField solve(const scenes::Scene& scene, long steps, double& seconds) {
     const auto t0 = Clock::now();
     const solver::Transport transport(scene, solver::ShotOptions{true});
-    auto backend = visibility::make_backend("painter", scene, {});
+    auto backend = visibility::make_backend(visibility::kDefaultBackend, scene, {});
     solver::IterationOptions opt;
     opt.iterations = steps;
     opt.seed = 99;

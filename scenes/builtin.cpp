@@ -170,12 +170,18 @@ void add_block(Scene& s, const Vec3 base[4], double height, int material) {
     s.add_object(v, tris, material);
 }
 
-// The Cornell box (the Cornell program of computer graphics' measured geometry,
-// in millimetres) with the usual RGB approximations of its materials. The ceiling
-// is one welded 3x3 grid whose centre cell is the light, so nothing overlaps.
-Scene cornell_box() {
+// The Cornell box (the Cornell program of computer graphics' measured geometry, in
+// millimetres) with the usual RGB approximations of its materials.
+//
+// By default modelled as people model it: one full floor quad with the two blocks
+// standing on it, one full ceiling quad with the light panel hanging 0.1 mm below it.
+// Surfaces touch or nearly touch, so sorting patches by their centres (the painter)
+// goes wrong there; the exact backends do not. `cut`: the version cut to fit the
+// painter, with the floor cut around the blocks' footprints and the light set into
+// the ceiling (a welded 3 x 3 grid whose centre cell is the light), so nothing overlaps.
+Scene cornell_box(bool cut) {
     Scene s;
-    s.name = "cornell-box";
+    s.name = cut ? "cornell-box-cut" : "cornell-box";
     const int white = s.add_material(make_material("white", Rgb(0.725, 0.71, 0.68)));
     const int red = s.add_material(make_material("red", Rgb(0.63, 0.065, 0.05)));
     const int green = s.add_material(make_material("green", Rgb(0.14, 0.45, 0.091)));
@@ -190,35 +196,47 @@ Scene cornell_box() {
     add_quad(s, right, green, inside);
     add_quad(s, left, red, inside);
 
-    // Ceiling: grid lines at the light's edges.
     const double xs[4] = {0, 213, 343, 556}, zs[4] = {0, 227, 332, 559.2};
-    std::vector<Vec3> cv;
-    for (double z : zs)
-        for (double x : xs) cv.emplace_back(x, 548.8, z);
-    std::vector<std::array<int, 3>> ct;
-    std::vector<int> cm;
-    for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) {
-            const int a = j * 4 + i, b = a + 1, c = a + 5, d = a + 4;
-            // Counter-clockwise seen from below (normal -y).
-            ct.push_back({a, b, c});
-            ct.push_back({a, c, d});
-            const int m = (i == 1 && j == 1) ? light : white;
-            cm.push_back(m);
-            cm.push_back(m);
-        }
-    if ((cv[ct[0][1]] - cv[ct[0][0]]).cross(cv[ct[0][2]] - cv[ct[0][0]]).y() > 0)
-        for (auto& t : ct) std::swap(t[1], t[2]);
-    s.add_object(cv, ct, cm);
+    if (cut) {
+        // Ceiling: grid lines at the light's edges.
+        std::vector<Vec3> cv;
+        for (double z : zs)
+            for (double x : xs) cv.emplace_back(x, 548.8, z);
+        std::vector<std::array<int, 3>> ct;
+        std::vector<int> cm;
+        for (int j = 0; j < 3; ++j)
+            for (int i = 0; i < 3; ++i) {
+                const int a = j * 4 + i, b = a + 1, c = a + 5, d = a + 4;
+                // Counter-clockwise seen from below (normal -y).
+                ct.push_back({a, b, c});
+                ct.push_back({a, c, d});
+                const int m = (i == 1 && j == 1) ? light : white;
+                cm.push_back(m);
+                cm.push_back(m);
+            }
+        if ((cv[ct[0][1]] - cv[ct[0][0]]).cross(cv[ct[0][2]] - cv[ct[0][0]]).y() > 0)
+            for (auto& t : ct) std::swap(t[1], t[2]);
+        s.add_object(cv, ct, cm);
+    } else {
+        const Vec3 ceiling[4] = {{xs[0], 548.8, zs[0]}, {xs[3], 548.8, zs[0]}, {xs[3], 548.8, zs[3]},
+                                 {xs[0], 548.8, zs[3]}};
+        const Vec3 panel[4] = {{xs[1], 548.7, zs[1]}, {xs[2], 548.7, zs[1]}, {xs[2], 548.7, zs[2]},
+                               {xs[1], 548.7, zs[2]}};
+        add_quad(s, ceiling, white, inside);
+        add_quad(s, panel, light, inside);
+    }
 
     const Vec3 short_block[4] = {{130, 0, 65}, {82, 0, 225}, {240, 0, 272}, {290, 0, 114}};
     const Vec3 tall_block[4] = {{423, 0, 247}, {265, 0, 296}, {314, 0, 456}, {472, 0, 406}};
     add_block(s, short_block, 165, white);
     add_block(s, tall_block, 330, white);
-    add_floor(s, floor_,
-              {{short_block[0], short_block[1], short_block[2], short_block[3]},
-               {tall_block[0], tall_block[1], tall_block[2], tall_block[3]}},
-              white, inside);
+    if (cut)
+        add_floor(s, floor_,
+                  {{short_block[0], short_block[1], short_block[2], short_block[3]},
+                   {tall_block[0], tall_block[1], tall_block[2], tall_block[3]}},
+                  white, inside);
+    else
+        add_quad(s, floor_, white, inside);
 
     s.camera.eye = Vec3(278, 273, -800);
     s.camera.target = Vec3(278, 273, 0);
@@ -324,7 +342,8 @@ void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& tow
 std::vector<BuiltinInfo> builtin_scenes() {
     return {
         {"homogeneous-box", "unit cube, albedo 0.5 and emission 0.5 everywhere: exact radiance 1", 0.2},
-        {"cornell-box", "the Cornell box (mm), white/red/green walls, two blocks, area light", 53.0},
+        {"cornell-box", "the Cornell box (mm) modelled as usual: blocks on a full floor, light panel under a full ceiling", 53.0},
+        {"cornell-box-cut", "the Cornell box cut to fit the painter: floor cut around the blocks, light set into the ceiling", 53.0},
         {"fractal-terrain", "a 16 km fractal mountain range under an emissive square 'moon' (m)", 265.0},
     };
 }
@@ -343,8 +362,8 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
     }
     if (name == "homogeneous-box") {
         s = homogeneous_box();
-    } else if (name == "cornell-box") {
-        s = cornell_box();
+    } else if (name == "cornell-box" || name == "cornell-box-cut") {
+        s = cornell_box(name == "cornell-box-cut");
     } else {
         std::string known;
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;

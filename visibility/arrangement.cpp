@@ -315,13 +315,13 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
             const std::uint32_t i = set[k];
             depth[k] = (s.plane[i] - s.normals[i].dot(m)) / s.normals[i].dot(w);
         }
-        // By depth; coincident patches (up to rounding) receivers first: a two-sided
-        // panel does not leak.
+        // By depth; coincident patches (up to rounding) ordered as in every backend: a
+        // two-sided panel does not leak.
         std::vector<std::size_t> idx(set.size());
         for (std::size_t k = 0; k < idx.size(); ++k) idx[k] = k;
         std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return depth[a] < depth[b]; });
-        receivers_first_at_ties(idx.begin(), idx.end(), 1e-9 * s.extent, [&](std::size_t k) { return depth[k]; },
-                                [&](std::size_t k) { return s.normals[set[k]].dot(w) > 0.0; });
+        order_ties(idx.begin(), idx.end(), 1e-9 * s.extent, [&](std::size_t k) { return depth[k]; },
+                   [&](std::size_t k) { return s.normals[set[k]].dot(w) > 0.0; }, [&](std::size_t k) { return set[k]; });
         for (std::size_t k = 0; k + 1 < idx.size(); ++k) {
             const std::uint32_t a = set[idx[k]], b = set[idx[k + 1]];
             if (s.normals[a].dot(w) > 0.0 && s.normals[b].dot(w) < 0.0) {

@@ -36,7 +36,7 @@ struct TransferEntry {
 
 struct GeometryMatrix {
     Vec3 direction = Vec3::Zero();
-    std::vector<TransferEntry> entries;  // grouped by receiver, each (receiver, source) once
+    std::vector<TransferEntry> entries;  // each (receiver, source) once, in no particular order
 };
 
 struct BackendOptions {
@@ -60,13 +60,31 @@ public:
     virtual void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) = 0;
 };
 
-// Makes a backend by name: "painter", "global-zbuffer", "raycast". Throws std::invalid_argument for an unknown
-// name, listing the known ones.
+// What a backend can do: one row per backend this build has, the default first.
+struct BackendInfo {
+    std::string name;
+    // Every receiver paired with the surface really in front of it along w at each
+    // pixel centre (or exactly, without pixels), whatever the patches' sizes, contacts
+    // or overlaps. The centre-sorted painter is not: it orders whole patches.
+    bool exact;
+    bool discrete;          // a pixel map: BackendOptions::resolution and jitter apply
+    bool sky;               // can emit sky entries (BackendOptions::sky)
+    bool side_by_side;      // one object per thread may run at once (not: one OpenGL context)
+    std::string summary;    // one line for `raybundle backends`
+};
+const std::vector<BackendInfo>& backend_infos();
+// The row of a backend; throws std::invalid_argument for an unknown name, listing the known ones.
+const BackendInfo& backend_info(const std::string& name);
+// The names make_backend knows, the default first.
+std::vector<std::string> backend_names();
+// The backend used when none is named: exact, and the fastest of those.
+inline const char* const kDefaultBackend = "exact-painter";
+
+// Makes a backend by name (see backend_infos()). Throws std::invalid_argument for an
+// unknown name (listing the known ones), a backend this build lacks, or options it
+// does not support.
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options);
-
-// The names make_backend knows.
-std::vector<std::string> backend_names();
 
 // The default map resolution for a scene: a small patch (the 10th percentile of
 // patch areas) covers about 16 pixels when seen face-on; clamped to [64, 2048].

@@ -1,5 +1,6 @@
 #include "visibility/backend.h"
 #include "visibility/arrangement.h"
+#include "visibility/exact_painter.h"
 #include "visibility/global_zbuffer.h"
 #include "visibility/painter.h"
 #include "visibility/raycast.h"
@@ -13,45 +14,65 @@
 
 namespace raybundle::visibility {
 
-std::vector<std::string> backend_names() {
-    return {"painter", "global-zbuffer", "raycast",
+const std::vector<BackendInfo>& backend_infos() {
+    static const std::vector<BackendInfo> infos = {
+        {"exact-painter", true, true, true, true,
+         "painter's order with exact depths per pixel, misordered pixels repaired (default)"},
+        {"painter", false, true, true, true, "global painter's algorithm, patches sorted by centre (004 5.1.3; approximate)"},
+        {"global-zbuffer", true, true, true, true, "per-pixel fragment lists sorted by exact depth (004 5.1.5)"},
+        {"raycast", true, true, true, true, "one Embree ray per pixel, all crossings in order"},
 #ifdef RAYBUNDLE_HAVE_OPENGL
-            "zbuffer",
+        {"zbuffer", false, true, false, false,
+         "OpenGL depth peeling (004 5.1.4); float depths: surfaces closer than ~1e-4 may swap, coincident ones merge"},
 #endif
 #ifdef RAYBUNDLE_HAVE_CGAL
-            "arrangement"
+        {"arrangement", true, false, true, true, "CGAL planar arrangement: exact areas, no pixels (004 5.1.2)"},
 #endif
     };
+    return infos;
+}
+
+std::vector<std::string> backend_names() {
+    std::vector<std::string> names;
+    for (const auto& info : backend_infos()) names.push_back(info.name);
+    return names;
+}
+
+const BackendInfo& backend_info(const std::string& name) {
+    for (const auto& info : backend_infos())
+        if (info.name == name) return info;
+    std::string known;
+    for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
+    if (name == "zbuffer" || name == "arrangement")
+        throw std::invalid_argument("visibility backend '" + name + "' is not built (configure with " +
+                                    (name == "zbuffer" ? "RAYBUNDLE_WITH_OPENGL" : "RAYBUNDLE_WITH_CGAL") +
+                                    "=ON; built: " + known + ")");
+    throw std::invalid_argument("unknown visibility backend '" + name + "' (known: " + known + ")");
 }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options) {
+    const BackendInfo& info = backend_info(name);
     if (options.resolution < 0 || options.resolution > 16384)
         throw std::invalid_argument("visibility resolution must be in 1..16384, got " +
                                     std::to_string(options.resolution));
+    if (options.sky && !info.sky) {
+        std::string with_sky;
+        for (const auto& i : backend_infos())
+            if (i.sky) with_sky += (with_sky.empty() ? "" : ", ") + i.name;
+        throw std::invalid_argument("visibility backend '" + name + "' does not support a sky (use " + with_sky + ")");
+    }
+    if (name == "exact-painter") return std::make_unique<ExactPainterBackend>(scene, options);
     if (name == "painter") return std::make_unique<PainterBackend>(scene, options);
     if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options);
     if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
-    if (name == "zbuffer") {
 #ifdef RAYBUNDLE_HAVE_OPENGL
-        if (options.sky)
-            throw std::invalid_argument("visibility backend 'zbuffer' does not support a sky (use painter, "
-                                        "global-zbuffer, raycast or arrangement)");
-        return std::make_unique<ZBufferBackend>(scene, options);
-#else
-        throw std::invalid_argument("visibility backend 'zbuffer' is not built (configure with RAYBUNDLE_WITH_OPENGL=ON)");
+    if (name == "zbuffer") return std::make_unique<ZBufferBackend>(scene, options);
 #endif
-    }
-    if (name == "arrangement") {
 #ifdef RAYBUNDLE_HAVE_CGAL
-        return std::make_unique<ArrangementBackend>(scene, options.sky);
-#else
-        throw std::invalid_argument("visibility backend 'arrangement' is not built (configure with RAYBUNDLE_WITH_CGAL=ON)");
+    if (name == "arrangement") return std::make_unique<ArrangementBackend>(scene, options.sky);
 #endif
-    }
-    std::string known;
-    for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
-    throw std::invalid_argument("unknown visibility backend '" + name + "' (known: " + known + ")");
+    throw std::logic_error("backend '" + name + "' is in the table but not in the factory");
 }
 
 int default_resolution(const scenes::Scene& scene) {

@@ -69,14 +69,14 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
         Fragment* first = fragments_.data() + offsets_[p];
         Fragment* last = fragments_.data() + offsets_[p + 1];
         if (last - first < (sky_ ? 1 : 2)) continue;
-        // Insertion sort; at equal depth receivers first (a two-sided panel does not leak).
+        // Insertion sort by depth; then ties ordered as in every backend.
         auto before = [](const Fragment& a, const Fragment& b) {
             return a.depth < b.depth || (a.depth == b.depth && !a.source && b.source);
         };
         for (Fragment* f = first + 1; f < last; ++f)
             for (Fragment* g = f; g > first && before(*g, g[-1]); --g) std::swap(*g, g[-1]);
-        receivers_first_at_ties(first, last, tie, [](const Fragment& f) { return f.depth; },
-                                [](const Fragment& f) { return f.source; });
+        order_ties(first, last, tie, [](const Fragment& f) { return f.depth; },
+                   [](const Fragment& f) { return f.source; }, [](const Fragment& f) { return f.patch; });
         for (Fragment* f = first; f + 1 < last; ++f)
             if (f[0].source && !f[1].source)
                 pairs_.push_back(pixel_pair(f[1].patch, f[0].patch));

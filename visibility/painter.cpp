@@ -1,5 +1,6 @@
 #include "visibility/painter.h"
 
+#include "visibility/centre_sort.h"
 #include "visibility/raster.h"
 
 #include <algorithm>
@@ -9,26 +10,6 @@
 namespace raybundle::visibility {
 
 namespace {
-
-// Stable LSD radix sort of 64-bit keys by their top 33 bits (bits 31..63), in three
-// passes of 11 bits. Keys equal in those bits keep their order.
-void radix_sort_top33(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
-    constexpr int kBits = 11, kBuckets = 1 << kBits;
-    scratch.resize(keys.size());
-    std::uint32_t count[kBuckets];
-    for (int shift = 31; shift < 64; shift += kBits) {
-        std::fill(count, count + kBuckets, 0u);
-        for (const std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
-        std::uint32_t sum = 0;
-        for (auto& c : count) {
-            const std::uint32_t here = c;
-            c = sum;
-            sum += here;
-        }
-        for (const std::uint64_t k : keys) scratch[count[(k >> shift) & (kBuckets - 1)]++] = k;
-        keys.swap(scratch);
-    }
-}
 
 // Sets row[0, n) to v. Runs are short (a few pixels), so instead of a loop with a
 // data-dependent trip count: two overlapping fixed-width stores cover 4..16 pixels.
@@ -43,23 +24,6 @@ inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
     } else {
         for (int i = 0; i < n; ++i) row[i] = v;
     }
-}
-
-// Sort keys along w, upstream first: the centre's depth quantised to 32 bits, then
-// "is a source" (receivers first at equal depth), then the patch index.
-void sort_along(const Vec3& w, const std::vector<Vec3>& normals, const std::vector<Vec3>& centroids,
-                const Vec3& center, double radius, std::vector<std::uint64_t>& keys,
-                std::vector<std::uint64_t>& scratch) {
-    const std::size_t n = normals.size();
-    keys.resize(n);
-    const double depth_scale = 0.5 * 4294967295.0 / radius;
-    for (std::size_t i = 0; i < n; ++i) {
-        const double depth = w.dot(centroids[i] - center);
-        const double q = std::clamp((depth + radius) * depth_scale, 0.0, 4294967295.0);
-        const std::uint64_t source = normals[i].dot(w) > 0.0 ? 1 : 0;
-        keys[i] = (static_cast<std::uint64_t>(q) << 32) | (source << 31) | i;
-    }
-    radix_sort_top33(keys, scratch);
 }
 
 }  // namespace
@@ -83,24 +47,20 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     const Vec3 center = grid_.center();
     const double radius = grid_.radius();
 
-    // Sort along w: upstream (where the light comes from) first. The key is the centre's
-    // depth from the scene's centre quantised to 32 bits over the bounding sphere's
-    // diameter, then "is a source", then the patch index: at equal depth receivers go
-    // first, so a two-sided panel of two coincident opposite triangles does not leak.
-    // A stable LSD radix sort on the top 33 bits keeps equal keys in index order.
+    // Upstream (where the light comes from) first, by the patches' centres.
     const std::size_t n = normals_.size();
     side_.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double facing = normals_[i].dot(direction);
         side_[i] = facing > 0.0 ? 1 : (facing < 0.0 ? -1 : 0);
     }
-    sort_along(direction, normals_, centroids_, center, radius, keys_, scratch_);
+    sort_by_centre(direction, normals_, centroids_, center, radius, keys_, scratch_);
 
     const auto open_sky = static_cast<std::int32_t>(n);
     map_.assign(static_cast<std::size_t>(W) * W, sky_ ? open_sky : -1);
     std::int32_t* map = map_.data();
     for (const std::uint64_t key : keys_) {
-        const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
+        const std::uint32_t i = sorted_patch(key);
         const int side = side_[i];
         double X[3], Y[3];
         grid_.triangle(i, X, Y);
@@ -176,13 +136,13 @@ void GouraudPainter::transfer(const Vec3& w, const Eigen::Vector2d& jitter, cons
     grid_.project(w, jitter);
     const int W = grid_.width();
     const std::size_t n = normals_.size();
-    sort_along(w, normals_, centroids_, grid_.center(), grid_.radius(), keys_, scratch_);
+    sort_by_centre(w, normals_, centroids_, grid_.center(), grid_.radius(), keys_, scratch_);
     map_.assign(static_cast<std::size_t>(W) * W, sky);
     corner_in.assign(3 * n, Rgb::Zero());
     const double S = kSubpixel, H = 0.5 * kSubpixel;
     const double pixel_area = grid_.pixel_area();
     for (const std::uint64_t key : keys_) {
-        const auto i = static_cast<std::uint32_t>(key & 0x7FFFFFFFu);
+        const std::uint32_t i = sorted_patch(key);
         const double facing = normals_[i].dot(w);
         double X[3], Y[3];
         grid_.triangle(i, X, Y);

@@ -8,7 +8,7 @@ namespace raybundle::visibility {
 
 BackendSet::BackendSet(const std::string& name, const scenes::Scene& scene, const BackendOptions& options,
                        int threads) {
-    const int n = name == "zbuffer" ? 1 : std::max(1, threads);
+    const int n = backend_info(name).side_by_side ? std::max(1, threads) : 1;
     for (int k = 0; k < n; ++k) {
         owned_.push_back(make_backend(name, scene, options));
         all_.push_back(owned_.back().get());

@@ -16,14 +16,23 @@ inline std::uint64_t pixel_pair(std::uint32_t receiver, std::uint32_t source) {
 
 // After sorting the surfaces along one ray (or over one face) by depth: runs of
 // surfaces at the same place up to rounding (consecutive depths within tolerance) are
-// put receivers first, as the exact order requires. Two opposite triangles at the same
-// place (a two-sided panel) then never let light through, however their depths round.
-template <class It, class Depth, class IsSource>
-void receivers_first_at_ties(It first, It last, double tolerance, Depth depth, IsSource is_source) {
+// ordered as every backend orders ties: receivers first, so that two opposite
+// triangles at the same place (a two-sided panel) never let light through, however
+// their depths round; then, of two patches facing the same way (coplanar overlapping
+// patches), the one with the higher index in front as seen from the side they face:
+// upstream among receivers, downstream among sources. So one patch of such a pair
+// both receives and sends the light there.
+template <class It, class Depth, class IsSource, class Index>
+void order_ties(It first, It last, double tolerance, Depth depth, IsSource is_source, Index index) {
     for (It a = first; a != last;) {
         It b = a + 1;
         while (b != last && depth(*b) - depth(*(b - 1)) <= tolerance) ++b;
-        if (b - a > 1) std::stable_partition(a, b, [&](const auto& x) { return !is_source(x); });
+        if (b - a > 1)
+            std::sort(a, b, [&](const auto& x, const auto& y) {
+                const bool sx = is_source(x), sy = is_source(y);
+                if (sx != sy) return sy;
+                return sx ? index(x) < index(y) : index(x) > index(y);
+            });
         a = b;
     }
 }

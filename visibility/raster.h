@@ -51,7 +51,11 @@ struct EdgeStep {
 // (x + 1/2, y + 1/2) inside the triangle and in the window's columns [wx0, wx1) form
 // the non-empty run [x_begin, x_end). X, Y: vertex positions in sub-pixel units
 // (integers stored in doubles, |value| < 2^24).
+// (Always inlined: the exact painter's kernels inline it into code compiled for AVX2.)
 template <class Span>
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((always_inline))
+#endif
 inline void rasterize_triangle(const double Xd[3], const double Yd[3], int wx0, int wx1, int wy0, int wy1,
                                Span&& span) {
     constexpr std::int64_t S = static_cast<std::int64_t>(kSubpixel), H = S / 2;

@@ -27,10 +27,11 @@ void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
             if ((q - center).squaredNorm() > R * R) continue;  // misses the bounding sphere
             // From upstream of the whole scene to downstream of it.
             caster_.all_hits(q - 1.01 * R * w, w, hits_, 0.0, 2.02 * R);
-            // At equal distance (up to Embree's float precision) receivers first, as in
-            // the other backends: a two-sided panel does not leak.
-            receivers_first_at_ties(hits_.begin(), hits_.end(), 1e-6 * R, [](const scenes::RayHit& h) { return h.t; },
-                                    [&](const scenes::RayHit& h) { return normals_[h.patch].dot(w) > 0.0; });
+            // At equal distance (up to Embree's float precision) ties are ordered as in the
+            // other backends: a two-sided panel does not leak.
+            order_ties(hits_.begin(), hits_.end(), 1e-6 * R, [](const scenes::RayHit& h) { return h.t; },
+                       [&](const scenes::RayHit& h) { return normals_[h.patch].dot(w) > 0.0; },
+                       [](const scenes::RayHit& h) { return h.patch; });
             for (std::size_t k = 0; k + 1 < hits_.size(); ++k) {
                 const auto& a = hits_[k];
                 const auto& b = hits_[k + 1];

@@ -179,7 +179,7 @@ TEST_CASE("a two-sided panel of coincident opposite triangles does not leak ligh
 TEST_CASE("unknown backend names list the known ones", "[visibility]") {
     const auto scene = scenes::make_builtin("homogeneous-box");
     REQUIRE_THROWS_WITH(visibility::make_backend("zbufer", scene, {}),
-                        Catch::Matchers::Contains("unknown visibility backend 'zbufer' (known: painter"));
+                        Catch::Matchers::Contains("unknown visibility backend 'zbufer' (known: exact-painter, painter"));
 }
 
 TEST_CASE("the default resolution gives a small patch about 16 pixels", "[visibility]") {
