@@ -7,19 +7,19 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bench=${1:-build}/bench/bench_visibility
-backends=$("${1:-build}"/apps/raybundle backends)
+backends=$("${1:-build}"/apps/raybundle backends | awk '{print $1}')
+header="backend,scene,patches,resolution,directions,repeat,seconds_per_direction,seconds_median,ratio_to_first,entries_per_direction"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 # Directions per measurement: enough for a stable mean, few for the slow backends.
 directions() {
   case $1 in
-    painter) echo 50 ;; global-zbuffer) echo 10 ;; zbuffer) echo 5 ;; raycast) echo 3 ;; *) echo 1 ;;
+    exact-painter|painter) echo 50 ;; global-zbuffer) echo 10 ;; zbuffer) echo 5 ;; raycast) echo 3 ;; *) echo 1 ;;
   esac
 }
 
-echo "backend,scene,patches,resolution,directions,seconds_per_direction,entries_per_direction" \
-  > docs/bench-backends-patches.csv
+echo "$header" > docs/bench-backends-patches.csv
 for b in $backends; do
   "$bench" --backend "$b" --scene cornell-box --patch-size 100 53 25 12.5 9 --resolution 512 \
     --directions "$(directions "$b")" --csv "$tmp/c.csv" > /dev/null
@@ -29,8 +29,7 @@ for b in $backends; do
   tail -n +2 "$tmp/t.csv" >> docs/bench-backends-patches.csv
 done
 
-echo "backend,scene,patches,resolution,directions,seconds_per_direction,entries_per_direction" \
-  > docs/bench-backends-resolution.csv
+echo "$header" > docs/bench-backends-resolution.csv
 for b in $backends; do
   [ "$b" = arrangement ] && continue  # continuous: no resolution
   "$bench" --backend "$b" --scene cornell-box --resolution 128 256 512 1024 2048 \

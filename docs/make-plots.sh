@@ -19,11 +19,11 @@ set xlabel "patches"
 set ylabel "ms per direction"
 set key left top
 set grid
-backends = "painter global-zbuffer zbuffer raycast arrangement"
+backends = "exact-painter painter global-zbuffer zbuffer raycast arrangement"
 plot for [b in backends] "< awk -F, -v b=".b." '$1==b && $2==\"cornell-box\"' bench-backends-patches.csv" \
-       using 3:($6*1000) with linespoints lw 2 title b." (Cornell)", \
+       using 3:($7*1000) with linespoints lw 2 title b." (Cornell)", \
      for [b in backends] "< awk -F, -v b=".b." '$1==b && $2==\"fractal-terrain\"' bench-backends-patches.csv" \
-       using 3:($6*1000) with linespoints dt 2 title b." (terrain)"
+       using 3:($7*1000) with linespoints dt 2 title b." (terrain)"
 GP
 fi
 
@@ -38,9 +38,30 @@ set xlabel "resolution (pixels per side)"
 set ylabel "ms per direction"
 set key left top
 set grid
-backends = "painter global-zbuffer zbuffer raycast"
+backends = "exact-painter painter global-zbuffer zbuffer raycast"
 plot for [b in backends] "< awk -F, -v b=".b." '$1==b' bench-backends-resolution.csv" \
-       using 4:($6*1000) with linespoints lw 2 title b
+       using 4:($7*1000) with linespoints lw 2 title b
+GP
+fi
+
+if [ -f bench-exact-patches.csv ]; then
+gnuplot <<'GP'
+set datafile separator ","
+set terminal png size 1200,500 font ",11"
+set output "bench-exact.png"
+set multiplot layout 1,2 title "The exact painter against the painter and the global z-buffer (Cornell box, one thread, fastest of 7 interleaved rounds)"
+set logscale xy
+set ylabel "ms per direction"
+set key left top
+set grid
+backends = "exact-painter painter global-zbuffer"
+set title "vs patch count (512^2)"
+set xlabel "patches"
+plot for [b in backends] "< awk -F, -v b=".b." '$1==b' bench-exact-patches.csv" using 3:($7*1000) with linespoints lw 2 title b
+set title "vs map resolution (3,352 patches)"
+set xlabel "resolution (pixels per side)"
+plot for [b in backends] "< awk -F, -v b=".b." '$1==b' bench-exact-resolution.csv" using 4:($7*1000) with linespoints lw 2 title b
+unset multiplot
 GP
 fi
 
