@@ -117,6 +117,19 @@ else
   fail "missing output directory: exit $rc, $(cat err.txt)"
 fi
 
+# Coplanar overlapping patches facing the same way: one warning line with the count, and
+# the run goes on (the stats record the count).
+scene "$quad, {\"quad\": [[0.2,0.2,0], [0.6,0.2,0], [0.6,0.6,0], [0.2,0.6,0]], \"material\": \"w\"}" > overlap.json
+"$bin" solve overlap.json --iterations 20 -o overlap.exr --stats overlap-stats.json >out.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 0 ] && [ "$(wc -l <err.txt)" -eq 1 ] \
+   && grep -qE "warning: overlap.json: [0-9]+ pairs of coplanar overlapping patches face the same way" err.txt \
+   && grep -qE '"coplanar_overlaps": *[1-9]' overlap-stats.json; then
+  passed=$((passed + 1))
+else
+  fail "coplanar overlap warning: exit $rc, $(cat err.txt)"
+fi
+
 # A backend whose library is missing at run time: one clear line, exit 1, no output.
 if "$bin" backends | grep -q "^zbuffer "; then
   rm -rf outdir && mkdir outdir
