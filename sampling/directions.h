@@ -3,9 +3,11 @@
 //
 // Call order: construct with a seed, then next() once per global direction.
 #include "sampling/rng.h"
+#include "sampling/streams.h"
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -19,21 +21,19 @@ inline Eigen::Vector3d uniform_sphere(double u1, double u2) {
     return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-// Builds an orthonormal basis (u, v) perpendicular to the unit vector n
-// (Duff et al., "Building an orthonormal basis, revisited", 2017).
-inline void orthonormal_basis(const Eigen::Vector3d& n, Eigen::Vector3d& u, Eigen::Vector3d& v) {
-    const double sign = std::copysign(1.0, n.z());
-    const double a = -1.0 / (sign + n.z());
-    const double b = n.x() * n.y() * a;
-    u = Eigen::Vector3d(1.0 + sign * n.x() * n.x() * a, sign * b, -sign * n.x());
-    v = Eigen::Vector3d(b, sign + n.y() * n.y() * a, -n.y());
+// Maps (u1, u2) in [0,1)^2 to a direction around the unit normal n with density
+// cos(theta) / pi (Malley's method), given an orthonormal basis (u, v) of n's plane (scenes/frame.h).
+inline Eigen::Vector3d cosine_hemisphere(double u1, double u2, const Eigen::Vector3d& n, const Eigen::Vector3d& u,
+                                         const Eigen::Vector3d& v) {
+    const double r = std::sqrt(u1), phi = 2.0 * M_PI * u2;
+    return r * std::cos(phi) * u + r * std::sin(phi) * v + std::sqrt(std::max(0.0, 1.0 - u1)) * n;
 }
 
 // Independent uniform random directions: the sampler stochastic iteration needs
 // (its proof, 004 section 4.4, asks for independent consecutive directions).
 class RandomDirections {
 public:
-    explicit RandomDirections(std::uint64_t seed) : rng_(seed, /*stream=*/0x5eed) {}
+    explicit RandomDirections(std::uint64_t seed) : rng_(seed, streams::kDirections[0]) {}
     Eigen::Vector3d next() {
         const double u1 = rng_.uniform();
         const double u2 = rng_.uniform();

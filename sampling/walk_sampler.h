@@ -25,6 +25,7 @@
 // are strongly correlated (see solver/stochastic_iteration.h).
 #include "sampling/directions.h"
 #include "sampling/rng.h"
+#include "sampling/streams.h"
 
 #include <Eigen/Core>
 
@@ -58,18 +59,6 @@ inline SamplerKind parse_sampler(const std::string& name) {
 }
 
 namespace detail {
-
-// Radical inverse of i in base b: the digits of i mirrored about the radix point.
-inline double radical_inverse(std::uint64_t i, unsigned base) {
-    const double inv = 1.0 / base;
-    double f = inv, r = 0.0;
-    while (i > 0) {
-        r += f * static_cast<double>(i % base);
-        i /= base;
-        f *= inv;
-    }
-    return r;
-}
 
 // The first primes: Halton bases for up to 64 dimensions (walks up to D = 32).
 inline constexpr std::array<unsigned, 64> kPrimes = {
@@ -167,7 +156,7 @@ public:
             throw std::invalid_argument(std::string("the ") + sampler_name(kind) + " sampler supports walks of depth " +
                                         "up to " + std::to_string(limit) + ", got " + std::to_string(depth));
         const int dims = 2 * depth;
-        Rng shift_rng(seed, /*stream=*/0x9a17);
+        Rng shift_rng(seed, streams::kWalkShifts[0]);
         if (kind == SamplerKind::halton) {
             for (int k = 0; k < dims; ++k) {
                 shift_.push_back(shift_rng.uniform());
@@ -186,16 +175,13 @@ public:
         }
     }
 
-    SamplerKind kind() const { return kind_; }
-    int depth() const { return depth_; }
-
     // Makes walk m the current one and computes its 2D coordinates.
     void start_walk(std::uint64_t m) {
         const int dims = 2 * depth_;
         point_.resize(static_cast<std::size_t>(dims));
         switch (kind_) {
             case SamplerKind::random: {
-                Rng rng(seed_, 0x3a1c0000ull + m);  // one stream per walk
+                Rng rng(seed_, streams::kWalks[m]);  // one stream per walk
                 for (int k = 0; k < dims; ++k) point_[k] = rng.uniform();
                 break;
             }

@@ -1,6 +1,6 @@
 #include "scenes/builtin.h"
 
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 #include "scenes/subdivide.h"
 
 #include <algorithm>
@@ -40,7 +40,7 @@ Scene homogeneous_box() {
         tris.push_back(t1);
         tris.push_back(t2);
     }
-    s.add_object(v, tris, mat);
+    s.add_object(v, tris, mat, "box");
     s.camera.eye = Vec3(0.5, 0.5, 0.02);
     s.camera.target = Vec3(0.5, 0.5, 1.0);
     s.camera.up = Vec3(0, 1, 0);
@@ -139,12 +139,12 @@ void add_floor(Scene& s, const Vec3 corners[4], const std::vector<std::array<Vec
             tris.push_back(t);
         }
     }
-    s.add_object(vertices, tris, material);
+    s.add_object(vertices, tris, material, "floor");
 }
 
 // A block (box with a top and four sides, no bottom) given its four bottom
 // corners and its height; faces point away from its axis.
-void add_block(Scene& s, const Vec3 base[4], double height, int material) {
+void add_block(Scene& s, const Vec3 base[4], double height, int material, const std::string& name) {
     Vec3 axis = Vec3::Zero();
     for (int i = 0; i < 4; ++i) axis += base[i] / 4.0;
     axis.y() = height / 2.0;
@@ -167,7 +167,7 @@ void add_block(Scene& s, const Vec3 base[4], double height, int material) {
     };
     quad(4, 5, 6, 7);
     for (int i = 0; i < 4; ++i) quad(i, (i + 1) % 4, 4 + (i + 1) % 4, 4 + i);
-    s.add_object(v, tris, material);
+    s.add_object(v, tris, material, name);
 }
 
 // The Cornell box (the Cornell program of computer graphics' measured geometry, in
@@ -192,9 +192,9 @@ Scene cornell_box(bool cut) {
     const Vec3 back[4] = {{549.6, 0, 559.2}, {0, 0, 559.2}, {0, 548.8, 559.2}, {556, 548.8, 559.2}};
     const Vec3 right[4] = {{0, 0, 559.2}, {0, 0, 0}, {0, 548.8, 0}, {0, 548.8, 559.2}};
     const Vec3 left[4] = {{552.8, 0, 0}, {549.6, 0, 559.2}, {556, 548.8, 559.2}, {556, 548.8, 0}};
-    add_quad(s, back, white, inside);
-    add_quad(s, right, green, inside);
-    add_quad(s, left, red, inside);
+    add_quad(s, back, white, inside, "back wall");
+    add_quad(s, right, green, inside, "right wall");
+    add_quad(s, left, red, inside, "left wall");
 
     const double xs[4] = {0, 213, 343, 556}, zs[4] = {0, 227, 332, 559.2};
     if (cut) {
@@ -216,27 +216,27 @@ Scene cornell_box(bool cut) {
             }
         if ((cv[ct[0][1]] - cv[ct[0][0]]).cross(cv[ct[0][2]] - cv[ct[0][0]]).y() > 0)
             for (auto& t : ct) std::swap(t[1], t[2]);
-        s.add_object(cv, ct, cm);
+        s.add_object(cv, ct, cm, "ceiling and light");
     } else {
         const Vec3 ceiling[4] = {{xs[0], 548.8, zs[0]}, {xs[3], 548.8, zs[0]}, {xs[3], 548.8, zs[3]},
                                  {xs[0], 548.8, zs[3]}};
         const Vec3 panel[4] = {{xs[1], 548.7, zs[1]}, {xs[2], 548.7, zs[1]}, {xs[2], 548.7, zs[2]},
                                {xs[1], 548.7, zs[2]}};
-        add_quad(s, ceiling, white, inside);
-        add_quad(s, panel, light, inside);
+        add_quad(s, ceiling, white, inside, "ceiling");
+        add_quad(s, panel, light, inside, "light");
     }
 
     const Vec3 short_block[4] = {{130, 0, 65}, {82, 0, 225}, {240, 0, 272}, {290, 0, 114}};
     const Vec3 tall_block[4] = {{423, 0, 247}, {265, 0, 296}, {314, 0, 456}, {472, 0, 406}};
-    add_block(s, short_block, 165, white);
-    add_block(s, tall_block, 330, white);
+    add_block(s, short_block, 165, white, "short block");
+    add_block(s, tall_block, 330, white, "tall block");
     if (cut)
         add_floor(s, floor_,
                   {{short_block[0], short_block[1], short_block[2], short_block[3]},
                    {tall_block[0], tall_block[1], tall_block[2], tall_block[3]}},
                   white, inside);
     else
-        add_quad(s, floor_, white, inside);
+        add_quad(s, floor_, white, inside, "floor");
 
     s.camera.eye = Vec3(278, 273, -800);
     s.camera.target = Vec3(278, 273, 0);
@@ -309,13 +309,13 @@ Scene fractal_terrain(double patch_size) {
             tris.push_back({a, d, c});
             tris.push_back({a, c, b});
         }
-    s.add_object(v, tris, ground);
+    s.add_object(v, tris, ground, "terrain");
     double top = -1e30;
     for (const auto& p : v) top = std::max(top, p.y());
     const Vec3 m0(5500, top + 2500, 5500), m1(7500, top + 2500, 5500), m2(7500, top + 2500, 7500),
         m3(5500, top + 2500, 7500);
     const Vec3 moon_quad[4] = {m0, m1, m2, m3};
-    add_quad(s, moon_quad, moon, Vec3(6500, 0, 6500));
+    add_quad(s, moon_quad, moon, Vec3(6500, 0, 6500), "moon");
     s.camera.eye = Vec3(-6000, top + 6000, -6000);
     s.camera.target = Vec3(8000, 0, 8000);
     s.camera.up = Vec3(0, 1, 0);
@@ -328,7 +328,7 @@ Scene fractal_terrain(double patch_size) {
 
 }  // namespace
 
-void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards) {
+void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards, const std::string& name) {
     std::vector<Vec3> v(corners, corners + 4);
     std::array<int, 3> t1{0, 1, 2}, t2{0, 2, 3};
     const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
@@ -336,7 +336,7 @@ void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& tow
         std::swap(t1[1], t1[2]);
         std::swap(t2[1], t2[2]);
     }
-    scene.add_object(v, {t1, t2}, material);
+    scene.add_object(v, {t1, t2}, material, name);
 }
 
 std::vector<BuiltinInfo> builtin_scenes() {
@@ -369,8 +369,8 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
     }
-    if (!(size > 0.0) || !std::isfinite(size))
-        throw SceneError(name, "patch_size", "must be a positive number, got " + std::to_string(size));
+    s.finalize();
+    check_refinement(s, size, name);
     subdivide(s, size);
     return s;
 }

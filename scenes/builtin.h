@@ -23,6 +23,6 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size = s
 
 // Appends a convex planar quad as two triangles sharing an edge; the corners go
 // round the quad, and the front side faces `towards` (a point in front of it).
-void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards);
+void add_quad(Scene& scene, const Vec3 corners[4], int material, const Vec3& towards, const std::string& name = "quad");
 
 }  // namespace raybundle::scenes

@@ -4,6 +4,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
+#include <vector>
 
 namespace raybundle::scenes {
 
@@ -16,5 +18,6 @@ struct CoplanarOverlaps {
     std::uint32_t first = 0, second = 0;  // one of them (patch indices), when pairs > 0
 };
 CoplanarOverlaps coplanar_overlaps(const Scene& scene);
+
 
 }  // namespace raybundle::scenes

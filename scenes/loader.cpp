@@ -2,7 +2,7 @@
 
 #include "scenes/builtin.h"
 #include "scenes/mesh_file.h"
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 #include "scenes/subdivide.h"
 
 #include <nlohmann/json.hpp>
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
-#include <set>
+#include <optional>
 #include <sstream>
 
 namespace raybundle::scenes {
@@ -78,6 +78,12 @@ public:
         return static_cast<int>(v.get<long long>());
     }
 
+    bool boolean(const std::string& key) const {
+        const json& v = raw(key);
+        if (!v.is_boolean()) fail(key, std::string("expected true or false, got ") + v.dump());
+        return v.get<bool>();
+    }
+
     std::string string(const std::string& key) const {
         const json& v = raw(key);
         if (!v.is_string()) fail(key, std::string("expected a string, got ") + type_name(v));
@@ -107,19 +113,26 @@ private:
     std::string path_;
 };
 
+// The triangles turned over (the twins of a two-sided material).
+std::vector<std::array<int, 3>> reversed(std::vector<std::array<int, 3>> tris) {
+    for (auto& t : tris) std::swap(t[1], t[2]);
+    return tris;
+}
+
 std::string rgb_text(const Rgb& c) {
     return "[" + format_number(c[0]) + ", " + format_number(c[1]) + ", " + format_number(c[2]) + "]";
 }
 
 Material parse_material(const Node& n, const std::string& name) {
     n.require_object();
-    n.check_keys({"albedo", "emission", "specular", "exponent"});
+    n.check_keys({"albedo", "emission", "specular", "exponent", "two_sided"});
     Material m;
     m.name = name;
     m.albedo = n.vec3("albedo").array();
     if (n.has("emission")) m.emission = n.vec3("emission").array();
     if (n.has("specular")) m.specular = n.vec3("specular").array();
     if (n.has("exponent")) m.exponent = n.number("exponent");
+    if (n.has("two_sided")) m.two_sided = n.boolean("two_sided");
     if ((m.albedo < 0).any()) n.fail("albedo", "negative albedo " + rgb_text(m.albedo));
     if ((m.specular < 0).any()) n.fail("specular", "negative specular " + rgb_text(m.specular));
     if ((m.emission < 0).any()) n.fail("emission", "negative emission " + rgb_text(m.emission));
@@ -189,6 +202,52 @@ Sky parse_sky(const Node& n) {
     return s;
 }
 
+json camera_json(const Camera& c) {
+    auto v = [](const Vec3& p) { return json::array({p.x(), p.y(), p.z()}); };
+    return {{"eye", v(c.eye)}, {"target", v(c.target)}, {"up", v(c.up)},
+            {"fov_y", c.fov_y}, {"width", c.width}, {"height", c.height}};
+}
+
+// Sets doc at the path `key` (dots between object keys, [i] for array elements) to
+// `text` read as JSON, or as a string when it is not JSON.
+void apply_override(json& doc, const Override& o, const std::string& shown) {
+    if (o.key.empty()) throw SceneError(shown, "", "an override needs a key (-D key=value)");
+    json value;
+    try {
+        value = json::parse(o.value);
+    } catch (const json::exception&) {
+        value = o.value;  // a bare word: a string
+    }
+    json* node = &doc;
+    std::size_t pos = 0;
+    while (pos < o.key.size()) {
+        const std::size_t end = o.key.find_first_of(".[", pos);
+        const std::string part = o.key.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+        const std::string so_far = o.key.substr(0, end == std::string::npos ? o.key.size() : end);
+        if (!part.empty()) {
+            if (node->is_null()) *node = json::object();
+            if (!node->is_object()) throw SceneError(shown, so_far, "cannot set: not an object (-D " + o.key + ")");
+            node = &(*node)[part];
+        }
+        if (end == std::string::npos) break;
+        if (o.key[end] == '[') {
+            const std::size_t close = o.key.find(']', end);
+            const std::string digits = close == std::string::npos ? "" : o.key.substr(end + 1, close - end - 1);
+            if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+                throw SceneError(shown, o.key, "malformed index in -D " + o.key);
+            const std::size_t i = std::stoul(digits);
+            if (!node->is_array() || i >= node->size())
+                throw SceneError(shown, o.key.substr(0, close + 1), "no such element (-D " + o.key + ")");
+            node = &(*node)[i];
+            pos = close + 1;
+            if (pos < o.key.size() && o.key[pos] == '.') ++pos;
+        } else {
+            pos = end + 1;
+        }
+    }
+    *node = value;
+}
+
 std::string dir_of(const std::string& path) {
     const auto slash = path.find_last_of('/');
     return slash == std::string::npos ? "." : path.substr(0, slash);
@@ -197,7 +256,7 @@ std::string dir_of(const std::string& path) {
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
-                  std::optional<double> patch_size_override) {
+                  const Overrides& overrides) {
     json doc;
     try {
         doc = json::parse(text);
@@ -224,6 +283,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
         throw SceneError(shown, "", "invalid number: " + msg + " (not finite)");
     }
 
+    for (const Override& o : overrides) apply_override(doc, o, shown);
     Node root(doc, shown, "");
     root.require_object();
     root.check_keys({"camera", "materials", "objects", "patch_size", "point_lights", "sky"});
@@ -243,7 +303,9 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     for (std::size_t i = 0; i < objects.size(); ++i) {
         const Node obj(objects[i], shown, "objects[" + std::to_string(i) + "]");
         obj.require_object();
-        obj.check_keys({"mesh", "quad", "triangle", "material"});
+        obj.check_keys({"mesh", "quad", "triangle", "material", "name"});
+        // The object's name in warnings and `raybundle check`: its own, or where it is.
+        const std::string given = obj.has("name") ? obj.string("name") : "";
         const std::string mat_name = obj.string("material");
         const int mat = scene.find_material(mat_name);
         if (mat < 0) {
@@ -266,7 +328,9 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                 for (int k : t)
                     if (k < 0 || k >= static_cast<int>(data.vertices.size()))
                         obj.fail("mesh", "face index " + std::to_string(k) + " out of range");
-            scene.add_object(data.vertices, data.triangles, mat);
+            const int id = scene.add_object(data.vertices, data.triangles, mat,
+                                            !given.empty() ? given : obj.path() + " (" + rel + ")");
+            if (scene.materials[mat].two_sided) scene.add_object(data.vertices, reversed(data.triangles), mat, "", id);
         } else {
             const bool quad = obj.has("quad");
             const char* key = quad ? "quad" : "triangle";
@@ -277,10 +341,10 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             std::vector<Vec3> v;
             for (std::size_t k = 0; k < want; ++k)
                 v.push_back(obj.vec3(pts[k], obj.at(key) + "[" + std::to_string(k) + "]"));
-            if (quad)
-                scene.add_object(v, {{0, 1, 2}, {0, 2, 3}}, mat);
-            else
-                scene.add_object(v, {{0, 1, 2}}, mat);
+            const std::vector<std::array<int, 3>> tris =
+                quad ? std::vector<std::array<int, 3>>{{0, 1, 2}, {0, 2, 3}} : std::vector<std::array<int, 3>>{{0, 1, 2}};
+            const int id = scene.add_object(v, tris, mat, !given.empty() ? given : obj.path() + " (" + key + ")");
+            if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);
         }
     }
 
@@ -294,38 +358,45 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     }
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
 
-    std::optional<double> patch_size;
-    if (root.has("patch_size")) {
-        const double ps = root.number("patch_size");
-        if (!(ps > 0.0)) root.fail("patch_size", "must be > 0, got " + format_number(ps));
-        patch_size = ps;
-    }
-    if (patch_size_override) {
-        if (!(*patch_size_override > 0.0) || !std::isfinite(*patch_size_override))
-            throw SceneError(shown, "--patch-size", "must be > 0, got " + format_number(*patch_size_override));
-        patch_size = patch_size_override;
-    }
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize();
-    if (patch_size) {
-        // Refinement leaves triangles of at least about L^2/4 area: refuse sizes that
-        // would make more patches than any run can hold.
-        const double estimate = scene.total_area() / (0.25 * *patch_size * *patch_size);
-        if (estimate > 2e7)
-            throw SceneError(shown, "patch_size",
-                             format_number(*patch_size) + " would make about " + format_number(estimate) +
-                                 " patches (limit 20,000,000)");
-        subdivide(scene, *patch_size);
+    if (root.has("patch_size")) {
+        const double ps = root.number("patch_size");
+        check_refinement(scene, ps, shown);
+        subdivide(scene, ps);
     }
     return scene;
 }
 
-Scene load_scene(const std::string& path, std::optional<double> patch_size_override) {
+Scene load_scene(const std::string& path, const Overrides& overrides) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw SceneError(path, "", "cannot open scene file");
     std::stringstream ss;
     ss << in.rdbuf();
-    return parse_scene(ss.str(), path, dir_of(path), patch_size_override);
+    return parse_scene(ss.str(), path, dir_of(path), overrides);
+}
+
+Scene load_builtin(const std::string& name, const Overrides& overrides) {
+    std::optional<double> default_size;
+    for (const auto& info : builtin_scenes())
+        if (info.name == name) default_size = info.default_patch_size;
+    if (!default_size) make_builtin(name);  // throws: unknown, listing the known ones
+    if (overrides.empty()) return make_builtin(name);
+    // The overridable settings as documents, checked like a file's: the patch size
+    // first (it makes the scene), then the camera.
+    json sizes = {{"patch_size", *default_size}}, camera = json::object();
+    for (const Override& o : overrides) {
+        const std::string root_key = o.key.substr(0, o.key.find_first_of(".["));
+        if (root_key != "camera" && root_key != "patch_size")
+            throw SceneError(name, o.key, "a built-in scene takes overrides of camera.* and patch_size only");
+        if (root_key == "patch_size") apply_override(sizes, o, name);
+    }
+    Scene scene = make_builtin(name, Node(sizes, name, "").number("patch_size"));
+    camera["camera"] = camera_json(scene.camera);
+    for (const Override& o : overrides)
+        if (o.key.rfind("camera", 0) == 0) apply_override(camera, o, name);
+    scene.camera = parse_camera(Node(camera, name, "").child("camera"));
+    return scene;
 }
 
 }  // namespace raybundle::scenes

@@ -2,18 +2,31 @@
 // The JSON scene loader (format: docs/scene-format.md).
 #include "scenes/scene.h"
 
-#include <optional>
 #include <string>
+#include <vector>
 
 namespace raybundle::scenes {
 
-// Loads, validates, refines (to patch_size; the override wins over the file's value)
-// and finalizes a scene. Every problem throws SceneError with one line naming the
-// file, the object and the value.
-Scene load_scene(const std::string& path, std::optional<double> patch_size_override = std::nullopt);
+// A setting given on the command line (-D key=value): `key` is a path into the scene's
+// JSON ("patch_size", "camera.width", "materials.white.albedo", "objects[2].material")
+// and `value` is JSON ("800", "[1, 0.5, 0.5]", "true") or else a plain string
+// ("overcast"). Overrides are applied to the document before it is checked, so they
+// are validated exactly like the file, and win over its values.
+struct Override {
+    std::string key, value;
+};
+using Overrides = std::vector<Override>;
+
+// Loads, validates, refines (to patch_size) and finalizes a scene. Every problem
+// throws SceneError with one line naming the file, the object and the value.
+Scene load_scene(const std::string& path, const Overrides& overrides = {});
 
 // The same from JSON text; mesh paths resolve against base_dir, errors name `shown`.
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
-                  std::optional<double> patch_size_override = std::nullopt);
+                  const Overrides& overrides = {});
+
+// A built-in scene (scenes/builtin.h) with overrides of its camera ("camera.*") and
+// "patch_size", validated as in a file.
+Scene load_builtin(const std::string& name, const Overrides& overrides = {});
 
 }  // namespace raybundle::scenes

@@ -1,6 +1,6 @@
 #include "scenes/mesh_file.h"
 
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>

@@ -1,6 +1,6 @@
 #include "scenes/ray_caster.h"
 
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 
 #include <embree3/rtcore.h>
 
@@ -13,6 +13,11 @@ namespace raybundle::scenes {
 struct RayCaster::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
+    // Patches of two-sided materials, with their normals: intersect() passes over their
+    // back sides, where each has a twin facing the ray.
+    std::vector<char> two_sided;
+    std::vector<float> normals;  // 3 per patch, two-sided ones only filled
+    bool any_two_sided = false;
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
         if (device) rtcReleaseDevice(device);
@@ -44,6 +49,14 @@ RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
     rtcReleaseGeometry(geom);
     rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
     rtcCommitScene(impl_->scene);
+    impl_->two_sided.assign(patches.size(), 0);
+    impl_->normals.assign(3 * patches.size(), 0.0f);
+    for (std::size_t i = 0; i < patches.size(); ++i)
+        if (scene.material_of(i).two_sided) {
+            impl_->two_sided[i] = 1;
+            impl_->any_two_sided = true;
+            for (int k = 0; k < 3; ++k) impl_->normals[3 * i + k] = static_cast<float>(patches[i].normal[k]);
+        }
 }
 
 RayCaster::~RayCaster() = default;
@@ -86,6 +99,27 @@ void collect_hit(const RTCFilterFunctionNArguments* args) {
     }
 }
 
+// An intersect context that passes over the back of two-sided patches (their twins
+// face the ray at the same place).
+struct FrontContext {
+    RTCIntersectContext context;  // first member
+    const std::vector<char>* two_sided;
+    const std::vector<float>* normals;
+};
+
+void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
+    const auto* ctx = reinterpret_cast<const FrontContext*>(args->context);
+    for (unsigned k = 0; k < args->N; ++k) {
+        if (args->valid[k] == 0) continue;
+        const unsigned prim = RTCHitN_primID(args->hit, args->N, k);
+        if (!(*ctx->two_sided)[prim]) continue;
+        const float* n = &(*ctx->normals)[3 * prim];
+        const float facing = n[0] * RTCRayN_dir_x(args->ray, args->N, k) + n[1] * RTCRayN_dir_y(args->ray, args->N, k) +
+                             n[2] * RTCRayN_dir_z(args->ray, args->N, k);
+        if (facing > 0.0f) args->valid[k] = 0;
+    }
+}
+
 }  // namespace
 
 void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min,
@@ -107,10 +141,15 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
 }
 
 RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
+    FrontContext ctx;
+    rtcInitIntersectContext(&ctx.context);
+    if (impl_->any_two_sided) {
+        ctx.context.filter = front_of_two_sided;
+        ctx.two_sided = &impl_->two_sided;
+        ctx.normals = &impl_->normals;
+    }
     RTCRayHit rh = make_ray(org, dir, t_min, t_max);
-    rtcIntersect1(impl_->scene, &context, &rh);
+    rtcIntersect1(impl_->scene, &ctx.context, &rh);
     RayHit hit;
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         hit.patch = static_cast<int>(rh.hit.primID);

@@ -26,7 +26,8 @@ public:
     RayCaster& operator=(const RayCaster&) = delete;
 
     // Nearest hit of the ray org + t dir, t in (t_min, t_max). Both sides of a patch
-    // are hit (patches block light from behind too); thread-safe.
+    // are hit (patches block light from behind too), but for a two-sided material the
+    // ray meets the twin that faces it; thread-safe.
     RayHit intersect(const Vec3& org, const Vec3& dir, double t_min = 0.0,
                      double t_max = std::numeric_limits<double>::infinity()) const;
 

@@ -1,17 +1,20 @@
 #include "scenes/scene.h"
 
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 
 #include <algorithm>
 #include <cmath>
 
 namespace raybundle::scenes {
 
-Scene::Scene() { mesh.add_property(material_handle, "material"); }
+Scene::Scene() {
+    mesh.add_property(material_handle, "material");
+    mesh.add_property(object_handle, "object");
+}
 
-void Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                       int material) {
-    add_object(vertices, triangles, std::vector<int>(triangles.size(), material));
+int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                      int material, const std::string& name, int object) {
+    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), name, object);
 }
 
 int Scene::add_material(Material m) {
@@ -25,8 +28,12 @@ int Scene::find_material(const std::string& material_name) const {
     return -1;
 }
 
-void Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                       const std::vector<int>& triangle_materials) {
+int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                      const std::vector<int>& triangle_materials, const std::string& name, int object) {
+    if (object < 0) {
+        object = static_cast<int>(object_names.size());
+        object_names.push_back(name.empty() ? "object " + std::to_string(object) : name);
+    }
     std::vector<TriMesh::VertexHandle> handles;
     handles.reserve(vertices.size());
     for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
@@ -39,7 +46,9 @@ void Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std:
                               mesh.add_vertex(to_om(vertices[t[2]])));
         }
         mesh.property(material_handle, f) = triangle_materials[k];
+        mesh.property(object_handle, f) = object;
     }
+    return object;
 }
 
 void Scene::finalize() {
@@ -82,6 +91,7 @@ void Scene::finalize() {
         p.normal = cross.normalized();
         p.centroid = (a + b + c) / 3.0;
         p.material = mesh.property(material_handle, f);
+        p.object = mesh.property(object_handle, f);
         area_sum += p.area;
         patches.push_back(p);
     }

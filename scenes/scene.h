@@ -30,6 +30,10 @@ struct Material {
     Rgb emission = Rgb::Zero();
     Rgb specular = Rgb::Zero();
     double exponent = 0.0;
+    // Lit (and emitting) on both sides: the loader gives every triangle of such a
+    // material a twin facing the other way, at the same place, and the renderer's rays
+    // meet whichever of the two faces them.
+    bool two_sided = false;
 
     bool glossy() const { return (specular > 0.0).any(); }
     bool emissive() const { return (emission > 0.0).any(); }
@@ -78,6 +82,7 @@ struct Patch {
     Vec3 centroid;
     double area;
     int material;
+    int object;     // index into Scene::object_names
 };
 
 class Scene {
@@ -94,18 +99,24 @@ public:
     std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
 
-    // Per-face material index, kept on the mesh so that subdivision copies it.
+    // The objects the patches came from (a mesh file, a quad, a built-in part), for
+    // messages; every patch knows its object.
+    std::vector<std::string> object_names;
+
+    // Per-face material and object index, kept on the mesh so that subdivision copies them.
     OpenMesh::FPropHandleT<int> material_handle;
+    OpenMesh::FPropHandleT<int> object_handle;
 
     Scene();
 
-    // Adds one object: vertices shared by its triangles (so that subdivision stays
-    // conforming), all with one material. Front sides are counter-clockwise.
-    void add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                    int material);
+    // Adds one object (returns its index): vertices shared by its triangles (so that
+    // subdivision stays conforming), all with one material. Front sides are
+    // counter-clockwise. With `object` >= 0 the triangles join that object instead.
+    int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int material,
+                   const std::string& name = "", int object = -1);
     // The same with one material per triangle.
-    void add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                    const std::vector<int>& materials);
+    int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                   const std::vector<int>& materials, const std::string& name = "", int object = -1);
     // Adds a material and returns its index.
     int add_material(Material m);
     // The index of the material called name, or -1.

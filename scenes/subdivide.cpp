@@ -1,5 +1,10 @@
 #include "scenes/subdivide.h"
 
+#include "scenes/errors.h"
+
+#include <cmath>
+#include <sstream>
+
 #include <algorithm>
 #include <utility>
 #include <vector>
@@ -32,6 +37,20 @@ std::size_t subdivide(Scene& scene, double max_edge) {
     }
     scene.finalize();
     return splits;
+}
+
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown) {
+    std::ostringstream size;
+    size << max_edge;
+    if (!(max_edge > 0.0) || !std::isfinite(max_edge))
+        throw SceneError(shown, "patch_size", "must be a positive number, got " + size.str());
+    const double estimate = scene.total_area() / (0.25 * max_edge * max_edge);
+    if (estimate > 2e7) {
+        std::ostringstream count;
+        count << estimate;
+        throw SceneError(shown, "patch_size",
+                         size.str() + " would make about " + count.str() + " patches (limit 20,000,000)");
+    }
 }
 
 }  // namespace raybundle::scenes

@@ -1,6 +1,8 @@
 #pragma once
 #include "scenes/scene.h"
 
+#include <string>
+
 namespace raybundle::scenes {
 
 // Refines the scene by conforming longest-edge bisection until no edge is longer
@@ -9,5 +11,10 @@ namespace raybundle::scenes {
 // class. Materials are copied to the new faces. Calls scene.finalize().
 // Returns the number of splits.
 std::size_t subdivide(Scene& scene, double max_edge);
+
+// Refinement to max_edge leaves triangles of at least about max_edge^2 / 4 area:
+// throws SceneError (naming `shown`) when that would make more than 20 million patches,
+// more than any run can hold, or when max_edge is not a positive number.
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown);
 
 }  // namespace raybundle::scenes

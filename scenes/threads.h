@@ -1,8 +1,18 @@
 #pragma once
+// The program's one threading helper (every parallel loop goes through it).
+//
 // run_threads(count, body): body(t) for t = 0 .. count-1, each on its own thread (t = 0
 // on the caller's). Every started thread is joined, also when starting another one
 // fails (the failure is then rethrown: a clean error, not std::terminate); the first
 // exception a body throws is rethrown after all have finished.
+//
+// parallel_bands(rows, threads, body): body(y0, y1) on contiguous bands of rows.
+// parallel_rows(rows, threads, body): body(y) for every row, rows dealt out in turn
+// (balances rows of uneven cost).
+//
+// Results must not depend on the number of threads: bodies write disjoint outputs and
+// draw random numbers from streams chosen by row or pixel, never by thread.
+#include <algorithm>
 #include <exception>
 #include <thread>
 #include <vector>
@@ -32,5 +42,29 @@ void run_threads(int count, const Body& body) {
     for (const auto& e : errors)
         if (e) std::rethrow_exception(e);
 }
+
+template <class Body>
+void parallel_bands(int rows, int threads, const Body& body) {
+    const int n = std::max(1, std::min(threads, rows));
+    if (n == 1) {
+        body(0, rows);
+        return;
+    }
+    run_threads(n, [&](int t) {
+        body(static_cast<int>(static_cast<long long>(rows) * t / n),
+             static_cast<int>(static_cast<long long>(rows) * (t + 1) / n));
+    });
+}
+
+template <class Body>
+void parallel_rows(int rows, int threads, const Body& body) {
+    const int n = std::max(1, std::min(threads, rows));
+    run_threads(n, [&](int t) {
+        for (int y = t; y < rows; y += n) body(y);
+    });
+}
+
+// The number of hardware threads (at least 1).
+inline int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
 
 }  // namespace raybundle

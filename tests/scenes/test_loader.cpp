@@ -2,7 +2,7 @@
 // SceneError that names the file, the object and the value.
 #include "scenes/builtin.h"
 #include "scenes/loader.h"
-#include "scenes/scene_error.h"
+#include "scenes/errors.h"
 
 #include <catch2/catch.hpp>
 
@@ -173,8 +173,8 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
                    "camera.fov_y: must be in (0, 180) degrees, got 0");
     }
     SECTION("patch_size <= 0") {
-        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": 0)"), "patch_size: must be > 0, got 0");
-        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": -1)"), "patch_size: must be > 0, got -1");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": 0)"), "patch_size: must be a positive number, got 0");
+        fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "patch_size": -1)"), "patch_size: must be a positive number, got -1");
     }
     SECTION("a scene with no patches") {
         fails_with(scene_text(kCamera, kMaterials, ""), "the scene has no patches");

@@ -6,16 +6,13 @@
 // surface), w_out the direction it leaves in; both must be on the front side.
 #include "scenes/scene.h"
 
-namespace raybundle::solver {
+namespace raybundle::scenes {
 
-using scenes::Rgb;
-using scenes::Vec3;
-
-Rgb brdf(const scenes::Material& m, const Vec3& normal, const Vec3& w_in, const Vec3& w_out);
+Rgb brdf(const Material& m, const Vec3& normal, const Vec3& w_in, const Vec3& w_out);
 
 // The directional albedo: the fraction of light arriving along w_in that leaves,
 // integrated numerically over the outgoing hemisphere with `samples` x `samples`
 // stratified points. For tests and documentation.
-Rgb directional_albedo(const scenes::Material& m, const Vec3& normal, const Vec3& w_in, int samples);
+Rgb directional_albedo(const Material& m, const Vec3& normal, const Vec3& w_in, int samples);
 
-}  // namespace raybundle::solver
+}  // namespace raybundle::scenes

@@ -1,10 +1,10 @@
-#include "solver/brdf.h"
+#include "scenes/brdf.h"
 
-#include "sampling/directions.h"
+#include "scenes/frame.h"
 
 #include <cmath>
 
-namespace raybundle::solver {
+namespace raybundle::scenes {
 
 Rgb brdf(const scenes::Material& m, const Vec3& normal, const Vec3& w_in, const Vec3& w_out) {
     const double cos_in = -normal.dot(w_in);
@@ -23,7 +23,7 @@ Rgb directional_albedo(const scenes::Material& m, const Vec3& normal, const Vec3
     // Stratified midpoints in (cos theta, phi) over the hemisphere around the normal:
     // d omega = d(cos theta) d phi, so each cell has solid angle 2 pi / samples^2.
     Vec3 u, v;
-    sampling::orthonormal_basis(normal, u, v);
+    scenes::orthonormal_basis(normal, u, v);
     Rgb sum = Rgb::Zero();
     for (int a = 0; a < samples; ++a)
         for (int b = 0; b < samples; ++b) {
@@ -36,4 +36,4 @@ Rgb directional_albedo(const scenes::Material& m, const Vec3& normal, const Vec3
     return sum * (2.0 * M_PI / (static_cast<double>(samples) * samples));
 }
 
-}  // namespace raybundle::solver
+}  // namespace raybundle::scenes

@@ -1,6 +1,6 @@
 // BRDFs: energy conservation and reciprocity, integrated numerically.
 #include "sampling/directions.h"
-#include "solver/brdf.h"
+#include "scenes/brdf.h"
 
 #include <catch2/catch.hpp>
 
@@ -17,7 +17,7 @@ TEST_CASE("diffuse and modified Phong BRDFs conserve energy", "[solver][brdf]") 
     for (double theta_deg : {0.0, 30.0, 60.0, 85.0}) {
         const double t = theta_deg * M_PI / 180.0;
         const Vec3 w_in(std::sin(t), 0.0, -std::cos(t));  // arriving from above
-        const Rgb a = solver::directional_albedo(m, n, w_in, 400);
+        const Rgb a = scenes::directional_albedo(m, n, w_in, 400);
         INFO("exponent " << m.exponent << ", incidence " << theta_deg);
         CHECK((a <= 1.0 + 1e-3).all());
         CHECK((a <= m.albedo + m.specular + 1e-3).all());
@@ -26,7 +26,7 @@ TEST_CASE("diffuse and modified Phong BRDFs conserve energy", "[solver][brdf]") 
     }
     scenes::Material lambert;
     lambert.albedo = Rgb(0.3, 0.6, 0.9);
-    const Rgb a = solver::directional_albedo(lambert, n, Vec3(0.3, 0.0, -1.0).normalized(), 400);
+    const Rgb a = scenes::directional_albedo(lambert, n, Vec3(0.3, 0.0, -1.0).normalized(), 400);
     CHECK(a[0] == Approx(0.3).epsilon(1e-4));
     CHECK(a[2] == Approx(0.9).epsilon(1e-4));
 }
@@ -43,9 +43,9 @@ TEST_CASE("the BRDFs are reciprocal and one-sided", "[solver][brdf]") {
         const Vec3 a = dirs.next(), b = dirs.next();
         if (a.dot(n) >= 0.0 || b.dot(n) <= 0.0) continue;  // a arrives, b leaves
         // Reversing the path: arrive along -b, leave along -a.
-        const Rgb f1 = solver::brdf(m, n, a, b), f2 = solver::brdf(m, n, -b, -a);
+        const Rgb f1 = scenes::brdf(m, n, a, b), f2 = scenes::brdf(m, n, -b, -a);
         CHECK((f1 - f2).abs().maxCoeff() <= 1e-12 * (1.0 + f1.maxCoeff()));
-        CHECK((solver::brdf(m, n, -a, b) == 0.0).all());  // arriving from behind
+        CHECK((scenes::brdf(m, n, -a, b) == 0.0).all());  // arriving from behind
         ++checked;
     }
 }

@@ -1,0 +1,35 @@
+#pragma once
+// What every long computation of a run shares (the solvers, the diffuse shot, the
+// final gather): its seed and random streams, its threads, and how it reports
+// progress. Passed down, never re-declared.
+#include <cstdint>
+#include <functional>
+
+namespace raybundle::sampling {
+
+// Where a computation stands: `done` of `total` units of `phase`, `seconds` since it
+// began. A computation calls the callback every RunOptions::progress_every units
+// (about 100 times when 0) and once at the end; the callback must not throw.
+struct Progress {
+    const char* phase;  // "diffuse shot", "solve", "final gather", "filter", ...
+    long done, total;
+    double seconds;
+};
+using ProgressCallback = std::function<void(const Progress&)>;
+
+struct RunOptions {
+    std::uint64_t seed = 1;           // the same seed gives bit-identical results
+    std::uint64_t jitter_stream = 0;  // which stream of map jitters (streams::kMapJitters)
+    int threads = 1;                  // results do not depend on it
+    long progress_every = 0;          // units between progress calls (0: about 100 per phase)
+    ProgressCallback progress;        // may be empty
+
+    // Calls progress for unit `done` of `total` when the cadence says so.
+    void report(const char* phase, long done, long total, double seconds) const {
+        if (!progress) return;
+        const long every = progress_every > 0 ? progress_every : (total >= 100 ? total / 100 : 1);
+        if (done % every == 0 || done == total) progress({phase, done, total, seconds});
+    }
+};
+
+}  // namespace raybundle::sampling

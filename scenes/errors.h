@@ -1,0 +1,42 @@
+#pragma once
+// The two kinds of bad input a library reports, each one clear line:
+//  - SceneError: a scene (file, built-in, override) with a bad value: names the file,
+//    the object and the value.
+//  - OptionError: a run option the library cannot use, named in the library's own
+//    terms (a field of SolverOptions, GatherOptions, ...); the command line maps the
+//    name to its flag.
+// Anything else a library throws is a failure, not the user's fault.
+#include <stdexcept>
+#include <string>
+
+namespace raybundle::scenes {
+
+class SceneError : public std::runtime_error {
+public:
+    // file: the scene or mesh file ("" for built-in scenes); where: the object path
+    // inside it (e.g. "objects[2].material"); what: the problem with the value.
+    SceneError(const std::string& file, const std::string& where, const std::string& what)
+        : std::runtime_error(compose(file, where, what)) {}
+
+private:
+    static std::string compose(const std::string& file, const std::string& where,
+                               const std::string& what) {
+        std::string s;
+        if (!file.empty()) s += file + ": ";
+        if (!where.empty()) s += where + ": ";
+        return s + what;
+    }
+};
+
+class OptionError : public std::runtime_error {
+public:
+    OptionError(std::string option, std::string what)
+        : std::runtime_error(option + ": " + what), option_(std::move(option)), what_(std::move(what)) {}
+    const std::string& option() const { return option_; }
+    const std::string& problem() const { return what_; }
+
+private:
+    std::string option_, what_;
+};
+
+}  // namespace raybundle::scenes
