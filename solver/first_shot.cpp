@@ -1,9 +1,13 @@
 #include "solver/first_shot.h"
 
+#include "scenes/threads.h"
 #include "solver/form_factor.h"
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <chrono>
+#include <mutex>
 #include <cmath>
 
 namespace raybundle::solver {
@@ -47,7 +51,8 @@ int clip_front(const std::array<Vec3, 3>& tri, const Vec3& x, const Vec3& n, std
 
 }  // namespace
 
-std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays) {
+std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays_out,
+                              const sampling::RunOptions& run) {
     const std::size_t n = scene.patch_count();
     const auto& patches = scene.patch_list();
     const auto& pos = scene.vertex_positions();
@@ -56,8 +61,22 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
         if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
     std::vector<Rgb> irradiance(n, Rgb::Zero());
     const double offset = 1e-6 * scene.bounds_radius();
+    // Receivers are independent: bands of them on the run's threads; every sum is made
+    // in the same order whatever the split.
+    std::atomic<long> all_rays{0};
+    std::mutex progress_lock;
+    long done = 0;
+    const auto start = std::chrono::steady_clock::now();
+    parallel_bands(static_cast<int>(n), run.threads, [&](int i0, int i1) {
+    long rays = 0;
     std::vector<Vec3> targets;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (int ii = i0; ii < i1; ++ii) {
+        const auto i = static_cast<std::size_t>(ii);
+        if (run.progress) {
+            const std::lock_guard<std::mutex> lock(progress_lock);
+            run.report("diffuse shot", ++done, static_cast<long>(n),
+                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
         const auto& p = patches[i];
         const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
         const double edge_i = longest_edge(a, b, c);
@@ -112,6 +131,9 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
             irradiance[i] += scene.material_of(j).emission * (sum / (static_cast<double>(Ni) * Ni));
         }
     }
+    all_rays += rays;
+    });
+    rays_out += all_rays;
     return irradiance;
 }
 

@@ -8,6 +8,7 @@
 // split of the patch into N^2 similar triangles, N chosen so that a sub-triangle is
 // small against its distance to the light (N = ceil(8 edge / r), 2..64): the
 // quadrature error is then well below 1 %.
+#include "sampling/run.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
 
@@ -40,6 +41,9 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
 // 1..16) the emitter's unoccluded form factor is Lambert's closed form (exact, also
 // next to a shared edge), times the fraction of shadow rays to points of the emitter
 // (N = ceil(2 edge / distance), 1..4) that arrive. Counts its shadow rays in `rays`.
-std::vector<scenes::Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays);
+// Receivers are split over run.threads (the same result for any count); progress is
+// reported as "diffuse shot", in receivers.
+std::vector<scenes::Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays,
+                                      const sampling::RunOptions& run = {});
 
 }  // namespace raybundle::solver

@@ -1,5 +1,8 @@
 #include "solver/global_walks.h"
 
+#include "sampling/streams.h"
+#include "scenes/errors.h"
+
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -34,34 +37,58 @@ double GlobalWalks::truncation_factor(double albedo, int depth, bool unbiased) {
     return unbiased ? 1.0 : 1.0 - std::pow(albedo, depth + 1);
 }
 
-GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options)
-    : GlobalWalks(transport, std::make_unique<visibility::BackendSet>(backend), nullptr, options) {}
+GlobalWalks::GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkMethod method,
+                         const SolverOptions& options, const sampling::RunOptions& run)
+    : GlobalWalks(transport, std::make_unique<visibility::BackendSet>(backend), nullptr, method, options, run) {}
 
-GlobalWalks::GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkOptions options)
-    : GlobalWalks(transport, nullptr, &backends, options) {}
+GlobalWalks::GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkMethod method,
+                         const SolverOptions& options, const sampling::RunOptions& run)
+    : GlobalWalks(transport, nullptr, &backends, method, options, run) {}
+
+GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends,
+                         WalkMethod method, const SolverOptions& options, const sampling::RunOptions& run)
+    : GlobalWalks(transport, std::move(backends), nullptr, method, options, run) {}
+
+namespace {
+
+// The options a walk method must have, checked before the sampler sees them.
+const SolverOptions& checked(const SolverOptions& o) {
+    if (o.steps < 1) throw scenes::OptionError("steps", "walks must be >= 1, got " + std::to_string(o.steps));
+    const int limit = o.sampler == sampling::SamplerKind::sobol    ? sampling::WalkSampler::kMaxSobolDepth
+                      : o.sampler == sampling::SamplerKind::halton ? sampling::WalkSampler::kMaxHaltonDepth
+                                                                    : 32;
+    if (o.depth < 1 || o.depth > limit)
+        throw scenes::OptionError("depth", "must be in 1.." + std::to_string(limit) + " with the " +
+                                               sampling::sampler_name(o.sampler) + " sampler, got " +
+                                               std::to_string(o.depth));
+    if (o.unbiased && o.sampler != sampling::SamplerKind::random)
+        throw scenes::OptionError("unbiased", std::string("needs the random sampler: the correction carries one walk's "
+                                                          "light into the next, and consecutive ") +
+                                                  sampling::sampler_name(o.sampler) + " points are correlated");
+    return o;
+}
+
+}  // namespace
 
 GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
-                         visibility::BackendSet* backends, WalkOptions options)
+                         visibility::BackendSet* backends, WalkMethod method, const SolverOptions& options,
+                         const sampling::RunOptions& run)
     : t_(transport),
-      scene_(transport.scene()),
       own_set_(std::move(own)),
       backends_(own_set_ ? *own_set_ : *backends),
-      options_(options),
+      method_(method),
+      options_(checked(options)),
+      run_(run),
       glossy_(transport.glossy()),
-      sampler_(options.sampler, options.depth, options.seed),
-      jitter_(options.seed, /*stream=*/0x717e4 + options.jitter_stream) {
-    if (options.walks < 1) throw std::invalid_argument("walks must be >= 1, got " + std::to_string(options.walks));
-    if (options.unbiased && options.sampler != sampling::SamplerKind::random)
-        throw std::invalid_argument(std::string("--unbiased needs --sampler random: the correction carries one walk's "
-                                                "light into the next, and consecutive ") +
-                                    sampling::sampler_name(options.sampler) + " points are correlated");
+      sampler_(options.sampler, options.depth, run.seed),
+      jitter_(run.seed, sampling::streams::kMapJitters[run.jitter_stream]) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));
     out_.assign(slots, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
     std::size_t vectors = 2;  // out_ and sum_
-    if (options.method == WalkMethod::walk) {
+    if (method == WalkMethod::walk) {
         irr_.assign(slots, Rgb::Zero());
         next_.assign(slots, Rgb::Zero());
         vectors += 2;
@@ -69,27 +96,30 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
             chain_.assign(slots, Rgb::Zero());
             ++vectors;
         }
-        stats_.storage = "plain walk: the max-bounce irradiance" +
-                         std::string(options.unbiased ? " and the last-bounce chain (--unbiased)" : "");
+        report_.decisions["storage"] = "plain walk: the max-bounce irradiance" +
+                                       std::string(options.unbiased ? " and the last-bounce chain (unbiased)" : "");
     } else {
         const std::size_t entries = glossy_ ? table_index(0, D) : static_cast<std::size_t>(D);
         table_.assign(entries, std::vector<Rgb>(slots, Rgb::Zero()));
         vectors += entries;
-        stats_.storage = glossy_ ? "the bounce table, D(D+1)/2 = " + std::to_string(entries) +
-                                       " entries (glossy materials need the direction each arrived along)"
-                                 : "one running sum per bounce, D = " + std::to_string(D) +
-                                       " (diffuse: the D(D+1)/2 table collapses)";
+        report_.decisions["storage"] = glossy_ ? "the bounce table, D(D+1)/2 = " + std::to_string(entries) +
+                                                     " entries (glossy materials need the direction each arrived along)"
+                                               : "one running sum per bounce, D = " + std::to_string(D) +
+                                                     " (diffuse: the D(D+1)/2 table collapses)";
     }
     if (options.unbiased) {
         correction_.assign(n, Rgb::Zero());
         ++vectors;
     }
-    stats_.bytes_per_patch = vectors * sizeof(Rgb);
+    report_.method = walk_method_name(method);
+    report_.visibility = describe(backends_);
+    report_.bytes_per_patch = vectors * sizeof(Rgb);
+    report_.details = {{"depth", D}, {"sampler", sampling::sampler_name(options.sampler)}, {"unbiased", options.unbiased}};
     if (glossy_) {
         to_eye_ = t_.directions_to_eye();
-        stats_.shading = "every walk, towards the eye (the scene has glossy materials)";
+        report_.decisions["shading"] = "every walk, towards the eye (the scene has glossy materials)";
     } else {
-        stats_.shading = "once at the end (purely diffuse scene)";
+        report_.decisions["shading"] = "once at the end (purely diffuse scene)";
     }
 }
 
@@ -98,9 +128,9 @@ void GlobalWalks::transfer_all() {
     for (std::size_t d = 0; d < dirs_.size(); ++d) jitters_.emplace_back(jitter_.uniform(), jitter_.uniform());
     const auto t0 = Clock::now();
     backends_.transfer_batch(dirs_, jitters_, matrices_);
-    stats_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
-    for (const auto& m : matrices_) stats_.entries_total += m.entries.size();
-    stats_.directions += static_cast<long>(matrices_.size());
+    report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (const auto& m : matrices_) report_.entries_total += m.entries.size();
+    report_.directions += static_cast<long>(matrices_.size());
 }
 
 Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
@@ -150,7 +180,7 @@ void GlobalWalks::walk_plain() {
             chain_.swap(next_);
         }
         prev = w;
-        stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+        report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
     }
     for (std::size_t i = 0; i < n; ++i) accumulate(i, prev, irr_[i]);
     if (unbiased) {
@@ -195,7 +225,7 @@ void GlobalWalks::walk_combined(bool both) {
         for (std::size_t j = 0; j < n; ++j) out_[j] = walk_emission(j, t_.departure(j, w, both));
         t_.set_sky(w, out_);
         t_.gather(matrix, out_, slot(0, t), both, 1.0);
-        stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+        report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
     }
     // Each b-bounce sample set: C(D, b+1) subsequences, times 2^(b+1) sign choices.
     std::vector<double> inv_samples(static_cast<std::size_t>(D));
@@ -224,22 +254,20 @@ void GlobalWalks::walk_combined(bool both) {
     }
 }
 
-void GlobalWalks::run(const Callback& progress) {
-    const long total = options_.walks;
-    const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
+void GlobalWalks::run() {
+    const long total = options_.steps;
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
         sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
         for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
         transfer_all();
-        if (options_.method == WalkMethod::walk)
+        if (method_ == WalkMethod::walk)
             walk_plain();
         else
-            walk_combined(options_.method == WalkMethod::bidirectional);
+            walk_combined(method_ == WalkMethod::bidirectional);
         ++walks_done_;
-        ++stats_.walks;
-        if (progress && ((m + 1) % every == 0 || m + 1 == total))
-            progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+        ++report_.steps;
+        run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
     }
 }
 

@@ -31,13 +31,9 @@
 // scenes keep the whole table, each entry with the direction it arrived along, and
 // evaluate the radiance towards the eye per walk.
 //
-// Call order: construct, run() (progress through the callback), then field();
-// field() may also be called from inside the callback.
+// Options read: steps (walks), depth, unbiased, sampler. Call order: see solver.h.
 #include "sampling/walk_sampler.h"
-#include "solver/radiance_field.h"
-#include "solver/stochastic_iteration.h"
-#include "solver/transport.h"
-#include "visibility/backend.h"
+#include "solver/solver.h"
 #include "visibility/parallel.h"
 
 #include <cstdint>
@@ -51,42 +47,26 @@ enum class WalkMethod { walk, combined, bidirectional };
 
 const char* walk_method_name(WalkMethod m);
 
-struct WalkOptions {
-    WalkMethod method = WalkMethod::walk;
-    int depth = 5;      // D: directions (and bounces) per walk
-    long walks = 1000;  // M
-    bool unbiased = false;
-    sampling::SamplerKind sampler = sampling::SamplerKind::random;
-    std::uint64_t seed = 1;
-    std::uint64_t jitter_stream = 0;
-    long progress_every = 0;  // callback every k walks (0: about 100 times per run)
-};
-
-struct WalkStats {
-    long walks = 0;
-    long directions = 0;  // visibility transfers made
-    double seconds_visibility = 0.0;
-    double seconds_transport = 0.0;
-    std::size_t entries_total = 0;
-    std::size_t bytes_per_patch = 0;  // the method's per-patch vectors
-    std::string shading;
-    std::string storage;  // what is kept per patch, and why
-};
-
-class GlobalWalks {
+class GlobalWalks final : public Solver {
 public:
-    using Callback = StochasticIteration::Callback;
+    // The transport (patch constants, first shot) and the backends must outlive the
+    // solver. With several backends the D matrices of a walk are computed side by side
+    // (bit-identical results for any count). Throws OptionError for a depth the sampler
+    // cannot do or --unbiased with a QMC sampler.
+    GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkMethod method,
+                const SolverOptions& options, const sampling::RunOptions& run);
+    GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkMethod method,
+                const SolverOptions& options, const sampling::RunOptions& run);
+    GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends, WalkMethod method,
+                const SolverOptions& options, const sampling::RunOptions& run);
 
-    // The transport (patch constants, first shot) must outlive the solver.
-    GlobalWalks(const Transport& transport, visibility::Backend& backend, WalkOptions options);
-    // With one backend per thread: the D matrices of a walk are computed side by side
-    // (bit-identical results for any thread count).
-    GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkOptions options);
-
-    void run(const Callback& progress = {});
-
-    RadianceField field() const;
-    const WalkStats& stats() const { return stats_; }
+    void run() override;
+    RadianceField field() const override;
+    SolverReport report() const override { return report_; }
+    // (The diffuse shot adds the first bounce exactly: D + 1 bounces in all.)
+    double converged_fraction(double albedo) const override {
+        return truncation_factor(albedo, options_.depth + (t_.diffuse_shot() ? 1 : 0), options_.unbiased);
+    }
 
     // The radiance the walks converge to on a homogeneous closed scene, relative to
     // its exact radiance: 1 - a^(D+1) when truncated, 1 with `unbiased`.
@@ -94,7 +74,8 @@ public:
 
 private:
     GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
-                visibility::BackendSet* backends, WalkOptions options);
+                visibility::BackendSet* backends, WalkMethod method, const SolverOptions& options,
+                const sampling::RunOptions& run);
     void walk_plain();
     void walk_combined(bool both);
     // The geometry matrices of the walk's directions, dirs_ -> matrices_.
@@ -106,10 +87,11 @@ private:
     Rgb walk_emission(std::size_t j, const Vec3& out) const;
 
     const Transport& t_;
-    const scenes::Scene& scene_;
     std::unique_ptr<visibility::BackendSet> own_set_;
     visibility::BackendSet& backends_;
-    WalkOptions options_;
+    WalkMethod method_;
+    SolverOptions options_;
+    sampling::RunOptions run_;
     bool glossy_;
     sampling::WalkSampler sampler_;
     sampling::Rng jitter_;
@@ -132,7 +114,7 @@ private:
 
     std::vector<Rgb> sum_;  // per patch: sum over walks of the reflected-radiance estimate
     long walks_done_ = 0;
-    WalkStats stats_;
+    SolverReport report_;
 };
 
 }  // namespace raybundle::solver

@@ -1,6 +1,8 @@
 #include "solver/linear_basis.h"
 
 #include "sampling/directions.h"
+#include "sampling/streams.h"
+#include "scenes/errors.h"
 
 #include <chrono>
 #include <cmath>
@@ -10,11 +12,22 @@ namespace raybundle::solver {
 
 using Clock = std::chrono::steady_clock;
 
-LinearIteration::LinearIteration(const Transport& transport, const visibility::BackendOptions& map,
-                                 IterationOptions options)
-    : t_(transport), scene_(transport.scene()), options_(options), painter_(transport.scene(), map) {
-    if (transport.glossy())
-        throw std::invalid_argument("--basis linear supports diffuse scenes only (this scene has glossy materials)");
+namespace {
+
+const Transport& diffuse_only(const Transport& t) {
+    if (t.glossy()) throw scenes::OptionError("basis", "linear supports diffuse scenes only (this scene has glossy materials)");
+    return t;
+}
+
+}  // namespace
+
+LinearIteration::LinearIteration(const Transport& transport, const SolverOptions& options,
+                                 const sampling::RunOptions& run)
+    : t_(diffuse_only(transport)),
+      scene_(transport.scene()),
+      options_(options),
+      run_(run),
+      painter_(transport.scene(), options.map) {
     const auto& patches = scene_.patch_list();
     const std::size_t n = patches.size();
 
@@ -61,7 +74,12 @@ LinearIteration::LinearIteration(const Transport& transport, const visibility::B
     next_.assign(mass_.size(), Rgb::Zero());
     sum_.assign(mass_.size(), Rgb::Zero());
     corner_out_.assign(3 * n, Rgb::Zero());
-    stats_.shading = "linear basis: vertex values interpolated (Gouraud), no smoothing pass";
+    report_.method = "iteration";
+    report_.visibility = {"painter", "centre-sorted Gouraud radiance map (the linear basis)", false, resolution(), 1};
+    report_.bytes_per_patch = (3 * sizeof(Rgb) * mass_.size() + 6 * sizeof(Rgb) * n) / n;
+    report_.details = {{"basis", "linear"}, {"nodes", mass_.size()}, {"both_ways", options_.both_ways}};
+    report_.decisions["shading"] = "linear basis: vertex values interpolated (Gouraud), no smoothing pass";
+    report_.decisions["visibility"] = "the centre-sorted painter's radiance map (the basis lives in its rasteriser)";
 }
 
 void LinearIteration::pass(const Vec3& w, const Eigen::Vector2d& jitter, double weight) {
@@ -70,17 +88,16 @@ void LinearIteration::pass(const Vec3& w, const Eigen::Vector2d& jitter, double 
     painter_.transfer(w, jitter, corner_out_, sky, corner_in_);
     const auto t1 = Clock::now();
     for (std::size_t c = 0; c < corner_in_.size(); ++c) next_[node_of_corner_[c]] += weight * corner_in_[c];
-    stats_.seconds_visibility += std::chrono::duration<double>(t1 - t0).count();
-    stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
-    ++stats_.directions;
+    report_.seconds_visibility += std::chrono::duration<double>(t1 - t0).count();
+    report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
+    ++report_.directions;
 }
 
-void LinearIteration::run(const Callback& progress) {
-    sampling::RandomDirections directions(options_.seed);
-    sampling::Rng jitter(options_.seed, /*stream=*/0x717e4 + options_.jitter_stream);
-    const long total = options_.iterations;
-    const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
-    const bool both = options_.bidirectional;
+void LinearIteration::run() {
+    sampling::RandomDirections directions(run_.seed);
+    sampling::Rng jitter(run_.seed, sampling::streams::kMapJitters[run_.jitter_stream]);
+    const long total = options_.steps;
+    const bool both = options_.both_ways;
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
         const Vec3 w = directions.next();
@@ -98,9 +115,8 @@ void LinearIteration::run(const Callback& progress) {
             sum_[k] += irradiance_[k];
         }
         ++steps_;
-        ++stats_.iterations;
-        if (progress && ((m + 1) % every == 0 || m + 1 == total))
-            progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+        ++report_.steps;
+        run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
     }
 }
 

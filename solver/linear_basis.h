@@ -18,10 +18,9 @@
 // through the first shot (patch-averaged, then averaged per node); the sky through
 // the map's initial value.
 //
-// Call order: construct, run(), then field().
-#include "solver/radiance_field.h"
-#include "solver/stochastic_iteration.h"
-#include "solver/transport.h"
+// Options read: steps, both_ways (w and -w: two passes, weight 1/2 each), map.
+// Call order: see solver.h.
+#include "solver/solver.h"
 #include "visibility/painter.h"
 
 #include <array>
@@ -29,16 +28,14 @@
 
 namespace raybundle::solver {
 
-class LinearIteration {
+class LinearIteration final : public Solver {
 public:
-    using Callback = StochasticIteration::Callback;
+    // Throws OptionError("basis") for a scene with glossy materials.
+    LinearIteration(const Transport& transport, const SolverOptions& options, const sampling::RunOptions& run);
 
-    // Throws std::invalid_argument for a scene with glossy materials.
-    LinearIteration(const Transport& transport, const visibility::BackendOptions& map, IterationOptions options);
-
-    void run(const Callback& progress = {});
-    RadianceField field() const;
-    const IterationStats& stats() const { return stats_; }
+    void run() override;
+    RadianceField field() const override;
+    SolverReport report() const override { return report_; }
     int resolution() const { return painter_.resolution(); }
     std::size_t nodes() const { return mass_.size(); }
 
@@ -47,7 +44,8 @@ private:
 
     const Transport& t_;
     const scenes::Scene& scene_;
-    IterationOptions options_;
+    SolverOptions options_;
+    sampling::RunOptions run_;
     visibility::GouraudPainter painter_;
     std::vector<std::uint32_t> node_of_corner_;  // 3 per patch
     std::vector<double> mass_;                    // sum of A/3 over the node's corners
@@ -55,7 +53,7 @@ private:
     std::vector<Rgb> irradiance_, next_, sum_;    // per node
     std::vector<Rgb> corner_out_, corner_in_;     // 3 per patch
     long steps_ = 0;
-    IterationStats stats_;
+    SolverReport report_;
 };
 
 }  // namespace raybundle::solver

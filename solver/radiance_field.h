@@ -11,7 +11,6 @@ struct RadianceField {
     // Per patch: the radiance it sends towards the camera. For purely diffuse scenes
     // this is its (view-independent) radiance.
     std::vector<scenes::Rgb> radiance;
-    bool view_dependent = false;
     // With the linear basis: per patch, the radiance at its three corners (the
     // renderer interpolates them). Empty for the constant basis.
     std::vector<std::array<scenes::Rgb, 3>> corners;

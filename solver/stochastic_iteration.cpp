@@ -1,7 +1,8 @@
 #include "solver/stochastic_iteration.h"
 
 #include "sampling/directions.h"
-#include "solver/brdf.h"
+#include "sampling/streams.h"
+#include "scenes/brdf.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,32 +13,35 @@ using scenes::Rgb;
 using scenes::Vec3;
 using Clock = std::chrono::steady_clock;
 
-StochasticIteration::StochasticIteration(const Transport& transport, visibility::Backend& backend,
-                                         IterationOptions options)
+StochasticIteration::StochasticIteration(const Transport& transport, visibility::BackendSet& backends,
+                                         const SolverOptions& options, const sampling::RunOptions& run)
+    : transport_(transport), backends_(backends), options_(options), run_(run), glossy_(transport.glossy()) {
+    init();
+}
+
+StochasticIteration::StochasticIteration(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends,
+                                         const SolverOptions& options, const sampling::RunOptions& run)
     : transport_(transport),
-      scene_(transport.scene()),
-      own_set_(std::make_unique<visibility::BackendSet>(backend)),
+      own_set_(std::move(backends)),
       backends_(*own_set_),
       options_(options),
+      run_(run),
       glossy_(transport.glossy()) {
     init();
 }
 
-StochasticIteration::StochasticIteration(const Transport& transport, visibility::BackendSet& backends,
-                                         IterationOptions options)
-    : transport_(transport), scene_(transport.scene()), backends_(backends), options_(options),
-      glossy_(transport.glossy()) {
-    init();
-}
+StochasticIteration::StochasticIteration(const Transport& transport, visibility::Backend& backend,
+                                         const SolverOptions& options, const sampling::RunOptions& run)
+    : StochasticIteration(transport, std::make_unique<visibility::BackendSet>(backend), options, run) {}
 
 StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend,
-                                         IterationOptions options)
+                                         const SolverOptions& options, const sampling::RunOptions& run)
     : own_(std::make_unique<Transport>(scene)),
       transport_(*own_),
-      scene_(scene),
       own_set_(std::make_unique<visibility::BackendSet>(backend)),
       backends_(*own_set_),
       options_(options),
+      run_(run),
       glossy_(scene.has_glossy()) {
     init();
 }
@@ -48,18 +52,24 @@ void StochasticIteration::init() {
     next_.assign(n + 2, Rgb::Zero());
     outgoing_.assign(n + 2, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
+    report_.method = "iteration";
+    report_.visibility = describe(backends_);
+    report_.bytes_per_patch = 4 * sizeof(Rgb);
+    report_.details = {{"both_ways", options_.both_ways}};
     if (glossy_) {
         to_eye_ = transport_.directions_to_eye();
-        stats_.shading = "every step, towards the eye (the scene has glossy materials)";
+        report_.decisions["shading"] = "every step, towards the eye (the scene has glossy materials)";
     } else {
-        stats_.shading = "once at the end (purely diffuse scene)";
+        report_.decisions["shading"] = "once at the end (purely diffuse scene)";
     }
+    report_.decisions["directions_per_step"] = options_.both_ways ? "w and -w from one geometry matrix (weight 1/2 each)"
+                                                                  : "w only";
 }
 
 void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& matrix) {
     const Transport& t = transport_;
     const std::size_t n = t.patches();
-    const bool both = options_.bidirectional;
+    const bool both = options_.both_ways;
     // Radiance every patch sends along w (with both directions: along whichever of +-w
     // it faces): emission plus the reflection of the irradiance of the previous step,
     // which arrived along w_prev (or whichever of +-w_prev the patch faced).
@@ -91,11 +101,10 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
     }
 }
 
-void StochasticIteration::run(const Callback& progress) {
-    sampling::RandomDirections directions(options_.seed);
-    sampling::Rng jitter(options_.seed, /*stream=*/0x717e4 + options_.jitter_stream);
-    const long total = options_.iterations;
-    const long every = options_.progress_every > 0 ? options_.progress_every : std::max(1L, total / 100);
+void StochasticIteration::run() {
+    sampling::RandomDirections directions(run_.seed);
+    sampling::Rng jitter(run_.seed, sampling::streams::kMapJitters[run_.jitter_stream]);
+    const long total = options_.steps;
     // One direction at a time on one thread; batches of 4 per thread otherwise. The
     // directions and jitters are drawn in the same order either way.
     const int threads = backends_.threads();
@@ -113,16 +122,15 @@ void StochasticIteration::run(const Callback& progress) {
         }
         const auto t0 = Clock::now();
         backends_.transfer_batch(ws, offsets, matrices_);
-        stats_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+        report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
         for (long b = 0; b < count; ++b, ++m) {
             const auto t1 = Clock::now();
             step(ws[b], matrices_[b]);
-            stats_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
-            stats_.entries_total += matrices_[b].entries.size();
-            ++stats_.directions;
-            ++stats_.iterations;
-            if (progress && ((m + 1) % every == 0 || m + 1 == total))
-                progress({m + 1, total, std::chrono::duration<double>(Clock::now() - start).count()});
+            report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
+            report_.entries_total += matrices_[b].entries.size();
+            ++report_.directions;
+            ++report_.steps;
+            run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
         }
     }
 }

@@ -1,6 +1,7 @@
 #include "solver/transport.h"
 
-#include "solver/brdf.h"
+#include "scenes/errors.h"
+#include "scenes/brdf.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,11 +9,6 @@
 #include <cmath>
 
 namespace raybundle::solver {
-
-Transport::Transport(const scenes::Scene& scene, const FirstShot* shot)
-    : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()) {
-    init(shot, nullptr);
-}
 
 void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
     const scenes::Scene& scene = scene_;
@@ -45,10 +41,10 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
     }
 }
 
-Transport::Transport(const scenes::Scene& scene, ShotOptions options)
+Transport::Transport(const scenes::Scene& scene, ShotOptions options, const sampling::RunOptions& run)
     : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()), diffuse_shot_(options.diffuse_shot) {
     if (diffuse_shot_ && glossy_)
-        throw std::invalid_argument("--diffuse-shot supports diffuse scenes only (this scene has glossy materials)");
+        throw scenes::OptionError("diffuse_shot", "supports diffuse scenes only (this scene has glossy materials)");
     if (scene.point_lights.empty() && !diffuse_shot_) {
         init(nullptr, nullptr);
         return;
@@ -65,11 +61,22 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options)
     std::vector<Rgb> direct;
     if (diffuse_shot_) {
         const auto t0 = std::chrono::steady_clock::now();
-        direct = diffuse_shot(scene, caster, shot_stats_.diffuse_rays);
+        direct = solver::diffuse_shot(scene, caster, shot_stats_.diffuse_rays, run);
         for (std::size_t j = 0; j < n_; ++j) shot_stats_.emitters += scene.material_of(j).emissive();
         shot_stats_.diffuse_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
     init(scene.point_lights.empty() ? nullptr : &shot, diffuse_shot_ ? &direct : nullptr);
+}
+
+nlohmann::json Transport::decisions() const {
+    const auto& s = shot_stats_;
+    return {{"first_shot", s.lights == 0 ? std::string("skipped: no point lights")
+                                         : std::to_string(s.lights) + " point light(s), " + std::to_string(s.shadow_rays) +
+                                               " shadow rays, then they leave the iteration"},
+            {"diffuse_shot", diffuse_shot_ ? std::to_string(s.emitters) + " emissive patches, " +
+                                                 std::to_string(s.diffuse_rays) +
+                                                 " shadow rays: direct light computed once, the emission moves no more"
+                                           : std::string("off")}};
 }
 
 Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
@@ -77,7 +84,7 @@ Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
     Rgb sum = Rgb::Zero();
     const auto& m = scene_.material_of(j);
     for (std::uint32_t k = hit_begin_[j]; k < hit_begin_[j + 1]; ++k)
-        sum += brdf(m, normal_[j], hits_[k].direction, out) * hits_[k].irradiance;
+        sum += scenes::brdf(m, normal_[j], hits_[k].direction, out) * hits_[k].irradiance;
     return sum;
 }
 
@@ -89,7 +96,7 @@ Rgb Transport::emitted(std::size_t j, const Vec3& out) const {
 
 Rgb Transport::reflected(std::size_t j, const Vec3& in, const Vec3& out, const Rgb& irr) const {
     if (!patch_glossy_[j]) return reflect_[j] * irr;
-    return 4.0 * M_PI * brdf(scene_.material_of(j), normal_[j], in, out) * irr;
+    return 4.0 * M_PI * scenes::brdf(scene_.material_of(j), normal_[j], in, out) * irr;
 }
 
 std::vector<Vec3> Transport::directions_to_eye() const {
@@ -101,7 +108,6 @@ std::vector<Vec3> Transport::directions_to_eye() const {
 
 RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const {
     RadianceField f;
-    f.view_dependent = glossy_;
     f.radiance.resize(n_);
     const double inv = count > 0 ? 1.0 / static_cast<double>(count) : 0.0;
     for (std::size_t i = 0; i < n_; ++i) {

@@ -14,9 +14,12 @@
 // iteration (004 section 9). With the diffuse shot (section 9.1) the direct light of
 // the emissive patches is computed once, too: the patches' own emission is then only
 // shown, and what moves along the geometry matrices starts from its reflection.
+#include "sampling/run.h"
 #include "solver/first_shot.h"
 #include "solver/radiance_field.h"
 #include "visibility/backend.h"
+
+#include <nlohmann/json.hpp>
 
 #include <vector>
 
@@ -31,12 +34,11 @@ struct ShotOptions {
 
 class Transport {
 public:
-    // `shot` may be null (no point lights). No diffuse shot.
-    Transport(const scenes::Scene& scene, const FirstShot* shot);
     // Computes the first shot when the scene has point lights (building a ray caster),
     // and skips it when it has none; the diffuse shot when asked (throws
-    // std::invalid_argument for a scene with glossy materials).
-    explicit Transport(const scenes::Scene& scene, ShotOptions options = {});
+    // OptionError("diffuse_shot") for a scene with glossy materials), on run.threads
+    // with progress through `run`.
+    explicit Transport(const scenes::Scene& scene, ShotOptions options = {}, const sampling::RunOptions& run = {});
 
     // What the first shot did: point lights, shadow rays, seconds (zeros: skipped),
     // and the same for the diffuse shot.
@@ -49,12 +51,16 @@ public:
         double diffuse_seconds = 0.0;
     };
     const ShotStats& shot_stats() const { return shot_stats_; }
+    // The decisions about the shots, for the run's record: "first_shot", "diffuse_shot".
+    nlohmann::json decisions() const;
 
     std::size_t patches() const { return n_; }
     std::size_t slots() const { return n_ + 2; }  // patches and the two sky slots
     std::size_t sky_front() const { return n_; }
     std::size_t sky_back() const { return n_ + 1; }
     bool glossy() const { return glossy_; }
+    // Whether the area lights' direct light was computed once (the maps carry the rest).
+    bool diffuse_shot() const { return diffuse_shot_; }
     bool is_glossy(std::size_t j) const { return patch_glossy_[j] != 0; }
     const scenes::Scene& scene() const { return scene_; }
 

@@ -1,6 +1,6 @@
 #include "visibility/arrangement.h"
 
-#include "sampling/directions.h"
+#include "scenes/frame.h"
 #include "visibility/pixel_pairs.h"
 
 #include <CGAL/Arr_consolidated_curve_data_traits_2.h>
@@ -217,7 +217,7 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
     out.entries.clear();
     const Impl& s = *impl_;
     Vec3 u, v;
-    sampling::orthonormal_basis(w, u, v);
+    scenes::orthonormal_basis(w, u, v);
 
     // Project the vertices (doubles are exact inputs for the exact kernel).
     std::vector<Point> projected;
@@ -322,25 +322,12 @@ void ArrangementBackend::transfer(const Vec3& w, const Eigen::Vector2d& /*jitter
         std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return depth[a] < depth[b]; });
         order_ties(idx.begin(), idx.end(), 1e-9 * s.extent, [&](std::size_t k) { return depth[k]; },
                    [&](std::size_t k) { return s.normals[set[k]].dot(w) > 0.0; }, [&](std::size_t k) { return set[k]; });
-        for (std::size_t k = 0; k + 1 < idx.size(); ++k) {
-            const std::uint32_t a = set[idx[k]], b = set[idx[k + 1]];
-            if (s.normals[a].dot(w) > 0.0 && s.normals[b].dot(w) < 0.0) {
-                pairs.push_back(pixel_pair(b, a));
-                areas.push_back(area);
-            }
-        }
-        if (s.sky) {
-            const auto sky = static_cast<std::uint32_t>(s.normals.size());
-            const std::uint32_t first = set[idx.front()], last = set[idx.back()];
-            if (s.normals[first].dot(w) < 0.0) {
-                pairs.push_back(pixel_pair(first, sky));
-                areas.push_back(area);
-            }
-            if (s.normals[last].dot(w) > 0.0) {
-                pairs.push_back(pixel_pair(sky + 1, last));
-                areas.push_back(area);
-            }
-        }
+        pairs_along(idx.begin(), idx.end(), [&](std::size_t k) { return set[k]; },
+                    [&](std::size_t k) { return s.normals[set[k]].dot(w) > 0.0; }, s.sky,
+                    static_cast<std::uint32_t>(s.normals.size()), [&](std::uint32_t r, std::uint32_t src) {
+                        pairs.push_back(pixel_pair(r, src));
+                        areas.push_back(area);
+                    });
     }
     // Group by (receiver, source), summing areas.
     std::vector<std::size_t> perm(pairs.size());

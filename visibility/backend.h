@@ -73,16 +73,16 @@ struct BackendInfo {
     std::string summary;    // one line for `raybundle backends`
 };
 const std::vector<BackendInfo>& backend_infos();
-// The row of a backend; throws std::invalid_argument for an unknown name, listing the known ones.
+// The row of a backend; throws OptionError("visibility") for an unknown name, listing the known ones.
 const BackendInfo& backend_info(const std::string& name);
 // The names make_backend knows, the default first.
 std::vector<std::string> backend_names();
 // The backend used when none is named: exact, and the fastest of those.
 inline const char* const kDefaultBackend = "exact-painter";
 
-// Makes a backend by name (see backend_infos()). Throws std::invalid_argument for an
-// unknown name (listing the known ones), a backend this build lacks, or options it
-// does not support.
+// Makes a backend by name (see backend_infos()). Throws OptionError for an unknown
+// name (listing the known ones), a backend this build lacks, or options it does not
+// support.
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options);
 

@@ -2,6 +2,7 @@
 
 #include "visibility/centre_sort.h"
 #include "visibility/exact_spans.h"
+#include "visibility/pixel_pairs.h"
 #include "visibility/raster.h"
 
 #include <algorithm>
@@ -327,12 +328,14 @@ void ExactPainterBackend::resolve_marked(int band) {
         // Sort by depth (ties as everywhere: after()) and pair.
         for (Fragment* f = first + 1; f < last; ++f)
             for (Fragment* g = f; g > first && !after(g->id, g->key, g[-1].id, g[-1].key); --g) std::swap(*g, g[-1]);
-        std::uint32_t previous = initial_;
-        for (Fragment* f = first; f != last; ++f) {
-            if (!is_source(f->id) && is_source(previous)) correct(f->id, previous, +1);
-            previous = f->id;
-        }
-        if (sky_ && is_source(previous) && (previous & kIndex) < n) count_sky_back(previous & kIndex);
+        pairs_along(first, last, [](const Fragment& f) { return f.id & kIndex; },
+                    [](const Fragment& f) { return is_source(f.id); }, sky_, static_cast<std::uint32_t>(n),
+                    [&](std::uint32_t r, std::uint32_t src) {
+                        if (r == n + 1)
+                            count_sky_back(src);
+                        else
+                            correct(r, src, +1);
+                    });
         f0 = f1;
     }
 }

@@ -8,6 +8,8 @@
 #include "visibility/zbuffer.h"
 #endif
 
+#include "scenes/errors.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -44,23 +46,22 @@ const BackendInfo& backend_info(const std::string& name) {
     std::string known;
     for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
     if (name == "zbuffer" || name == "arrangement")
-        throw std::invalid_argument("visibility backend '" + name + "' is not built (configure with " +
-                                    (name == "zbuffer" ? "RAYBUNDLE_WITH_OPENGL" : "RAYBUNDLE_WITH_CGAL") +
-                                    "=ON; built: " + known + ")");
-    throw std::invalid_argument("unknown visibility backend '" + name + "' (known: " + known + ")");
+        throw scenes::OptionError("visibility", "backend '" + name + "' is not built (configure with " +
+                                                    (name == "zbuffer" ? "RAYBUNDLE_WITH_OPENGL" : "RAYBUNDLE_WITH_CGAL") +
+                                                    "=ON; built: " + known + ")");
+    throw scenes::OptionError("visibility", "unknown visibility backend '" + name + "' (known: " + known + ")");
 }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
                                       const BackendOptions& options) {
     const BackendInfo& info = backend_info(name);
     if (options.resolution < 0 || options.resolution > 16384)
-        throw std::invalid_argument("visibility resolution must be in 1..16384, got " +
-                                    std::to_string(options.resolution));
+        throw scenes::OptionError("resolution", "must be in 1..16384, got " + std::to_string(options.resolution));
     if (options.sky && !info.sky) {
         std::string with_sky;
         for (const auto& i : backend_infos())
             if (i.sky) with_sky += (with_sky.empty() ? "" : ", ") + i.name;
-        throw std::invalid_argument("visibility backend '" + name + "' does not support a sky (use " + with_sky + ")");
+        throw scenes::OptionError("visibility", "backend '" + name + "' does not support a sky (use " + with_sky + ")");
     }
     if (name == "exact-painter") return std::make_unique<ExactPainterBackend>(scene, options);
     if (name == "painter") return std::make_unique<PainterBackend>(scene, options);

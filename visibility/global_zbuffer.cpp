@@ -77,17 +77,12 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
             for (Fragment* g = f; g > first && before(*g, g[-1]); --g) std::swap(*g, g[-1]);
         order_ties(first, last, tie, [](const Fragment& f) { return f.depth; },
                    [](const Fragment& f) { return f.source; }, [](const Fragment& f) { return f.patch; });
-        for (Fragment* f = first; f + 1 < last; ++f)
-            if (f[0].source && !f[1].source)
-                pairs_.push_back(pixel_pair(f[1].patch, f[0].patch));
-        if (sky_) {
-            const auto sky = static_cast<std::uint32_t>(n);
-            if (!first->source) pairs_.push_back(pixel_pair(first->patch, sky));
-            if (last[-1].source) pairs_.push_back(pixel_pair(sky + 1, last[-1].patch));
-        }
+        pairs_along(first, last, [](const Fragment& f) { return f.patch; }, [](const Fragment& f) { return f.source; },
+                    sky_, static_cast<std::uint32_t>(n),
+                    [&](std::uint32_t r, std::uint32_t src) { pairs_.push_back(pixel_pair(r, src)); });
     }
 
-    // One entry per (receiver, source), grouped by receiver.
+    // One entry per (receiver, source).
     entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);
 }
 

@@ -3,7 +3,7 @@
 // the direction w that covers the scene's bounding sphere, shifted by a sub-pixel
 // jitter, with every vertex projected and snapped to 1/kSubpixel pixel. Shared by the
 // discrete backends so that they rasterise exactly the same pixel sets.
-#include "sampling/directions.h"
+#include "scenes/frame.h"
 #include "scenes/scene.h"
 #include "visibility/raster.h"
 
@@ -32,7 +32,7 @@ public:
     void project(const scenes::Vec3& w, const Eigen::Vector2d& jitter) {
         jx_ = jitter_ ? jitter.x() : 0.5;
         jy_ = jitter_ ? jitter.y() : 0.5;
-        sampling::orthonormal_basis(w, u_, v_);
+        scenes::orthonormal_basis(w, u_, v_);
         const double scale = kSubpixel / pixel();
         const std::size_t nv = positions_.size();
         px_.resize(nv);

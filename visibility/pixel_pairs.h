@@ -37,6 +37,22 @@ void order_ties(It first, It last, double tolerance, Depth depth, IsSource is_so
     }
 }
 
+// The pairs along one ray (or over one face) whose surfaces [first, last) are ordered
+// from upstream to downstream: emit(receiver, source) for every source directly
+// followed by a receiver; with a sky (`patches` = n, the patch count), also (r, n) for
+// a first surface r that is a receiver (it sees the open sky upstream) and (n + 1, s)
+// for a last surface s that is a source (along -w it sees the sky).
+template <class It, class Patch, class IsSource, class Emit>
+void pairs_along(It first, It last, Patch patch, IsSource is_source, bool sky, std::uint32_t patches, Emit emit) {
+    if (first == last) return;
+    for (It a = first, b = first + 1; b != last; ++a, ++b)
+        if (is_source(*a) && !is_source(*b)) emit(static_cast<std::uint32_t>(patch(*b)), static_cast<std::uint32_t>(patch(*a)));
+    if (sky) {
+        if (!is_source(*first)) emit(static_cast<std::uint32_t>(patch(*first)), patches);
+        if (is_source(*(last - 1))) emit(patches + 1, static_cast<std::uint32_t>(patch(*(last - 1))));
+    }
+}
+
 // Sorts `pairs` and appends one entry per distinct pair: its pixel count times
 // pixel_area.
 inline void entries_from_pairs(std::vector<std::uint64_t>& pairs, double pixel_area,

@@ -32,19 +32,10 @@ void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
             order_ties(hits_.begin(), hits_.end(), 1e-6 * R, [](const scenes::RayHit& h) { return h.t; },
                        [&](const scenes::RayHit& h) { return normals_[h.patch].dot(w) > 0.0; },
                        [](const scenes::RayHit& h) { return h.patch; });
-            for (std::size_t k = 0; k + 1 < hits_.size(); ++k) {
-                const auto& a = hits_[k];
-                const auto& b = hits_[k + 1];
-                if (normals_[a.patch].dot(w) > 0.0 && normals_[b.patch].dot(w) < 0.0)
-                    pairs_.push_back(pixel_pair(static_cast<std::uint32_t>(b.patch), static_cast<std::uint32_t>(a.patch)));
-            }
-            if (sky_ && !hits_.empty()) {
-                const auto sky = static_cast<std::uint32_t>(normals_.size());
-                const auto first = static_cast<std::uint32_t>(hits_.front().patch);
-                const auto last = static_cast<std::uint32_t>(hits_.back().patch);
-                if (normals_[first].dot(w) < 0.0) pairs_.push_back(pixel_pair(first, sky));
-                if (normals_[last].dot(w) > 0.0) pairs_.push_back(pixel_pair(sky + 1, last));
-            }
+            pairs_along(hits_.begin(), hits_.end(), [](const scenes::RayHit& h) { return h.patch; },
+                        [&](const scenes::RayHit& h) { return normals_[h.patch].dot(w) > 0.0; }, sky_,
+                        static_cast<std::uint32_t>(normals_.size()),
+                        [&](std::uint32_t r, std::uint32_t src) { pairs_.push_back(pixel_pair(r, src)); });
         }
     entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);
 }

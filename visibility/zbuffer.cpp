@@ -1,6 +1,6 @@
 #include "visibility/zbuffer.h"
 
-#include "sampling/directions.h"
+#include "scenes/frame.h"
 #include "visibility/gl_context.h"
 #include "visibility/pixel_pairs.h"
 
@@ -260,7 +260,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     // (u . d + R) / pixel + jitter, mapped to [-1, 1] over W pixels; depth w . d over
     // the bounding sphere.
     Vec3 u, v;
-    sampling::orthonormal_basis(w, u, v);
+    scenes::orthonormal_basis(w, u, v);
     const double sx = 2.0 / (pixel * W), ox = (2.0 * (s.radius / pixel + jx)) / W - 1.0;
     const double sy = 2.0 / (pixel * W), oy = (2.0 * (s.radius / pixel + jy)) / W - 1.0;
     const double sz = 1.0 / (1.001 * s.radius);

@@ -41,10 +41,11 @@ solver::RadianceField iterate(const scenes::Scene& scene, const std::string& bac
     visibility::BackendOptions bo;
     bo.sky = scene.sky.has_value();
     auto backend = visibility::make_backend(backend_name, scene, bo);
-    solver::IterationOptions opt;
-    opt.iterations = steps;
-    opt.seed = seed;
-    solver::StochasticIteration it(scene, *backend, opt);
+    solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+    opt.steps = steps;
+    opt_run.seed = seed;
+    solver::StochasticIteration it(scene, *backend, opt, opt_run);
     it.run();
     return it.field();
 }
@@ -186,11 +187,10 @@ TEST_CASE("walks use the sky and the first shot too", "[solver][sky][walks]") {
     bo.sky = true;
     auto backend = visibility::make_backend("painter", scene, bo);
     const solver::Transport transport(scene);
-    solver::WalkOptions opt;
-    opt.method = solver::WalkMethod::bidirectional;
+    solver::SolverOptions opt;
     opt.depth = 2;
-    opt.walks = 1000;
-    solver::GlobalWalks w(transport, *backend, opt);
+    opt.steps = 1000;
+    solver::GlobalWalks w(transport, *backend, solver::WalkMethod::bidirectional, opt, {});
     w.run();
     // One bounce is all there is on an open plane: truncation changes nothing.
     CHECK(w.field().mean_radiance(scene) == Approx(0.5).epsilon(0.02));
@@ -218,10 +218,11 @@ TEST_CASE("diffuse shot: the same solution, less noise", "[solver][diffuse-shot]
     auto run = [&](bool shot, std::uint64_t seed) {
         const solver::Transport transport(scene, solver::ShotOptions{shot});
         auto backend = visibility::make_backend("painter", scene, {});
-        solver::IterationOptions opt;
-        opt.iterations = 1000;
-        opt.seed = seed;
-        solver::StochasticIteration it(transport, *backend, opt);
+        solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+        opt.steps = 1000;
+        opt_run.seed = seed;
+        solver::StochasticIteration it(transport, *backend, opt, opt_run);
         it.run();
         return it.field();
     };

@@ -20,16 +20,17 @@ namespace {
 
 solver::RadianceField solve(const scenes::Scene& scene, bool linear, long steps, std::uint64_t seed) {
     const solver::Transport transport(scene);
-    solver::IterationOptions opt;
-    opt.iterations = steps;
-    opt.seed = seed;
+    solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+    opt.steps = steps;
+    opt_run.seed = seed;
     if (linear) {
-        solver::LinearIteration it(transport, {}, opt);
+        solver::LinearIteration it(transport, opt, opt_run);
         it.run();
         return it.field();
     }
     auto backend = visibility::make_backend("painter", scene, {});
-    solver::StochasticIteration it(transport, *backend, opt);
+    solver::StochasticIteration it(transport, *backend, opt, opt_run);
     it.run();
     return it.field();
 }

@@ -38,10 +38,11 @@ TEST_CASE("closed box with different wall albedos agrees with a deterministic ra
     std::vector<Rgb> sum(n, Rgb::Zero()), sum2(n, Rgb::Zero());
     for (int k = 0; k < K; ++k) {
         auto backend = visibility::make_backend("painter", scene, {});
-        solver::IterationOptions opt;
-        opt.iterations = 1500;
-        opt.seed = 1000 + k;
-        solver::StochasticIteration it(scene, *backend, opt);
+        solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+        opt.steps = 1500;
+        opt_run.seed = 1000 + k;
+        solver::StochasticIteration it(scene, *backend, opt, opt_run);
         it.run();
         const auto field = it.field();
         for (std::size_t i = 0; i < n; ++i) {

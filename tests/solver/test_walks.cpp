@@ -3,7 +3,10 @@
 // beat plain walks at equal walks, and QMC beats random directions.
 #include "reference.h"
 #include "scenes/builtin.h"
+#include "scenes/errors.h"
+#include "scenes/brdf.h"
 #include "solver/global_walks.h"
+#include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
 
 #include <catch2/catch.hpp>
@@ -20,14 +23,14 @@ solver::RadianceField walk(const scenes::Scene& scene, WalkMethod method, int de
                            bool unbiased = false, sampling::SamplerKind sampler = sampling::SamplerKind::random) {
     auto backend = visibility::make_backend("painter", scene, {});
     const solver::Transport transport(scene);
-    solver::WalkOptions opt;
-    opt.method = method;
+    solver::SolverOptions opt;
     opt.depth = depth;
-    opt.walks = walks;
-    opt.seed = seed;
+    opt.steps = walks;
     opt.unbiased = unbiased;
     opt.sampler = sampler;
-    solver::GlobalWalks w(transport, *backend, opt);
+    sampling::RunOptions run;
+    run.seed = seed;
+    solver::GlobalWalks w(transport, *backend, method, opt, run);
     w.run();
     return w.field();
 }
@@ -117,11 +120,10 @@ TEST_CASE("walks: memory per patch follows the method, and the same seed is bit-
     auto backend = visibility::make_backend("painter", scene, {});
     const solver::Transport transport(scene);
     auto bytes = [&](WalkMethod m, bool unbiased) {
-        solver::WalkOptions opt;
-        opt.method = m;
+        solver::SolverOptions opt;
         opt.depth = 5;
         opt.unbiased = unbiased;
-        return solver::GlobalWalks(transport, *backend, opt).stats().bytes_per_patch;
+        return solver::GlobalWalks(transport, *backend, m, opt, {}).report().bytes_per_patch;
     };
     CHECK(bytes(WalkMethod::walk, false) < bytes(WalkMethod::combined, false));
     CHECK(bytes(WalkMethod::walk, false) < bytes(WalkMethod::walk, true));
@@ -135,23 +137,41 @@ TEST_CASE("walks: memory per patch follows the method, and the same seed is bit-
     CHECK(same);
 }
 
-TEST_CASE("glossy walks keep the full table and stay below the diffuse answer", "[solver][walks][glossy]") {
-    // Half the albedo made glossy: the mean must stay below the diffuse truncated value
-    // (1 - 2^-(D+1)) and above the emission.
+TEST_CASE("glossy walks keep the full table and give the exact first bounce", "[solver][walks][glossy]") {
+    // The homogeneous box with half the albedo made glossy. In a closed box of uniform
+    // emission Le every direction sees radiance Le, so walks truncated after one bounce
+    // (D = 1) converge to Le (1 + rho(eye)) per patch, with rho(eye) the directional
+    // albedo towards the eye (by reciprocity, of light arriving from the eye's side).
     auto scene = testing::glossy_box(0.34);
     auto backend = visibility::make_backend("painter", scene, {});
     const solver::Transport transport(scene);
-    solver::WalkOptions opt;
-    opt.method = WalkMethod::bidirectional;
+    solver::SolverOptions opt;
     opt.depth = 3;
-    opt.walks = 300;
-    solver::GlobalWalks w(transport, *backend, opt);
-    CHECK(w.stats().bytes_per_patch == (6 + 2) * sizeof(scenes::Rgb));
-    CHECK(w.stats().storage.find("glossy") != std::string::npos);
-    w.run();
-    const double mean = w.field().mean_radiance(scene);
-    CHECK(mean > 0.7);
-    CHECK(mean < 0.9375);
+    solver::GlobalWalks table(transport, *backend, WalkMethod::bidirectional, opt, {});
+    CHECK(table.report().bytes_per_patch == (6 + 2) * sizeof(scenes::Rgb));
+    CHECK(table.report().decisions["storage"].get<std::string>().find("glossy") != std::string::npos);
+
+    const auto& patches = scene.patch_list();
+    const auto to_eye = transport.directions_to_eye();
+    std::vector<double> exact(patches.size());
+    for (std::size_t i = 0; i < patches.size(); ++i) {
+        const double rho = scenes::directional_albedo(scene.material_of(i), patches[i].normal, -to_eye[i], 200).mean();
+        exact[i] = patches[i].normal.dot(to_eye[i]) > 0.0 ? 0.5 * (1.0 + rho) : 0.0;  // a back side shows nothing
+    }
+    for (const WalkMethod m : {WalkMethod::walk, WalkMethod::combined, WalkMethod::bidirectional}) {
+        opt.depth = 1;
+        opt.steps = 3000;
+        solver::GlobalWalks w(transport, *backend, m, opt, {});
+        w.run();
+        const auto field = w.field();
+        double diff = 0.0, norm = 0.0;
+        for (std::size_t i = 0; i < patches.size(); ++i) {
+            diff += patches[i].area * std::abs(field.radiance[i].mean() - exact[i]);
+            norm += patches[i].area * exact[i];
+        }
+        INFO(solver::walk_method_name(m) << ": relative L1 against the exact first bounce " << diff / norm);
+        CHECK(diff / norm < 0.02);
+    }
 }
 
 TEST_CASE("solvers: one backend per thread gives bit-identical results for any thread count", "[solver][threads]") {
@@ -166,17 +186,16 @@ TEST_CASE("solvers: one backend per thread gives bit-identical results for any t
     for (const int threads : {1, 2, 3}) {
         visibility::BackendSet set("painter", scene, {}, threads);
         CHECK(set.threads() == threads);
-        solver::IterationOptions io;
-        io.iterations = 50;
-        solver::StochasticIteration it(transport, set, io);
+        solver::SolverOptions io;
+        io.steps = 50;
+        solver::StochasticIteration it(transport, set, io, {});
         it.run();
         iterated.push_back(it.field());
-        solver::WalkOptions wo;
-        wo.method = WalkMethod::bidirectional;
+        solver::SolverOptions wo;
         wo.depth = 4;
-        wo.walks = 10;
+        wo.steps = 10;
         wo.unbiased = true;
-        solver::GlobalWalks w(transport, set, wo);
+        solver::GlobalWalks w(transport, set, WalkMethod::bidirectional, wo, {});
         w.run();
         walked.push_back(w.field());
     }
@@ -186,21 +205,23 @@ TEST_CASE("solvers: one backend per thread gives bit-identical results for any t
     CHECK(same(walked[0], walked[2]));
     // And the same as the single-backend constructors.
     auto backend = visibility::make_backend("painter", scene, {});
-    solver::IterationOptions io;
-    io.iterations = 50;
-    solver::StochasticIteration single(transport, *backend, io);
+    solver::SolverOptions io;
+    io.steps = 50;
+    solver::StochasticIteration single(transport, *backend, io, {});
     single.run();
     CHECK(same(single.field(), iterated[0]));
 }
 
-TEST_CASE("walks: --unbiased needs independent consecutive walks (random directions)", "[solver][walks]") {
+TEST_CASE("walks: unbiased walks need independent consecutive walks (random directions)", "[solver][walks]") {
     const auto scene = scenes::make_builtin("homogeneous-box", 0.5);
     auto backend = visibility::make_backend("painter", scene, {});
     const solver::Transport transport(scene);
-    solver::WalkOptions opt;
+    solver::SolverOptions opt;
     opt.unbiased = true;
     for (auto s : {sampling::SamplerKind::halton, sampling::SamplerKind::sobol}) {
         opt.sampler = s;
-        CHECK_THROWS_WITH(solver::GlobalWalks(transport, *backend, opt), Catch::Contains("--sampler random"));
+        CHECK_THROWS_AS(solver::GlobalWalks(transport, *backend, WalkMethod::walk, opt, {}), scenes::OptionError);
+        CHECK_THROWS_WITH(solver::GlobalWalks(transport, *backend, WalkMethod::walk, opt, {}),
+                          Catch::Contains("unbiased: needs the random sampler"));
     }
 }

@@ -255,10 +255,11 @@ TEST_CASE("the solver reaches the same radiance with every backend", "[visibilit
             visibility::BackendOptions opt;
             opt.resolution = 256;
             auto backend = visibility::make_backend(info.name, scene, opt);
-            solver::IterationOptions it_opt;
-            it_opt.iterations = 200;
-            it_opt.seed = 4;
-            solver::StochasticIteration it(scene, *backend, it_opt);
+            solver::SolverOptions it_opt;
+    sampling::RunOptions it_opt_run;
+            it_opt.steps = 200;
+            it_opt_run.seed = 4;
+            solver::StochasticIteration it(scene, *backend, it_opt, it_opt_run);
             it.run();
             fields[info.name] = it.field();
         }

@@ -214,10 +214,11 @@ TEST_CASE("contact scenes: every exact backend solves the radiance ray casting d
         visibility::BackendOptions opt;
         opt.resolution = 160;
         auto backend = visibility::make_backend(backend_name, scene, opt);
-        solver::IterationOptions it;
-        it.iterations = steps;
-        it.seed = 11;
-        solver::StochasticIteration solve(scene, *backend, it);
+        solver::SolverOptions it;
+    sampling::RunOptions it_run;
+        it.steps = steps;
+        it_run.seed = 11;
+        solver::StochasticIteration solve(scene, *backend, it, it_run);
         solve.run();
         return solve.field().mean_radiance(scene);
     };
