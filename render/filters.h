@@ -46,7 +46,9 @@
 // and 10⁻⁶ (b, the loosest bound) of the other pixels' values at r = 32; the tests
 // hold such a case to 1e-6 of a double-precision evaluation.
 #include "render/image.h"
+#include "scenes/scene.h"
 
+#include <string>
 #include <vector>
 
 namespace raybundle::render {
@@ -97,5 +99,36 @@ Image cross_bilateral_filter(const Image& input, const Guide& guide, int radius,
 // left out. iterations in [1, 16]; sigmas > 0.
 Image atrous_filter(const Image& input, const Guide& guide, int iterations, double sigma_colour,
                     double sigma_normal, double sigma_position, int threads = 1);
+
+// ---------------------------------------------------------------- the choice of filter
+
+// Which filter cleans the final gather's indirect light, and its parameters.
+enum class Filter { guided, bilateral, atrous, none };
+// Parses "guided", "bilateral", "atrous" or "none"; throws OptionError("filter").
+Filter parse_filter(const std::string& name);
+const char* filter_name(Filter f);
+
+struct FilterOptions {
+    Filter filter = Filter::guided;
+    // Guided filter. 003 section 4 uses radius 24-32, eps 0.01 (normals) and 0.01-0.03
+    // (depth) on path-traced noise at 1024 x 768; our gathered noise is finer and a
+    // sweep on the 512^2 Cornell box (bench/gather_study, docs/benchmarks.md) puts the
+    // least error at radius 8, eps 0.001-0.01 (normals, insensitive) and 1e-4 (depth).
+    int radius = 8;  // also the cross bilateral filter's window
+    double eps_normal = 0.01;
+    double eps_depth = 1e-4;
+    // Cross bilateral (normal, depth) and A-Trous (colour, normal, position) parameters.
+    double sigma_spatial = 4.0, sigma_normal = 0.3, sigma_depth = 0.02;
+    int atrous_iterations = 5;
+    double sigma_colour = 1.0;  // A-Trous; its position term uses sigma_depth (scaled positions)
+};
+
+// Filters an incident indirect image with the guide: normal and depth (scaled to
+// [0, 1] by depth_scale) for the guided and bilateral filters; normal and position
+// (relative to `origin`, scaled by position_scale) for A-Trous, which stops at edges
+// in position. Background pixels have zero normal, depth and position.
+Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
+                      const scenes::Vec3& origin, double depth_scale, double position_scale,
+                      const FilterOptions& options, int threads);
 
 }  // namespace raybundle::render

@@ -1,40 +1,25 @@
 #include "render/final_gather.h"
 
+#include "render/gbuffer.h"
 #include "render/shade.h"
 #include "sampling/directions.h"
-#include "scenes/threads.h"
 #include "sampling/rng.h"
-#include "solver/brdf.h"
+#include "sampling/streams.h"
+#include "scenes/brdf.h"
+#include "scenes/errors.h"
+#include "scenes/frame.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <stdexcept>
-#include <thread>
+#include <mutex>
 
 namespace raybundle::render {
 
 using scenes::Rgb;
 using scenes::Vec3;
 using Clock = std::chrono::steady_clock;
-
-Filter parse_filter(const std::string& name) {
-    if (name == "guided") return Filter::guided;
-    if (name == "bilateral") return Filter::bilateral;
-    if (name == "atrous") return Filter::atrous;
-    if (name == "none") return Filter::none;
-    throw std::invalid_argument("unknown filter '" + name + "' (known: guided, bilateral, atrous, none)");
-}
-
-const char* filter_name(Filter f) {
-    switch (f) {
-        case Filter::guided: return "guided";
-        case Filter::bilateral: return "bilateral";
-        case Filter::atrous: return "atrous";
-        case Filter::none: return "none";
-    }
-    return "?";
-}
 
 int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>& normals,
                        const std::vector<double>& depths) {
@@ -60,58 +45,7 @@ int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>
     return best;
 }
 
-Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
-                      const Vec3& origin, double depth_scale, double position_scale, const GatherOptions& o) {
-    if (o.filter == Filter::none) return indirect;
-    if (o.filter == Filter::atrous) {
-        Guide guide(indirect.width, indirect.height, 6);
-        for (int y = 0; y < indirect.height; ++y)
-            for (int x = 0; x < indirect.width; ++x) {
-                float* g = guide.at(x, y);
-                const float* n = normal.at(x, y);
-                const float* p = position.at(x, y);
-                const bool hit = n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;  // background: all zero
-                for (int k = 0; k < 3; ++k) {
-                    g[k] = n[k];
-                    g[3 + k] = hit ? static_cast<float>((p[k] - origin[k]) * position_scale) : 0.0f;
-                }
-            }
-        return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
-                             o.threads);
-    }
-    Guide guide(indirect.width, indirect.height, 4);
-    for (int y = 0; y < indirect.height; ++y)
-        for (int x = 0; x < indirect.width; ++x) {
-            float* g = guide.at(x, y);
-            const float* n = normal.at(x, y);
-            g[0] = n[0];
-            g[1] = n[1];
-            g[2] = n[2];
-            g[3] = static_cast<float>(depth.at(x, y)[0] * depth_scale);
-        }
-    switch (o.filter) {
-        case Filter::guided:
-            return guided_filter(indirect, guide, o.radius, {o.eps_normal, o.eps_normal, o.eps_normal, o.eps_depth},
-                                 o.threads);
-        case Filter::bilateral:
-            return cross_bilateral_filter(indirect, guide, o.radius, o.sigma_spatial, o.sigma_normal, o.sigma_depth,
-                                          o.threads);
-        case Filter::atrous:
-        case Filter::none: break;
-    }
-    return indirect;
-}
-
 namespace {
-
-// Runs body(y) for every row, rows split into interleaved bands over `threads`.
-template <class F>
-void parallel_rows(int height, int threads, F&& body) {
-    threads = std::max(1, std::min(threads, height));
-    run_threads(threads, [&](int t) {
-        for (int y = t; y < height; y += threads) body(y);
-    });
-}
 
 class Gatherer {
 public:
@@ -151,7 +85,7 @@ public:
             // unbounded variance, the second takes over.
             const auto& pos = scene_.vertex_positions();
             Vec3 u, v;
-            sampling::orthonormal_basis(n, u, v);
+            scenes::orthonormal_basis(n, u, v);
             // Solid-angle density of light sampling towards emitter j seen at distance r.
             auto light_pdf = [&](std::uint32_t j, double r, double cos_y) {
                 return power_[j] / patches_[j].area * r * r / cos_y;
@@ -176,15 +110,13 @@ public:
                         ++rays;
                         if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) {
                             const double pdf = light_pdf(j, r, cos_y) + cos_x / M_PI;
-                            sum += solver::brdf(m, n, -w, to_eye) * scene_.material_of(j).emission * (cos_x / pdf);
+                            sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(j).emission * (cos_x / pdf);
                         }
                     }
                 }
                 {  // A cosine-weighted direction.
                     const double u1 = rng.uniform(), u2 = (k + rng.uniform()) / samples;
-                    const double rr = std::sqrt(u1), phi = 2.0 * M_PI * u2;
-                    const Vec3 w =
-                        rr * std::cos(phi) * u + rr * std::sin(phi) * v + std::sqrt(std::max(0.0, 1.0 - u1)) * n;
+                    const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
                     const double cos_x = n.dot(w);
                     ++rays;
                     const auto hit = caster_.intersect(from, w);
@@ -193,7 +125,7 @@ public:
                         if (cos_y > 0.0) {
                             const double pdf = light_pdf(static_cast<std::uint32_t>(hit.patch), hit.t, cos_y) +
                                                cos_x / M_PI;
-                            sum += solver::brdf(m, n, -w, to_eye) * scene_.material_of(hit.patch).emission *
+                            sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(hit.patch).emission *
                                    (cos_x / pdf);
                         }
                     }
@@ -210,7 +142,7 @@ public:
             if (cos_x <= 0.0) continue;
             ++rays;
             if (caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) continue;
-            sum += solver::brdf(m, n, -w, to_eye) * light.intensity * (cos_x / (r * r));
+            sum += scenes::brdf(m, n, -w, to_eye) * light.intensity * (cos_x / (r * r));
         }
         return sum;
     }
@@ -221,7 +153,7 @@ public:
     Rgb indirect(std::size_t p, const Vec3& x, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
         const Vec3& n = patches_[p].normal;
         Vec3 u, v;
-        sampling::orthonormal_basis(n, u, v);
+        scenes::orthonormal_basis(n, u, v);
         const Vec3 from = origin(x, n, to_eye);
         const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
         const bool strata = side * side == count;
@@ -232,8 +164,7 @@ public:
                 u1 = ((k % side) + u1) / side;
                 u2 = ((k / side) + u2) / side;
             }
-            const double r = std::sqrt(u1), phi = 2.0 * M_PI * u2;
-            const Vec3 w = r * std::cos(phi) * u + r * std::sin(phi) * v + std::sqrt(std::max(0.0, 1.0 - u1)) * n;
+            const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
             ++rays;
             const auto hit = caster_.intersect(from, w);
             if (!hit.valid()) {
@@ -261,11 +192,6 @@ private:
     std::vector<double> power_;  // per patch: the probability that light sampling picks it
 };
 
-// Random streams of the pixels, apart from the solver's (small stream numbers): the
-// guide sample of pixel p draws from kGuideStreams + p, its further samples from
-// kSampleStreams + p.
-constexpr std::uint64_t kGuideStreams = 1ull << 40, kSampleStreams = 2ull << 40;
-
 void put(Image& img, int x, int y, const Rgb& c) {
     float* p = img.at(x, y);
     for (int k = 0; k < 3; ++k) p[k] = static_cast<float>(c[k]);
@@ -278,11 +204,12 @@ Rgb get(const Image& img, int x, int y) {
 }  // namespace
 
 GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& caster,
-                          const solver::RadianceField& field, const PinholeCamera& camera, const GatherOptions& o) {
-    if (o.gather_rays < 1) throw std::invalid_argument("--gather must be >= 1, got " + std::to_string(o.gather_rays));
+                          const solver::RadianceField& field, const PinholeCamera& camera, const GatherOptions& o,
+                          const sampling::RunOptions& run) {
+    if (o.gather_rays < 1) throw scenes::OptionError("gather_rays", "must be >= 1, got " + std::to_string(o.gather_rays));
     if (o.direct_samples < 0)
-        throw std::invalid_argument("--direct-samples must be >= 0, got " + std::to_string(o.direct_samples));
-    if (o.spp < 1) throw std::invalid_argument("--spp must be >= 1, got " + std::to_string(o.spp));
+        throw scenes::OptionError("direct_samples", "must be >= 0, got " + std::to_string(o.direct_samples));
+    if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
     const int W = camera.width(), H = camera.height();
     const Gatherer g(scene, caster, field);
     const auto& patches = scene.patch_list();
@@ -298,53 +225,65 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
 
     // Pass 1: the guide sample of every pixel: G-buffer, direct light, indirect light.
     const auto t0 = Clock::now();
-    parallel_rows(H, o.threads, [&](int y) {
+    const GBuffer gbuffer = make_gbuffer(scene, caster, camera, run.threads);
+    long rows_done = 0;
+    std::mutex progress_lock;
+    auto row_done = [&](const char* phase, const Clock::time_point& start) {
+        if (!run.progress) return;
+        const std::lock_guard<std::mutex> lock(progress_lock);
+        run.report(phase, ++rows_done, H, std::chrono::duration<double>(Clock::now() - start).count());
+    };
+    parallel_rows(H, run.threads, [&](int y) {
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
-            sampling::Rng rng(o.seed, kGuideStreams + p);
-            const Vec3 d = camera.direction(x + 0.5, y + 0.5);
             ++camera_rays[y];
-            const auto hit = caster.intersect(camera.eye(), d);
-            if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;  // background or back: black
-            const Vec3 point = camera.eye() + hit.t * d;
-            const auto& patch = patches[hit.patch];
-            guide_patch[p] = hit.patch;
-            put(r.normal, x, y, patch.normal);
-            put(r.depth, x, y, Rgb::Constant(hit.t));
-            put(r.position, x, y, point);
-            const Rgb direct = scene.material_of(hit.patch).emission +
-                               g.direct(hit.patch, point, -d, o.direct_samples, rng, shadow_rays[y]);
+            const GSample& s = gbuffer.at(x, y);
+            const Vec3& d = s.direction;
+            if (s.patch < 0) put(r.direct, x, y, background(scene, d));  // the sky, or black
+            if (s.patch < 0 || !s.front) continue;                        // a back side: black
+            sampling::Rng rng(run.seed, sampling::streams::kGuidePixels[p]);
+            guide_patch[p] = s.patch;
+            put(r.normal, x, y, s.normal);
+            put(r.depth, x, y, Rgb::Constant(s.depth));
+            put(r.position, x, y, s.point);
+            const Rgb direct =
+                scene.material_of(s.patch).emission + g.direct(s.patch, s.point, -d, o.direct_samples, rng, shadow_rays[y]);
             put(r.direct, x, y, direct);
-            put(r.indirect, x, y, g.indirect(hit.patch, point, -d, o.gather_rays, rng, gather_rays[y]));
+            put(r.indirect, x, y, g.indirect(s.patch, s.point, -d, o.gather_rays, rng, gather_rays[y]));
         }
+        row_done("final gather", t0);
     });
     const auto t1 = Clock::now();
 
     // Pass 2: filter the incident indirect light.
     const double depth_scale = 1.0 / ((camera.eye() - scene.bounds_center()).norm() + scene.bounds_radius());
     // Positions (for A-Trous) relative to the scene's centre, over the same scale as depth.
+    if (run.progress) run.progress({"filter", 0, 1, 0.0});
     r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, r.position, scene.bounds_center(),
-                                          depth_scale, depth_scale, o);
+                                          depth_scale, depth_scale, o.filter, run.threads);
+    if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 
     // Pass 3: compose; further samples look the indirect light up at the guides.
-    parallel_rows(H, o.threads, [&](int y) {
+    rows_done = 0;
+    parallel_rows(H, run.threads, [&](int y) {
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
         std::vector<std::pair<int, int>> cand_xy;
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
             Rgb sum = Rgb::Zero();
-            if (guide_patch[p] >= 0)
-                sum = get(r.direct, x, y) + scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
+            sum = get(r.direct, x, y);  // the background's sky, if any, on a guide that met nothing
+            if (guide_patch[p] >= 0) sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
             if (o.spp > 1) {
-                // The stream after the guide's numbers: its own, so the guide pass is unchanged.
-                sampling::Rng rng(o.seed, kSampleStreams + p);
+                // A stream of its own, so that the guide pass is the same with any spp.
+                sampling::Rng rng(run.seed, sampling::streams::kSamplePixels[p]);
                 for (int s = 1; s < o.spp; ++s) {
                     const double fx = x + rng.uniform(), fy = y + rng.uniform();
                     const Vec3 d = camera.direction(fx, fy);
                     ++camera_rays[y];
                     const auto hit = caster.intersect(camera.eye(), d);
+                    if (!hit.valid()) sum += background(scene, d);
                     if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;
                     const auto& patch = patches[hit.patch];
                     const Vec3 point = camera.eye() + hit.t * d;
@@ -376,6 +315,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             }
             put(r.image, x, y, sum / o.spp);
         }
+        if (o.spp > 1) row_done("final gather (samples)", t2);
     });
     const auto t3 = Clock::now();
     for (int y = 0; y < H; ++y) {

@@ -34,11 +34,13 @@
 // radiance towards the camera, stands in for the radiance towards the gather point.
 // Both are approximations, exact for diffuse scenes.
 //
-// Reproducible: pixel p draws from the stream (seed, p) whatever the thread count, so
-// the same seed gives the same image and there is no flicker between runs.
+// Reproducible: pixel p draws from its own streams (sampling/streams.h) whatever the
+// thread count, so the same seed gives the same image and there is no flicker between
+// runs.
 #include "render/camera.h"
 #include "render/filters.h"
 #include "render/image.h"
+#include "sampling/run.h"
 #include "scenes/ray_caster.h"
 #include "solver/radiance_field.h"
 
@@ -49,30 +51,11 @@
 
 namespace raybundle::render {
 
-enum class Filter { guided, bilateral, atrous, none };
-
-// Parses "guided", "bilateral", "atrous" or "none"; throws std::invalid_argument.
-Filter parse_filter(const std::string& name);
-const char* filter_name(Filter f);
-
 struct GatherOptions {
     int gather_rays = 64;     // N, per guide sample
     int direct_samples = 16;  // K, per camera sample
     int spp = 1;              // camera samples per pixel (the first is the guide)
-    Filter filter = Filter::guided;
-    // Guided filter. 003 section 4 uses radius 24-32, eps 0.01 (normals) and 0.01-0.03
-    // (depth) on path-traced noise at 1024 x 768; our gathered noise is finer and a
-    // sweep on the 512^2 Cornell box (bench/gather_study, docs/benchmarks.md) puts the
-    // least error at radius 8, eps 0.001-0.01 (normals, insensitive) and 1e-4 (depth).
-    int radius = 8;
-    double eps_normal = 0.01;
-    double eps_depth = 1e-4;
-    // Cross bilateral (normal, depth) and A-Trous (colour, normal, depth) parameters.
-    double sigma_spatial = 4.0, sigma_normal = 0.3, sigma_depth = 0.02;  // bilateral radius: --filter-radius
-    int atrous_iterations = 5;
-    double sigma_colour = 1.0;  // A-Trous; its position term uses sigma_depth (scaled positions)
-    std::uint64_t seed = 1;
-    int threads = 1;
+    FilterOptions filter;     // what cleans the indirect light (render/filters.h)
 };
 
 struct GatherResult {
@@ -92,23 +75,17 @@ struct GatherResult {
     double seconds_guides = 0.0, seconds_filter = 0.0, seconds_samples = 0.0;
 };
 
-// The scene's camera size decides the image size.
+// The scene's camera size decides the image size. Seed, threads and progress ("final
+// gather" by rows of guide samples, "filter", "final gather" again for further
+// samples) come from `run`. Throws OptionError for options it cannot use.
 GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& caster,
                           const solver::RadianceField& field, const PinholeCamera& camera,
-                          const GatherOptions& options);
+                          const GatherOptions& options, const sampling::RunOptions& run);
 
 // The geometry-aware lookup (eq. 3-5): of up to four candidate guide samples (normal,
 // depth), the index of the most similar to (normal, depth); -1 if there are none.
 // Ties go to the earlier candidate.
 int most_similar_guide(const scenes::Vec3& normal, double depth, const std::vector<scenes::Vec3>& normals,
                        const std::vector<double>& depths);
-
-// Filters the incident indirect image with the guide: normal and depth (scaled to
-// [0, 1] by depth_scale) for the guided and bilateral filters; normal and position
-// (relative to `origin`, scaled by position_scale) for A-Trous, which stops at edges
-// in position. Background pixels have zero normal, depth and position.
-Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
-                      const scenes::Vec3& origin, double depth_scale, double position_scale,
-                      const GatherOptions& options);
 
 }  // namespace raybundle::render

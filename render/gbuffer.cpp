@@ -1,18 +1,22 @@
 #include "render/gbuffer.h"
 
+#include "scenes/threads.h"
+
 namespace raybundle::render {
 
-GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera) {
+GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                     int threads) {
     GBuffer g;
     g.width = camera.width();
     g.height = camera.height();
     g.samples.resize(static_cast<std::size_t>(g.width) * g.height);
     const auto& patches = scene.patch_list();
-    for (int y = 0; y < g.height; ++y)
+    parallel_rows(g.height, threads, [&](int y) {
         for (int x = 0; x < g.width; ++x) {
             const scenes::Vec3 d = camera.direction(x + 0.5, y + 0.5);
             const scenes::RayHit hit = caster.intersect(camera.eye(), d);
             GSample& s = g.samples[static_cast<std::size_t>(y) * g.width + x];
+            s.direction = d;
             if (!hit.valid()) continue;
             s.patch = hit.patch;
             s.point = camera.eye() + hit.t * d;
@@ -22,6 +26,7 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
             s.b2 = hit.b2;
             s.front = s.normal.dot(d) < 0.0;
         }
+    });
     return g;
 }
 

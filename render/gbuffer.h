@@ -10,6 +10,7 @@ namespace raybundle::render {
 
 struct GSample {
     int patch = -1;  // -1: background
+    scenes::Vec3 direction = scenes::Vec3::Zero();  // the camera ray's (unit)
     scenes::Vec3 point = scenes::Vec3::Zero();
     scenes::Vec3 normal = scenes::Vec3::Zero();
     double depth = 0.0;    // distance from the eye
@@ -17,12 +18,20 @@ struct GSample {
     bool front = false;    // the camera sees the patch's front side (one-sided patches)
 };
 
+// What a camera ray that meets no surface shows: the sky radiance arriving from its
+// direction, or black.
+inline scenes::Rgb background(const scenes::Scene& scene, const scenes::Vec3& direction) {
+    return scene.sky ? scene.sky->arriving_along(-direction) : scenes::Rgb::Zero();
+}
+
 struct GBuffer {
     int width = 0, height = 0;
     std::vector<GSample> samples;
     const GSample& at(int x, int y) const { return samples[static_cast<std::size_t>(y) * width + x]; }
 };
 
-GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera);
+// One ray through every pixel centre; rows split over `threads` (same result for any count).
+GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                     int threads = 1);
 
 }  // namespace raybundle::render

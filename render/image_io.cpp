@@ -3,11 +3,14 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
-#include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <png.h>
 
+#include "scenes/errors.h"
+
 #include <algorithm>
+#include <filesystem>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -57,25 +60,6 @@ void write_exr(const std::string& path, const Image& image) {
     });
 }
 
-Image read_exr(const std::string& path) {
-    try {
-        Imf::InputFile file(path.c_str());
-        const auto dw = file.header().dataWindow();
-        Image image(dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1);
-        Imf::FrameBuffer fb;
-        char* base = reinterpret_cast<char*>(image.rgb.data());
-        const std::size_t xs = 3 * sizeof(float), ys = xs * image.width;
-        base -= (dw.min.x * xs + dw.min.y * ys);
-        fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
-        fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
-        fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
-        file.setFrameBuffer(fb);
-        file.readPixels(dw.min.y, dw.max.y);
-        return image;
-    } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": cannot read EXR (" + e.what() + ")");
-    }
-}
 
 unsigned char tone_map(double linear, double exposure) {
     double v = std::clamp(linear * std::exp2(exposure), 0.0, 1.0);
@@ -93,7 +77,9 @@ void write_png(const std::string& path, const Image& image, double exposure) {
             png_destroy_write_struct(&png, &info);
             throw std::runtime_error(path + ": cannot write PNG (libpng setup failed)");
         }
-        std::vector<unsigned char> row(static_cast<std::size_t>(3) * image.width);
+        // Nothing that setjmp must restore changes after it: the row buffer is set up before.
+        const std::size_t row_size = static_cast<std::size_t>(3) * image.width;
+        const std::unique_ptr<unsigned char[]> row(new unsigned char[row_size]);
         if (setjmp(png_jmpbuf(png))) {
             png_destroy_write_struct(&png, &info);
             throw std::runtime_error(path + ": cannot write PNG (libpng error)");
@@ -105,13 +91,47 @@ void write_png(const std::string& path, const Image& image, double exposure) {
         png_write_info(png, info);
         for (int y = 0; y < image.height; ++y) {
             const float* src = image.at(0, y);
-            for (std::size_t k = 0; k < row.size(); ++k) row[k] = tone_map(src[k], exposure);
-            png_write_row(png, row.data());
+            for (std::size_t k = 0; k < row_size; ++k) row[k] = tone_map(src[k], exposure);
+            png_write_row(png, row.get());
         }
         png_write_end(png, nullptr);
         png_destroy_write_struct(&png, &info);
         if (std::fflush(fp.get()) != 0) throw std::runtime_error(path + ": cannot write PNG (flush failed)");
     });
+}
+
+void write_pfm(const std::string& path, const Image& image) {
+    static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PFM: the scale -1 below says little-endian floats");
+    write_atomically(path, [&](const std::string& tmp) {
+        std::FILE* f = std::fopen(tmp.c_str(), "wb");
+        if (!f) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
+        // Portable float map: a negative scale means little-endian floats; rows bottom to top.
+        std::fprintf(f, "PF\n%d %d\n-1.0\n", image.width, image.height);
+        bool ok = true;
+        for (int y = image.height - 1; y >= 0 && ok; --y)
+            ok = std::fwrite(image.at(0, y), sizeof(float), 3 * static_cast<std::size_t>(image.width), f) ==
+                 3 * static_cast<std::size_t>(image.width);
+        ok = std::fclose(f) == 0 && ok;
+        if (!ok) throw std::runtime_error(path + ": write failed");
+    });
+}
+
+ImageFormat image_format(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    if (!ext.empty()) ext.erase(0, 1);  // the dot
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext == "exr") return ImageFormat::exr;
+    if (ext == "png") return ImageFormat::png;
+    if (ext == "pfm") return ImageFormat::pfm;
+    throw scenes::OptionError("output", path + ": unknown image format '" + ext + "' (known: .exr, .png, .pfm)");
+}
+
+void write_image(const std::string& path, const Image& image, double exposure) {
+    switch (image_format(path)) {
+        case ImageFormat::exr: write_exr(path, image); break;
+        case ImageFormat::png: write_png(path, image, exposure); break;
+        case ImageFormat::pfm: write_pfm(path, image); break;
+    }
 }
 
 }  // namespace raybundle::render

@@ -14,11 +14,20 @@ void write_atomically(const std::string& path, const std::function<void(const st
 
 // Linear RGB as 32-bit float channels R, G, B (OpenEXR).
 void write_exr(const std::string& path, const Image& image);
-Image read_exr(const std::string& path);
+
+// Linear RGB as a portable float map (PFM: little-endian floats, rows bottom to top).
+void write_pfm(const std::string& path, const Image& image);
 
 // sRGB PNG, 8 bits. Tone map: v = clamp(2^exposure * L, 0, 1) per channel, then the
 // sRGB transfer curve. exposure in stops (0: radiance 1 maps to white).
 void write_png(const std::string& path, const Image& image, double exposure);
+
+// The format a file name asks for, by its extension (case-insensitive): .exr, .png or
+// .pfm; throws OptionError("output") for any other.
+enum class ImageFormat { exr, png, pfm };
+ImageFormat image_format(const std::string& path);
+// Writes the image in the format its name asks for (exposure: PNG only).
+void write_image(const std::string& path, const Image& image, double exposure);
 
 // The 8-bit sRGB code of a linear value after exposure (the PNG tone map, shared with
 // the PLY colours).

@@ -45,9 +45,11 @@ Image shade(const scenes::Scene& scene, const solver::RadianceField& field, cons
     for (int y = 0; y < g.height; ++y)
         for (int x = 0; x < g.width; ++x) {
             const GSample& s = g.at(x, y);
-            if (s.patch < 0 || !s.front) continue;  // background, or a patch seen from behind: black
+            if (!s.front && s.patch >= 0) continue;  // a patch seen from behind: black
             Rgb L;
-            if (mode == Shading::Flat) {
+            if (s.patch < 0) {
+                L = background(scene, s.direction);
+            } else if (mode == Shading::Flat) {
                 L = field.radiance[s.patch];
             } else {
                 const auto& c = corners[s.patch];

@@ -1,6 +1,7 @@
 // The final gather (003): exact answers on the homogeneous box, agreement with the
 // patch image, the filters' ordering of 003 Fig. 8, and the geometry-aware lookup.
 #include "render/final_gather.h"
+#include "render/metrics.h"
 #include "render/gbuffer.h"
 #include "render/shade.h"
 #include "scenes/builtin.h"
@@ -24,17 +25,12 @@ namespace {
 solver::RadianceField solve(const scenes::Scene& scene, long steps, bool diffuse_shot = false) {
     const solver::Transport transport(scene, solver::ShotOptions{diffuse_shot});
     auto backend = visibility::make_backend("painter", scene, {});
-    solver::IterationOptions opt;
-    opt.iterations = steps;
-    solver::StochasticIteration it(transport, *backend, opt);
+    solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+    opt.steps = steps;
+    solver::StochasticIteration it(transport, *backend, opt, opt_run);
     it.run();
     return it.field();
-}
-
-double mse(const render::Image& a, const render::Image& b) {
-    double sum = 0.0;
-    for (std::size_t k = 0; k < a.rgb.size(); ++k) sum += (a.rgb[k] - b.rgb[k]) * (a.rgb[k] - b.rgb[k]);
-    return sum / static_cast<double>(a.rgb.size());
 }
 
 }  // namespace
@@ -51,8 +47,8 @@ TEST_CASE("final gather: the homogeneous box is 1 everywhere within noise", "[re
     render::GatherOptions o;
     o.gather_rays = 1024;
     o.direct_samples = 256;
-    o.filter = render::Filter::none;
-    const auto r = render::final_gather(scene, caster, field, camera, o);
+    o.filter.filter = render::Filter::none;
+    const auto r = render::final_gather(scene, caster, field, camera, o, {});
     double sum = 0.0;
     std::vector<double> dev;
     for (int y = 0; y < 24; ++y)
@@ -82,8 +78,8 @@ TEST_CASE("final gather: the Cornell box agrees with the smooth patch image away
     render::GatherOptions o;
     o.gather_rays = 256;
     o.direct_samples = 64;
-    o.filter = render::Filter::none;
-    const auto r = render::final_gather(scene, caster, field, camera, o);
+    o.filter.filter = render::Filter::none;
+    const auto r = render::final_gather(scene, caster, field, camera, o, {});
     const auto patch_image = render::shade(scene, field, render::make_gbuffer(scene, caster, camera), render::Shading::Smooth);
     // Away from edges: the guide's normal and depth are smooth over a 5 x 5 window.
     double diff = 0.0, ref = 0.0;
@@ -155,9 +151,9 @@ TEST_CASE("geometry-aware lookup: no indirect light across a depth discontinuity
     render::GatherOptions o;
     o.gather_rays = 64;
     o.direct_samples = 16;
-    o.filter = render::Filter::none;
+    o.filter.filter = render::Filter::none;
     o.spp = 16;
-    const auto r = render::final_gather(s, caster, field, camera, o);
+    const auto r = render::final_gather(s, caster, field, camera, o, {});
     // The post's edges: every extra sample near them has a guide on its own surface
     // among its four (the post covers at least one pixel centre per row), and the
     // similarity picks it.
@@ -169,7 +165,7 @@ TEST_CASE("geometry-aware lookup: no indirect light across a depth discontinuity
     scenes::Scene thin = s;
     thin.camera.width = thin.camera.height = 24;
     const render::PinholeCamera small(thin.camera);
-    const auto t = render::final_gather(thin, caster, field, small, o);
+    const auto t = render::final_gather(thin, caster, field, small, o, {});
     INFO("thin: " << t.lookups << " lookups, " << t.lookups_across << " across");
     CHECK(t.lookups_across > 0);
 }
@@ -189,13 +185,13 @@ TEST_CASE("final gather: guided <= bilateral and <= A-Trous, all far below unfil
         // The reference: 2,048 gather rays, no filter, the same direct light (same seed).
         render::GatherOptions ref_o = base;
         ref_o.gather_rays = 2048;
-        ref_o.filter = render::Filter::none;
-        const auto ref = render::final_gather(scene, caster, field, camera, ref_o).image;
+        ref_o.filter.filter = render::Filter::none;
+        const auto ref = render::final_gather(scene, caster, field, camera, ref_o, {}).image;
         auto error = [&](const render::GatherOptions& o) {
-            return mse(render::final_gather(scene, caster, field, camera, o).image, ref);
+            return render::mse(render::final_gather(scene, caster, field, camera, o, {}).image, ref);
         };
         render::GatherOptions none = base;
-        none.filter = render::Filter::none;
+        none.filter.filter = render::Filter::none;
         const double unfiltered = error(none);
         double guided = std::numeric_limits<double>::infinity(), bilateral = guided, atrous = guided;
         // The sweeps (bench/gather_study filters runs a larger one: the best values lie inside).
@@ -203,32 +199,32 @@ TEST_CASE("final gather: guided <= bilateral and <= A-Trous, all far below unfil
             for (const double en : {0.001, 0.01})
                 for (const double ed : {0.0003, 0.003}) {
                     render::GatherOptions o = base;
-                    o.filter = render::Filter::guided;
-                    o.radius = radius;
-                    o.eps_normal = en;
-                    o.eps_depth = ed;
+                    o.filter.filter = render::Filter::guided;
+                    o.filter.radius = radius;
+                    o.filter.eps_normal = en;
+                    o.filter.eps_depth = ed;
                     guided = std::min(guided, error(o));
                 }
         for (const double sigma : {2.0, 4.0})
             for (const double sn : {0.05, 0.3})
                 for (const double sd : {0.01, 0.02, 0.05}) {
                     render::GatherOptions o = base;
-                    o.filter = render::Filter::bilateral;
-                    o.radius = static_cast<int>(2 * sigma);
-                    o.sigma_spatial = sigma;
-                    o.sigma_normal = sn;
-                    o.sigma_depth = sd;
+                    o.filter.filter = render::Filter::bilateral;
+                    o.filter.radius = static_cast<int>(2 * sigma);
+                    o.filter.sigma_spatial = sigma;
+                    o.filter.sigma_normal = sn;
+                    o.filter.sigma_depth = sd;
                     bilateral = std::min(bilateral, error(o));
                 }
         for (const int it : {3, 5})
             for (const double sc : {0.3, 1.0})
                 for (const double sd : {0.01, 0.03}) {
                     render::GatherOptions o = base;
-                    o.filter = render::Filter::atrous;
-                    o.atrous_iterations = it;
-                    o.sigma_colour = sc;
-                    o.sigma_normal = 0.3;
-                    o.sigma_depth = sd;
+                    o.filter.filter = render::Filter::atrous;
+                    o.filter.atrous_iterations = it;
+                    o.filter.sigma_colour = sc;
+                    o.filter.sigma_normal = 0.3;
+                    o.filter.sigma_depth = sd;
                     atrous = std::min(atrous, error(o));
                 }
         INFO(spp << " spp: MSE unfiltered " << unfiltered << ", guided " << guided << ", bilateral " << bilateral
@@ -263,8 +259,8 @@ TEST_CASE("final gather: the sky lights an open plane (rho L_sky)", "[render][ga
     const render::PinholeCamera camera(s.camera);
     render::GatherOptions o;
     o.gather_rays = 256;
-    o.filter = render::Filter::none;
-    const auto r = render::final_gather(s, caster, field, camera, o);
+    o.filter.filter = render::Filter::none;
+    const auto r = render::final_gather(s, caster, field, camera, o, {});
     Rgb sum = Rgb::Zero();
     int n = 0;
     for (int y = 0; y < 16; ++y)

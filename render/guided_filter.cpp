@@ -1,144 +1,20 @@
+// He, Sun and Tang's guided image filter (render/filters.h) with exact running sums.
+#include "render/filter_support.h"
 #include "render/filters.h"
-
 #include "scenes/threads.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <exception>
-#include <limits>
-#include <sstream>
-#include <stdexcept>
 #include <string>
-#include <thread>
+#include <vector>
 
 namespace raybundle::render {
 
+using namespace detail;
+
 namespace {
-
-// ---------------------------------------------------------------- arguments
-
-[[noreturn]] void fail(const char* fn, const std::string& what) {
-    throw std::invalid_argument(std::string(fn) + ": " + what);
-}
-
-std::string str(double v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-}
-
-std::string size_str(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
-
-void check_images(const char* fn, const Image& input, const Guide& guide, int threads) {
-    if (input.width < 0 || input.height < 0 ||
-        input.rgb.size() != static_cast<std::size_t>(3) * input.width * input.height)
-        fail(fn, "input " + size_str(input.width, input.height) + " holds " + std::to_string(input.rgb.size()) +
-                     " floats, expected 3 per pixel");
-    if (guide.width != input.width || guide.height != input.height)
-        fail(fn, "guide size " + size_str(guide.width, guide.height) + " differs from input size " +
-                     size_str(input.width, input.height));
-    if (guide.data.size() != static_cast<std::size_t>(guide.channels) * guide.width * guide.height)
-        fail(fn, "guide " + size_str(guide.width, guide.height) + " with " + std::to_string(guide.channels) +
-                     " channels holds " + std::to_string(guide.data.size()) + " floats");
-    if (threads < 1) fail(fn, "threads " + std::to_string(threads) + " < 1");
-}
-
-void check_channels(const char* fn, const Guide& guide, std::initializer_list<int> allowed, const char* list) {
-    if (std::find(allowed.begin(), allowed.end(), guide.channels) == allowed.end())
-        fail(fn, "guide channels " + std::to_string(guide.channels) + " not in " + list);
-}
-
-void check_sigma(const char* fn, const char* name, double v) {
-    if (!(v > 0.0) || !std::isfinite(v)) fail(fn, std::string(name) + " " + str(v) + " is not a positive number");
-}
-
-// The smallest and largest value of every channel of an interleaved image.
-struct Range {
-    std::vector<double> lo, hi;
-    double abs_max(int c) const { return std::max(-lo[c], hi[c]); }
-};
-
-// Per-channel minimum and maximum of an image with N interleaved channels, and whether
-// every value is finite. Blocks of lcm(N, 4) floats go through four-lane vectors, so
-// that every lane always sees the same channel.
-template <int N>
-void scan_range(const std::vector<float>& data, float* lo, float* hi, bool& finite) {
-    using F4 = float __attribute__((vector_size(16)));
-    using U4 = std::uint32_t __attribute__((vector_size(16)));
-    constexpr int kBlock = N % 4 == 0 ? N : N % 2 == 0 ? 2 * N : 4 * N, kVecs = kBlock / 4;
-    F4 l[kVecs], h[kVecs];
-    U4 bad = {};
-    for (int i = 0; i < kVecs; ++i) l[i] = h[i] = F4{} + data[0];  // data holds >= N values
-    const std::size_t blocks = data.size() / kBlock;
-    for (std::size_t b = 0; b < blocks; ++b)
-        for (int i = 0; i < kVecs; ++i) {
-            F4 v;
-            std::memcpy(&v, &data[b * kBlock + 4 * i], sizeof v);
-            U4 bits;
-            std::memcpy(&bits, &v, sizeof bits);
-            bad |= (bits & 0x7f800000u) == 0x7f800000u;  // exponent all ones: inf or nan
-            l[i] = v < l[i] ? v : l[i];
-            h[i] = v > h[i] ? v : h[i];
-        }
-    for (int c = 0; c < N; ++c) lo[c] = hi[c] = data[c];
-    for (int i = 0; i < kVecs; ++i)
-        for (int j = 0; j < 4; ++j) {
-            const int c = (4 * i + j) % N;
-            lo[c] = std::min(lo[c], l[i][j]);
-            hi[c] = std::max(hi[c], h[i][j]);
-        }
-    bool ok = true;
-    for (int j = 0; j < 4; ++j) ok &= bad[j] == 0;
-    for (std::size_t k = blocks * kBlock; k < data.size(); ++k) {
-        const float v = data[k];
-        ok &= std::isfinite(v);
-        lo[k % N] = std::min(lo[k % N], v);
-        hi[k % N] = std::max(hi[k % N], v);
-    }
-    finite = ok;
-}
-
-// Throws on the first non-finite value; `what` names the image in the message.
-Range channel_range(const char* fn, const char* what, const std::vector<float>& data, int channels, int width) {
-    Range r{std::vector<double>(channels, 0.0), std::vector<double>(channels, 0.0)};
-    if (data.empty()) return r;
-    float lo[6], hi[6];
-    bool finite = true;
-    switch (channels) {  // channels are checked first: 1, 3, 4 or 6
-    case 1: scan_range<1>(data, lo, hi, finite); break;
-    case 3: scan_range<3>(data, lo, hi, finite); break;
-    case 4: scan_range<4>(data, lo, hi, finite); break;
-    default: scan_range<6>(data, lo, hi, finite); break;
-    }
-    if (!finite)
-        for (std::size_t k = 0; k < data.size(); ++k)
-            if (!std::isfinite(data[k])) {
-                const std::size_t pixel = k / channels;
-                fail(fn, std::string(what) + " value " + str(data[k]) + " at pixel (" + std::to_string(pixel % width) +
-                             ", " + std::to_string(pixel / width) + ") channel " + std::to_string(k % channels));
-            }
-    std::copy(lo, lo + channels, r.lo.begin());
-    std::copy(hi, hi + channels, r.hi.begin());
-    return r;
-}
-
-// ---------------------------------------------------------------- threads
-
-// Calls body(y0, y1) on `threads` contiguous row bands, one std::thread each.
-template <class Body>
-void parallel_rows(int rows, int threads, const Body& body) {
-    const int n = std::max(1, std::min(threads, rows));
-    if (n == 1) {
-        body(0, rows);
-        return;
-    }
-    run_threads(n, [&](int t) {
-        body(static_cast<int>(static_cast<long long>(rows) * t / n),
-             static_cast<int>(static_cast<long long>(rows) * (t + 1) / n));
-    });
-}
 
 // ---------------------------------------------------------------- exact box sums
 
@@ -526,137 +402,11 @@ Image guided_filter_c(const Image& input, const Guide& guide, int r, const std::
     }
 
     Image out(w, h);
-    parallel_rows(h, threads, [&](int y0, int y1) { GuidedBand<C>(s, out.rgb.data()).run(y0, y1); });
+    parallel_bands(h, threads, [&](int y0, int y1) { GuidedBand<C>(s, out.rgb.data()).run(y0, y1); });
     return out;
 }
 
-// ---------------------------------------------------------------- bilateral and À-Trous
-
-// Four floats at a time (one SSE2 operation); a float operand broadcasts.
-using F4 = float __attribute__((vector_size(16)));
-using I4 = std::int32_t __attribute__((vector_size(16)));
-inline F4 load(const float* p) {
-    F4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-inline void store(float* p, F4 v) { std::memcpy(p, &v, sizeof v); }
-
-// exp(x) for x <= 0: 2^n times a degree-6 Taylor polynomial of 2^f, |f| <= 1/2.
-// Relative error below 7e-7 for x >= −8 and 4e-6 down to −87 (the float rounding of
-// x·log2 e); below −87 it returns exp(−87) ≈ 1.6e-38, the smallest normal float.
-inline F4 exp_negative(F4 x) {
-    const F4 lo = F4{} - 87.0f;
-    const F4 t = (x < lo ? lo : x) * 1.44269504f;
-    const F4 n = (t + 12582912.0f) - 12582912.0f;  // 1.5·2^23: rounds to the nearest integer
-    const F4 f = t - n;
-    const F4 p = 1.0f + f * (0.693147181f +
-                             f * (0.240226507f +
-                                  f * (0.0555041087f + f * (0.00961812911f + f * (0.00133335581f + f * 0.000154035304f)))));
-    const I4 bits = (__builtin_convertvector(n, I4) + 127) << 23;
-    F4 scale;
-    std::memcpy(&scale, &bits, sizeof scale);
-    return p * scale;
-}
-
-// Shared by the cross bilateral and À-Trous filters: planar copies of the guide and the
-// colour, and the weighted sum of the taps at one offset for a whole row, four pixels
-// at a time. Guide channels: [0, normals) the normal, [normals, channels) depth or
-// position. Planes and rows carry 4 floats of padding for the last block's spare lanes.
-struct EdgeFilter {
-    int w, h, channels, normals;
-    std::size_t pixels;
-    std::vector<float> guide, colour, result;  // planar: channel c at [c * pixels]
-
-    struct Row {  // the running sums of one output row
-        std::size_t stride;
-        std::vector<float> sum;  // 3 colour planes, then the weights
-        explicit Row(int width) : stride(static_cast<std::size_t>(width) + 4), sum(4 * stride) {}
-        void clear() { std::fill(sum.begin(), sum.end(), 0.0f); }
-    };
-
-    EdgeFilter(const Image& input, const Guide& g)
-        : w(input.width), h(input.height), channels(g.channels), normals(g.channels >= 3 ? 3 : 0),
-          pixels(static_cast<std::size_t>(w) * h), guide(pixels * channels + 4), colour(pixels * 3 + 4),
-          result(pixels * 3 + 4) {
-        for (std::size_t i = 0; i < pixels; ++i) {
-            for (int c = 0; c < channels; ++c) guide[c * pixels + i] = g.data[i * channels + c];
-            for (int c = 0; c < 3; ++c) colour[c * pixels + i] = input.rgb[i * 3 + c];
-        }
-    }
-
-    // For every pixel x of row y whose tap (x+dx, y+dy) is inside the image, adds the tap
-    // with weight  k · exp(e0 + kc·|Δcolour|² + kn·|Δnormal|² + kp·|Δdepth or position|²).
-    void add_tap(Row& row, const float* col, int y, int dx, int dy, float e0, float k, float kc, float kn,
-                 float kp) const {
-        const int qy = y + dy;
-        if (qy < 0 || qy >= h) return;
-        const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
-        if (x0 >= x1) return;
-        const bool c = kc != 0.0f;  // the bilateral filter has no colour term
-        switch (channels) {
-        case 1: c ? tap<0, 1, true>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp)
-                  : tap<0, 1, false>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp); break;
-        case 3: c ? tap<3, 0, true>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp)
-                  : tap<3, 0, false>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp); break;
-        case 4: c ? tap<3, 1, true>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp)
-                  : tap<3, 1, false>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp); break;
-        default: c ? tap<3, 3, true>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp)
-                   : tap<3, 3, false>(row, col, y, qy, dx, x0, x1, e0, k, kc, kn, kp); break;
-        }
-    }
-
-    template <int Normals, int Positions, bool ColourTerm>
-    void tap(Row& row, const float* col, int y, int qy, int dx, int x0, int x1, float e0, float k, float kc, float kn,
-             float kp) const {
-        const float* gp = guide.data() + static_cast<std::size_t>(y) * w;
-        const float* gq = guide.data() + static_cast<std::size_t>(qy) * w + dx;
-        const float* cp = col + static_cast<std::size_t>(y) * w;
-        const float* cq = col + static_cast<std::size_t>(qy) * w + dx;
-        float* s = row.sum.data();
-        const std::size_t rs = row.stride;
-        const I4 lane = {0, 1, 2, 3};
-        for (int x = x0; x < x1; x += 4) {
-            F4 dn = {}, dp = {}, dc = {};
-            for (int c = 0; c < Normals; ++c) {
-                const F4 d = load(gp + c * pixels + x) - load(gq + c * pixels + x);
-                dn += d * d;
-            }
-            for (int c = Normals; c < Normals + Positions; ++c) {
-                const F4 d = load(gp + c * pixels + x) - load(gq + c * pixels + x);
-                dp += d * d;
-            }
-            if (ColourTerm)
-                for (int c = 0; c < 3; ++c) {
-                    const F4 d = load(cp + c * pixels + x) - load(cq + c * pixels + x);
-                    dc += d * d;
-                }
-            F4 wt = k * exp_negative(e0 + kc * dc + kn * dn + kp * dp);
-            wt = lane + x < x1 ? wt : F4{};  // the last block's lanes past x1 add nothing
-            for (int c = 0; c < 3; ++c) store(s + c * rs + x, load(s + c * rs + x) + wt * load(cq + c * pixels + x));
-            store(s + 3 * rs + x, load(s + 3 * rs + x) + wt);
-        }
-    }
-
-    // out[·][y] = weighted sum / sum of weights (> 0: the centre tap is always there).
-    void store_row(const Row& row, int y, float* out) const {
-        const std::size_t p = static_cast<std::size_t>(y) * w;
-        for (int c = 0; c < 3; ++c)
-            for (int x = 0; x < w; ++x)
-                out[c * pixels + p + x] = row.sum[c * row.stride + x] / row.sum[3 * row.stride + x];
-    }
-
-    Image interleaved(const std::vector<float>& planes) const {
-        Image img(w, h);
-        for (std::size_t i = 0; i < pixels; ++i)
-            for (int c = 0; c < 3; ++c) img.rgb[i * 3 + c] = planes[c * pixels + i];
-        return img;
-    }
-};
-
 }  // namespace
-
-// ---------------------------------------------------------------- public
 
 Image guided_filter(const Image& input, const Guide& guide, int radius, double eps, int threads) {
     return guided_filter(input, guide, radius, std::vector<double>{eps}, threads);
@@ -684,72 +434,6 @@ Image guided_filter(const Image& input, const Guide& guide, int radius, const st
     case 3: return guided_filter_c<3>(input, guide, radius, eps, threads);
     default: return guided_filter_c<4>(input, guide, radius, eps, threads);
     }
-}
-
-Image cross_bilateral_filter(const Image& input, const Guide& guide, int radius, double sigma_spatial,
-                             double sigma_normal, double sigma_depth, int threads) {
-    const char* fn = "cross_bilateral_filter";
-    check_images(fn, input, guide, threads);
-    check_channels(fn, guide, {1, 3, 4}, "{1, 3, 4}");
-    if (radius < 1) fail(fn, "radius " + std::to_string(radius) + " < 1");
-    check_sigma(fn, "sigma_spatial", sigma_spatial);
-    check_sigma(fn, "sigma_normal", sigma_normal);
-    check_sigma(fn, "sigma_depth", sigma_depth);
-    channel_range(fn, "guide", guide.data, guide.channels, guide.width);
-    channel_range(fn, "input", input.rgb, 3, input.width);
-
-    EdgeFilter f(input, guide);
-    const float kn = static_cast<float>(-0.5 / (sigma_normal * sigma_normal));
-    const float kz = static_cast<float>(-0.5 / (sigma_depth * sigma_depth));
-    const float ks = static_cast<float>(-0.5 / (sigma_spatial * sigma_spatial));
-    parallel_rows(f.h, threads, [&](int y0, int y1) {
-        EdgeFilter::Row row(f.w);
-        for (int y = y0; y < y1; ++y) {
-            row.clear();
-            for (int dy = -radius; dy <= radius; ++dy)
-                for (int dx = -radius; dx <= radius; ++dx)
-                    f.add_tap(row, f.colour.data(), y, dx, dy, static_cast<float>(dx * dx + dy * dy) * ks, 1.0f, 0.0f,
-                              kn, kz);
-            f.store_row(row, y, f.result.data());
-        }
-    });
-    return f.interleaved(f.result);
-}
-
-Image atrous_filter(const Image& input, const Guide& guide, int iterations, double sigma_colour,
-                    double sigma_normal, double sigma_position, int threads) {
-    const char* fn = "atrous_filter";
-    check_images(fn, input, guide, threads);
-    check_channels(fn, guide, {1, 3, 4, 6}, "{1, 3, 4, 6}");
-    if (iterations < 1 || iterations > 16) fail(fn, "iterations " + std::to_string(iterations) + " not in [1, 16]");
-    check_sigma(fn, "sigma_colour", sigma_colour);
-    check_sigma(fn, "sigma_normal", sigma_normal);
-    check_sigma(fn, "sigma_position", sigma_position);
-    channel_range(fn, "guide", guide.data, guide.channels, guide.width);
-    channel_range(fn, "input", input.rgb, 3, input.width);
-
-    EdgeFilter f(input, guide);
-    static constexpr float kB3[5] = {1.0f / 16, 1.0f / 4, 3.0f / 8, 1.0f / 4, 1.0f / 16};
-    const float kn = static_cast<float>(-1.0 / (sigma_normal * sigma_normal));
-    const float kx = static_cast<float>(-1.0 / (sigma_position * sigma_position));
-    for (int it = 0; it < iterations; ++it) {
-        const int step = 1 << it;
-        const double sc = sigma_colour / step;
-        const float kc = static_cast<float>(-1.0 / (sc * sc));
-        parallel_rows(f.h, threads, [&](int y0, int y1) {
-            EdgeFilter::Row row(f.w);
-            for (int y = y0; y < y1; ++y) {
-                row.clear();
-                for (int j = 0; j < 5; ++j)
-                    for (int i = 0; i < 5; ++i)
-                        f.add_tap(row, f.colour.data(), y, (i - 2) * step, (j - 2) * step, 0.0f, kB3[j] * kB3[i], kc,
-                                  kn, kx);
-                f.store_row(row, y, f.result.data());
-            }
-        });
-        std::swap(f.colour, f.result);
-    }
-    return f.interleaved(f.colour);
 }
 
 }  // namespace raybundle::render

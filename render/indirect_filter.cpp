@@ -1,0 +1,70 @@
+// The choice of filter for the final gather's indirect light, and the guide it gets.
+#include "render/filters.h"
+#include "scenes/errors.h"
+
+namespace raybundle::render {
+
+using scenes::Vec3;
+
+Filter parse_filter(const std::string& name) {
+    if (name == "guided") return Filter::guided;
+    if (name == "bilateral") return Filter::bilateral;
+    if (name == "atrous") return Filter::atrous;
+    if (name == "none") return Filter::none;
+    throw scenes::OptionError("filter", "unknown filter '" + name + "' (known: guided, bilateral, atrous, none)");
+}
+
+const char* filter_name(Filter f) {
+    switch (f) {
+        case Filter::guided: return "guided";
+        case Filter::bilateral: return "bilateral";
+        case Filter::atrous: return "atrous";
+        case Filter::none: return "none";
+    }
+    return "?";
+}
+
+Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,
+                      const Vec3& origin, double depth_scale, double position_scale, const FilterOptions& o,
+                      int threads) {
+    if (o.filter == Filter::none) return indirect;
+    if (o.filter == Filter::atrous) {
+        Guide guide(indirect.width, indirect.height, 6);
+        for (int y = 0; y < indirect.height; ++y)
+            for (int x = 0; x < indirect.width; ++x) {
+                float* g = guide.at(x, y);
+                const float* n = normal.at(x, y);
+                const float* p = position.at(x, y);
+                const bool hit = n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;  // background: all zero
+                for (int k = 0; k < 3; ++k) {
+                    g[k] = n[k];
+                    g[3 + k] = hit ? static_cast<float>((p[k] - origin[k]) * position_scale) : 0.0f;
+                }
+            }
+        return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
+                             threads);
+    }
+    Guide guide(indirect.width, indirect.height, 4);
+    for (int y = 0; y < indirect.height; ++y)
+        for (int x = 0; x < indirect.width; ++x) {
+            float* g = guide.at(x, y);
+            const float* n = normal.at(x, y);
+            g[0] = n[0];
+            g[1] = n[1];
+            g[2] = n[2];
+            g[3] = static_cast<float>(depth.at(x, y)[0] * depth_scale);
+        }
+    switch (o.filter) {
+        case Filter::guided:
+            return guided_filter(indirect, guide, o.radius, {o.eps_normal, o.eps_normal, o.eps_normal, o.eps_depth},
+                                 threads);
+        case Filter::bilateral:
+            return cross_bilateral_filter(indirect, guide, o.radius, o.sigma_spatial, o.sigma_normal, o.sigma_depth,
+                                          threads);
+        case Filter::atrous:
+        case Filter::none: break;
+    }
+    return indirect;
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,48 @@
+#pragma once
+// What `raybundle check` shows of a scene, without solving it: its size and contents,
+// what the camera sees, and the signs of surfaces modelled the wrong way round.
+//
+// Two signs of inverted winding, per object (two-sided materials never count):
+//  - the camera sees the object's back side in more of its pixels than its front
+//    (a closed mesh turned inside out: the camera looks at the backs of its far side);
+//  - the front side of most of its area sees nothing: rays into its front hemisphere
+//    all leave the scene (and there is no sky to see there), and the camera does not
+//    see that front either (a floor or a wall facing out of the room).
+#include "scenes/diagnostics.h"
+#include "scenes/ray_caster.h"
+#include "scenes/scene.h"
+
+#include <string>
+#include <vector>
+
+namespace raybundle::render {
+
+struct SceneSummary {
+    std::size_t patches = 0, vertices = 0;
+    scenes::Vec3 lo = scenes::Vec3::Zero(), hi = scenes::Vec3::Zero();  // bounding box
+    double area = 0.0;
+    std::size_t emissive_patches = 0, glossy_patches = 0, two_sided_patches = 0;
+    double emissive_area = 0.0;
+    std::size_t facing_camera = 0;   // patches whose front faces the eye
+    std::size_t seen_by_camera = 0;  // patches whose front some camera ray meets first
+    std::size_t unseen = 0;          // patches whose front sees nothing (see above)
+    struct Object {
+        std::string name;
+        std::size_t patches = 0;
+        double area = 0.0, unseen_area = 0.0;
+        long front_pixels = 0, back_pixels = 0;  // camera rays meeting its front or back first
+        bool two_sided = false;
+    };
+    std::vector<Object> objects;
+    scenes::CoplanarOverlaps overlaps;
+};
+
+// `max_pixels` > 0 casts the camera rays on a coarser grid of about that many pixels
+// (the same image, fewer rays: for the warnings before a solve).
+SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1,
+                       long max_pixels = 0);
+
+// One line per object that shows a sign of inverted winding.
+std::vector<std::string> winding_warnings(const SceneSummary& summary);
+
+}  // namespace raybundle::render
