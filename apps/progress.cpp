@@ -1,32 +1,71 @@
 #include "progress.h"
 
-#include <cstdio>
-
+#include <sys/ioctl.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 
 namespace raybundle::apps {
 
-ProgressBar::ProgressBar(std::string label) : label_(std::move(label)), enabled_(::isatty(2) != 0) {}
+int terminal_width() {
+    winsize ws{};
+    if (::ioctl(2, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
+    if (const char* columns = std::getenv("COLUMNS")) {
+        const int n = std::atoi(columns);
+        if (n > 0) return n;
+    }
+    return 80;
+}
 
-ProgressBar::~ProgressBar() { finish(); }
+ProgressBar::ProgressBar(bool quiet) : enabled_(!quiet && ::isatty(2) != 0) {}
 
-void ProgressBar::update(long done, long total, double seconds) {
-    if (!enabled_ || total <= 0) return;
-    constexpr int kWidth = 30;
-    const double frac = static_cast<double>(done) / total;
-    const int filled = static_cast<int>(frac * kWidth);
-    char bar[kWidth + 1];
-    for (int k = 0; k < kWidth; ++k) bar[k] = k < filled ? '#' : '.';
-    bar[kWidth] = '\0';
-    const double rate = seconds > 0 ? done / seconds : 0.0;
-    const double eta = rate > 0 ? (total - done) / rate : 0.0;
-    std::fprintf(stderr, "\r%s [%s] %ld/%ld  %.0f it/s  ETA %.1f s ", label_.c_str(), bar, done, total, rate, eta);
+ProgressBar::~ProgressBar() { clear(); }
+
+std::string ProgressBar::line(const sampling::Progress& p, int width) {
+    const double frac = p.total > 0 ? std::clamp(static_cast<double>(p.done) / p.total, 0.0, 1.0) : 0.0;
+    char tail[96];
+    if (frac > 0.0 && frac < 1.0)
+        std::snprintf(tail, sizeof tail, " %3d%%  %.1f s, %.1f s left", static_cast<int>(100 * frac), p.seconds,
+                      p.seconds * (1.0 - frac) / frac);
+    else
+        std::snprintf(tail, sizeof tail, " %3d%%  %.1f s", static_cast<int>(100 * frac), p.seconds);
+    std::string label = p.phase;
+    const int room = width - 1 - static_cast<int>(label.size()) - static_cast<int>(std::string(tail).size()) - 3;
+    std::string out = label;
+    if (room >= 10) {  // the bar, in what is left
+        const int bar = std::min(room, 40), filled = static_cast<int>(frac * bar);
+        out += " [" + std::string(static_cast<std::size_t>(filled), '#') + std::string(static_cast<std::size_t>(bar - filled), '.') + "]";
+    }
+    out += tail;
+    if (static_cast<int>(out.size()) > width - 1) out.resize(static_cast<std::size_t>(std::max(0, width - 1)));
+    return out;
+}
+
+void ProgressBar::operator()(const sampling::Progress& p) {
+    if (!enabled_) return;
+    const std::lock_guard<std::mutex> guard(lock_);
+    // At most ten redraws a second, but every phase's first and last.
+    const auto now = std::chrono::steady_clock::now();
+    if (phase_ == p.phase && p.done < p.total && now - last_ < std::chrono::milliseconds(100)) return;
+    phase_ = p.phase;
+    last_ = now;
+    const int width = terminal_width();
+    const std::string text = line(p, width);
+    // \r, the line, then blanks to the width: a shorter line covers a longer one.
+    std::fprintf(stderr, "\r%s%*s\r%s", text.c_str(), std::max(0, width - 1 - static_cast<int>(text.size())), "",
+                 text.c_str());
     std::fflush(stderr);
     drawn_ = true;
 }
 
-void ProgressBar::finish() {
-    if (drawn_) std::fputc('\n', stderr);
+void ProgressBar::clear() {
+    if (!drawn_) return;
+    const std::lock_guard<std::mutex> guard(lock_);
+    std::fprintf(stderr, "\r%*s\r", std::max(0, terminal_width() - 1), "");
+    std::fflush(stderr);
     drawn_ = false;
 }
 

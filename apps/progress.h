@@ -1,20 +1,38 @@
 #pragma once
-// A one-line progress bar on stderr, drawn only when stderr is a terminal.
+// The progress bar: one line on stderr, redrawn in place, fitted to the terminal's
+// width, for every long phase of a run (diffuse shot, solve, final gather, filter):
+//
+//   solve [###########.........]  55%  4.1 s, 3.4 s left
+//
+// Drawn only when stderr is a terminal and the run is not quiet; cleared at the end.
+// Callbacks may come from several threads.
+#include "sampling/run.h"
+
+#include <chrono>
+#include <mutex>
 #include <string>
 
 namespace raybundle::apps {
 
 class ProgressBar {
 public:
-    explicit ProgressBar(std::string label);
+    explicit ProgressBar(bool quiet);
     ~ProgressBar();
-    void update(long done, long total, double seconds);
-    void finish();
+    void operator()(const sampling::Progress& p);
+    void clear();
+
+    // The line for a given width (at most width - 1 characters): for tests and drawing.
+    static std::string line(const sampling::Progress& p, int width);
 
 private:
-    std::string label_;
     bool enabled_;
     bool drawn_ = false;
+    std::string phase_;
+    std::chrono::steady_clock::time_point last_{};
+    std::mutex lock_;
 };
+
+// The terminal's width in columns (stderr; else $COLUMNS; else 80).
+int terminal_width();
 
 }  // namespace raybundle::apps

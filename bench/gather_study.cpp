@@ -11,6 +11,7 @@
 // samples, no filter. MSE over pixels and channels of the final image.
 #include "render/camera.h"
 #include "render/final_gather.h"
+#include "render/metrics.h"
 #include "scenes/builtin.h"
 #include "scenes/ray_caster.h"
 #include "solver/stochastic_iteration.h"
@@ -31,19 +32,14 @@ solver::RadianceField solve(const scenes::Scene& scene, long steps, double& seco
     const auto t0 = Clock::now();
     const solver::Transport transport(scene, solver::ShotOptions{true});
     auto backend = visibility::make_backend(visibility::kDefaultBackend, scene, {});
-    solver::IterationOptions opt;
-    opt.iterations = steps;
-    opt.seed = 99;
-    solver::StochasticIteration it(transport, *backend, opt);
+    solver::SolverOptions opt;
+    sampling::RunOptions opt_run;
+    opt.steps = steps;
+    opt_run.seed = 99;
+    solver::StochasticIteration it(transport, *backend, opt, opt_run);
     it.run();
     seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     return it.field();
-}
-
-double mse(const render::Image& a, const render::Image& b) {
-    double sum = 0.0;
-    for (std::size_t k = 0; k < a.rgb.size(); ++k) sum += (a.rgb[k] - b.rgb[k]) * (a.rgb[k] - b.rgb[k]);
-    return sum / static_cast<double>(a.rgb.size());
 }
 
 }  // namespace
@@ -67,6 +63,8 @@ int main(int argc, char** argv) {
     filters->add_option("--only", only, "sweep one filter only: guided | bilateral | atrous");
     app.add_subcommand("pipeline", "run time against error for the whole pipeline");
     CLI11_PARSE(app, argc, argv);
+    sampling::RunOptions run;
+    run.threads = threads;
 
     auto scene = scenes::make_builtin("cornell-box", patch_size);
     scene.camera.width = scene.camera.height = size;
@@ -80,56 +78,55 @@ int main(int argc, char** argv) {
         base.spp = spp;
         base.gather_rays = gather;
         base.direct_samples = direct;
-        base.threads = threads;
         render::GatherOptions ro = base;
         ro.gather_rays = ref_gather;
-        ro.filter = render::Filter::none;
-        const auto ref = render::final_gather(scene, caster, ref_field, camera, ro).image;
+        ro.filter.filter = render::Filter::none;
+        const auto ref = render::final_gather(scene, caster, ref_field, camera, ro, run).image;
         std::printf("filter,params,mse,seconds_filter\n");
         auto sweeps = [&](const char* name) { return only.empty() || only == name; };
-        auto run = [&](const render::GatherOptions& o, const std::string& params) {
-            const auto r = render::final_gather(scene, caster, ref_field, camera, o);
-            std::printf("%s,%s,%.6g,%.4f\n", render::filter_name(o.filter), params.c_str(), mse(r.image, ref),
+        auto trial = [&](const render::GatherOptions& o, const std::string& params) {
+            const auto r = render::final_gather(scene, caster, ref_field, camera, o, run);
+            std::printf("%s,%s,%.6g,%.4f\n", render::filter_name(o.filter.filter), params.c_str(), render::mse(r.image, ref),
                         r.seconds_filter);
             std::fflush(stdout);
         };
         render::GatherOptions o = base;
-        o.filter = render::Filter::none;
-        run(o, "-");
+        o.filter.filter = render::Filter::none;
+        trial(o, "-");
         if (sweeps("guided"))
         for (int radius : {2, 4, 8, 16, 24, 32})
             for (double en : {0.001, 0.003, 0.01, 0.03, 0.1})
                 for (double ed : {0.0001, 0.0003, 0.001, 0.003, 0.01, 0.03}) {
                     o = base;
-                    o.filter = render::Filter::guided;
-                    o.radius = radius;
-                    o.eps_normal = en;
-                    o.eps_depth = ed;
-                    run(o, "r=" + std::to_string(radius) + " en=" + std::to_string(en) + " ed=" + std::to_string(ed));
+                    o.filter.filter = render::Filter::guided;
+                    o.filter.radius = radius;
+                    o.filter.eps_normal = en;
+                    o.filter.eps_depth = ed;
+                    trial(o, "r=" + std::to_string(radius) + " en=" + std::to_string(en) + " ed=" + std::to_string(ed));
                 }
         if (sweeps("bilateral"))
         for (double ss : {1.0, 2.0, 4.0, 8.0})
             for (double sn : {0.05, 0.1, 0.3})
                 for (double sd : {0.005, 0.01, 0.02, 0.05}) {
                     o = base;
-                    o.filter = render::Filter::bilateral;
-                    o.radius = static_cast<int>(2 * ss + 0.5);
-                    o.sigma_spatial = ss;
-                    o.sigma_normal = sn;
-                    o.sigma_depth = sd;
-                    run(o, "s=" + std::to_string(ss) + " sn=" + std::to_string(sn) + " sd=" + std::to_string(sd));
+                    o.filter.filter = render::Filter::bilateral;
+                    o.filter.radius = static_cast<int>(2 * ss + 0.5);
+                    o.filter.sigma_spatial = ss;
+                    o.filter.sigma_normal = sn;
+                    o.filter.sigma_depth = sd;
+                    trial(o, "s=" + std::to_string(ss) + " sn=" + std::to_string(sn) + " sd=" + std::to_string(sd));
                 }
         if (sweeps("atrous"))
         for (int it : {3, 4, 5, 6})
             for (double sc : {0.05, 0.1, 0.3, 1.0})
                 for (double sd : {0.01, 0.03, 0.1}) {
                     o = base;
-                    o.filter = render::Filter::atrous;
-                    o.atrous_iterations = it;
-                    o.sigma_colour = sc;
-                    o.sigma_normal = 0.3;
-                    o.sigma_depth = sd;
-                    run(o, "it=" + std::to_string(it) + " sc=" + std::to_string(sc) + " sd=" + std::to_string(sd));
+                    o.filter.filter = render::Filter::atrous;
+                    o.filter.atrous_iterations = it;
+                    o.filter.sigma_colour = sc;
+                    o.filter.sigma_normal = 0.3;
+                    o.filter.sigma_depth = sd;
+                    trial(o, "it=" + std::to_string(it) + " sc=" + std::to_string(sc) + " sd=" + std::to_string(sd));
                 }
         return 0;
     }
@@ -138,9 +135,8 @@ int main(int argc, char** argv) {
     render::GatherOptions ro;
     ro.gather_rays = 2048;
     ro.direct_samples = 256;
-    ro.filter = render::Filter::none;
-    ro.threads = threads;
-    const auto ref = render::final_gather(scene, caster, ref_field, camera, ro).image;
+    ro.filter.filter = render::Filter::none;
+    const auto ref = render::final_gather(scene, caster, ref_field, camera, ro, run).image;
     std::printf("iterations,gather_and_direct,filter,seconds_solve,seconds_gather,seconds,mse\n");
     for (long steps : {250L, 1000L, 4000L}) {
         double seconds_solve = 0.0;
@@ -150,14 +146,13 @@ int main(int argc, char** argv) {
                 render::GatherOptions o;
                 o.gather_rays = n;
                 o.direct_samples = n;  // direct and indirect sampling refined together
-                o.filter = f;
-                o.radius = 8;
-                o.threads = threads;
+                o.filter.filter = f;
+                o.filter.radius = 8;
                 const auto t0 = Clock::now();
-                const auto r = render::final_gather(scene, caster, field, camera, o);
+                const auto r = render::final_gather(scene, caster, field, camera, o, run);
                 const double sg = std::chrono::duration<double>(Clock::now() - t0).count();
                 std::printf("%ld,%d,%s,%.4f,%.4f,%.4f,%.6g\n", steps, n, render::filter_name(f), seconds_solve, sg,
-                            seconds_solve + sg, mse(r.image, ref));
+                            seconds_solve + sg, render::mse(r.image, ref));
                 std::fflush(stdout);
             }
     }

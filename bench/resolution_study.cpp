@@ -45,13 +45,14 @@ Result solve(const rb::scenes::Scene& scene, int resolution, bool jitter, long i
     opt.resolution = resolution;
     opt.jitter = jitter;
     auto backend = rb::visibility::make_backend("painter", scene, opt);
-    rb::solver::IterationOptions it_opt;
-    it_opt.iterations = iterations;
-    it_opt.seed = seed;
-    it_opt.jitter_stream = stream;
-    it_opt.bidirectional = method.bidirectional;
+    rb::solver::SolverOptions it_opt;
+    rb::sampling::RunOptions it_opt_run;
+    it_opt.steps = iterations;
+    it_opt_run.seed = seed;
+    it_opt_run.jitter_stream = stream;
+    it_opt.both_ways = method.bidirectional;
     const rb::solver::Transport transport(scene, rb::solver::ShotOptions{method.diffuse_shot});
-    rb::solver::StochasticIteration it(transport, *backend, it_opt);
+    rb::solver::StochasticIteration it(transport, *backend, it_opt, it_opt_run);
     const auto t0 = std::chrono::steady_clock::now();
     it.run();
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
     app.add_option("--seed", seed, "seed shared by every run")->capture_default_str();
     app.add_option("--csv", csv, "write the table as CSV");
     Method method;
-    app.add_flag("--bidirectional,!--no-bidirectional", method.bidirectional, "use w and -w per step (default)");
+    app.add_flag("--both-ways,!--one-way", method.bidirectional, "use w and -w per step (default)");
     app.add_flag("--diffuse-shot", method.diffuse_shot, "compute the area light's direct light once");
     CLI11_PARSE(app, argc, argv);
 

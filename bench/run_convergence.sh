@@ -31,7 +31,7 @@ run() {  # name sampler count every extra-args...
 {
   echo "method,sampler,count,seconds,relative_l1_error"
   run iteration random "$steps" 50 --method iteration
-  run iteration-w-only random "$steps" 50 --method iteration --no-bidirectional
+  run iteration-w-only random "$steps" 50 --method iteration --one-way
   for m in walk combined bidirectional; do
     for smp in random halton sobol; do
       run "$m" "$smp" "$walks" 10 --method "$m" --depth "$D" --sampler "$smp"

@@ -7,9 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup-deps.sh
 bash scripts/build.sh
-mkdir -p out
 ./build/apps/raybundle solve --builtin cornell-box --iterations "${RAYBUNDLE_ITERATIONS:-20000}" --diffuse-shot \
-  --gather 16 --direct-samples 32 --threads "$(nproc)" \
-  -o out/cornell.exr --png out/cornell.png --exposure 1 --ply out/cornell.ply \
+  --gather 16 --direct-samples 32 \
+  -o out/cornell.exr -o out/cornell.png --exposure 1 --ply out/cornell.ply \
   --stats out/cornell-stats.json --csv out/cornell-convergence.csv
-echo "wrote out/cornell.exr, out/cornell.png, out/cornell.ply, out/cornell-stats.json, out/cornell-convergence.csv"

@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
 # End-to-end checks of the raybundle command line: bad input ends with one line on
 # stderr, exit code 2 and no output file created or truncated; a good run writes
-# every output; the same seed gives byte-identical results.
-# Usage: test_cli.sh PATH/TO/raybundle
+# every output and nothing else; the conveniences (--version, help, formats by
+# extension, -D, --width/--height/--fov, output directories, threads, the progress
+# bar, --quiet, check, two_sided) do what the README says; the same seed gives
+# byte-identical results.
+# Usage: test_cli.sh PATH/TO/raybundle SOURCE_DIR
 set -uo pipefail
 bin=$1
+src=$2
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
@@ -24,7 +28,7 @@ expect_bad() {
   shift 2
   rm -rf outdir && mkdir outdir
   echo "previous" > outdir/img.exr
-  "$bin" "$@" -o outdir/img.exr --png outdir/img.png --stats outdir/s.json --csv outdir/c.csv \
+  "$bin" "$@" -o outdir/img.exr -o outdir/img.png --stats outdir/s.json --csv outdir/c.csv \
     --patches outdir/p.csv --ply outdir/p.ply >out.txt 2>err.txt
   local rc=$?
   local lines
@@ -64,30 +68,30 @@ expect_bad "truncated mesh" "short.off: vertices: file is truncated" solve short
 expect_bad "albedo + specular >= 1" "albedo + specular = 1 in channel r" solve albedo.json
 expect_bad "negative emission" "negative emission [0, -2, 0]" solve emission.json
 expect_bad "fov_y out of range" "camera.fov_y: must be in (0, 180) degrees, got 200" solve fov.json
-expect_bad "patch_size <= 0" "patch_size: must be > 0, got 0" solve patch-size.json
+expect_bad "patch_size <= 0" "patch_size: must be a positive number, got 0" solve patch-size.json
 expect_bad "no patches" "the scene has no patches" solve empty.json
 expect_bad "unknown backend" "unknown visibility backend 'zbufer' (known: exact-painter, painter" solve good.json --visibility zbufer
 expect_bad "unknown built-in" "unknown built-in scene 'teapot'" solve --builtin teapot
 expect_bad "scene and built-in" "exactly one of" solve good.json --builtin homogeneous-box
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
-expect_bad "unknown method" "--method" solve good.json --method metropolis
+expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration" solve good.json --method metropolis
 expect_bad "QMC for iteration" "stochastic iteration needs independent consecutive directions" \
   solve good.json --sampler halton
-expect_bad "unbiased iteration" "--unbiased applies to the walk methods" solve good.json --unbiased
+expect_bad "unbiased iteration" "--unbiased: applies to the walk methods" solve good.json --unbiased
 expect_bad "depth for iteration" "--depth applies to the walk methods" solve good.json --depth 3
-expect_bad "bidirectional flag for walks" "for walks use --method bidirectional" \
-  solve good.json --method walk --bidirectional
-expect_bad "sobol depth" "the sobol sampler supports depths up to 15" solve good.json --method walk --sampler sobol --depth 20
-expect_bad "linear basis with another backend" "--basis linear uses the centre-sorted painter's radiance map" \
+expect_bad "one-way flag for walks" "--one-way: applies to stochastic iteration" \
+  solve good.json --method walk --one-way
+expect_bad "sobol depth" "--depth: must be in 1..15 with the sobol sampler, got 20" solve good.json --method walk --sampler sobol --depth 20
+expect_bad "linear basis with another backend" "--visibility: the linear basis uses the centre-sorted painter's radiance map" \
   solve good.json --basis linear --visibility raycast
-expect_bad "diffuse shot in a glossy scene" "--diffuse-shot supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
-expect_bad "linear basis with walks" "--basis linear works with --method iteration" solve good.json --basis linear --method walk
-expect_bad "negative seed" "--seed: '-1' is not a non-negative integer" solve good.json --seed -1
+expect_bad "diffuse shot in a glossy scene" "--diffuse-shot: supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
+expect_bad "linear basis with walks" "--basis: linear works with the method 'iteration', not 'walk'" solve good.json --basis linear --method walk
+expect_bad "negative seed" "--seed: '-1' is not an integer in 0..2^64-1" solve good.json --seed -1
 expect_bad "exposure nan" "--exposure: 'nan' is not a finite number" solve good.json --exposure nan
 expect_bad "eps inf" "--eps-depth: 'inf' is not a finite number" solve good.json --gather 2 --eps-depth inf
 # Outputs that collide or are directories (expect_bad names every output itself).
 mkdir -p adir
-for case in "-o same.exr --png same.exr|-o and --png name the same file" "--stats adir|--stats adir: is a directory"; do
+for case in "-o same.exr -o same.exr|-o and -o name the same file" "-o same.exr --stats same.exr|-o and --stats name the same file" "--stats adir|--stats adir: is a directory"; do
   args=${case%%|*}
   text=${case#*|}
   # shellcheck disable=SC2086
@@ -100,23 +104,20 @@ for case in "-o same.exr --png same.exr|-o and --png name the same file" "--stat
   fi
 done
 expect_bad "filter without gather" "--filter needs the final gather" solve good.json --filter atrous
-expect_bad "unbiased QMC walks" "--unbiased needs --sampler random" solve good.json --method walk --unbiased --sampler sobol
+expect_bad "unbiased QMC walks" "--unbiased: needs the random sampler" solve good.json --method walk --unbiased --sampler sobol
 expect_bad "spp without gather" "--spp needs the final gather" solve good.json --spp 4
 expect_bad "unknown filter" "--filter" solve good.json --gather 4 --filter median
-expect_bad "aov not a directory" "--aov nowhere: not a directory" solve good.json --gather 4 --aov nowhere
+echo file > afile
+expect_bad "aov not a directory" "--aov afile: not a directory" solve good.json --gather 4 --aov afile
+expect_bad "unknown image format" "-o x.jpg: unknown image format" solve good.json -o x.jpg
+expect_bad "bad define" "-D camera.width: expected key=value" solve good.json -D camera.width
+expect_bad "define of an unknown key" "unknown key 'patchsize'" solve good.json -D patchsize=3
+expect_bad "define of a bad value" "camera.fov_y: must be in (0, 180) degrees, got 200" solve good.json -D camera.fov_y=200
+expect_bad "define of a non-number" "camera.width" solve good.json -D camera.width=wide
+expect_bad "bad fov flag" "--fov" solve good.json --fov -3
+expect_bad "width 0" "--width" solve good.json --width 0
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
 expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.json
-# A missing output directory is found before solving, and nothing is written.
-rm -f side.exr
-"$bin" solve good.json -o side.exr --png nowhere/x.png >out.txt 2>err.txt
-rc=$?
-if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF "directory 'nowhere' does not exist" err.txt \
-   && [ ! -e side.exr ]; then
-  passed=$((passed + 1))
-else
-  fail "missing output directory: exit $rc, $(cat err.txt)"
-fi
-
 # Coplanar overlapping patches facing the same way: one warning line with the count, and
 # the run goes on (the stats record the count).
 scene "$quad, {\"quad\": [[0.2,0.2,0], [0.6,0.2,0], [0.6,0.6,0], [0.2,0.6,0]], \"material\": \"w\"}" > overlap.json
@@ -145,7 +146,7 @@ if "$bin" backends | grep -q "^zbuffer "; then
 fi
 
 # A good run writes every output, with the documented stats and CSV headers.
-if "$bin" solve --builtin homogeneous-box --iterations 200 -o h.exr --png h.png --stats h.json \
+if "$bin" solve --builtin homogeneous-box --iterations 200 -o h.exr -o h.png --stats h.json \
      --csv h.csv --patches h-patches.csv --ply h.ply 2>err.txt; then
   ok=1
   for f in h.exr h.png h.json h.csv h-patches.csv h.ply; do [ -s "$f" ] || { fail "good run: $f missing"; ok=0; }; done
@@ -186,6 +187,136 @@ if "$bin" solve --builtin cornell-box --patch-size 100 --iterations 50 --gather 
 else
   fail "gather run failed: $(cat err.txt)"
 fi
+
+# check STATUS MESSAGE: count a check (STATUS first: it is expanded before any $(...)
+# in the message runs).
+check() { if [ "$1" -eq 0 ]; then passed=$((passed + 1)); else fail "$2"; fi; }
+
+# --version and help.
+"$bin" --version >v.txt 2>err.txt
+check $(( $? != 0 )) "--version: $(cat v.txt err.txt)"
+grep -qE "^raybundle [0-9]+\.[0-9]+\.[0-9]+$" v.txt && grep -q "^compiler" v.txt && grep -q "^backends .*exact-painter" v.txt
+check $? "--version lacks version, compiler or backends: $(cat v.txt)"
+"$bin" help >h.txt 2>&1 && grep -q "solve" h.txt && grep -q "check" h.txt && "$bin" help solve | grep -q -- "--width"
+check $? "help: $(head -3 h.txt)"
+"$bin" help nosuch >/dev/null 2>err.txt
+check $(( $? != 2 )) "help nosuch should exit 2"
+
+# Nothing is written that was not asked for.
+rm -rf quiet && mkdir quiet && (cd quiet && "$bin" solve ../good.json --iterations 10 >/dev/null 2>&1)
+check $(( $? != 0 || $(ls -A quiet | wc -l) != 0 )) "a run without outputs wrote: $(ls quiet)"
+
+# The format follows the extension; missing output directories are made; --width/--height.
+if "$bin" solve good.json --iterations 10 --width 64 --height 32 -o fmt/a/x.png -o fmt/b/x.exr -o fmt/x.pfm \
+     --stats fmt/s/s.json --csv fmt/c/c.csv --patches fmt/p/p.csv --ply fmt/y/p.ply 2>err.txt >/dev/null; then
+  [ "$(head -c 8 fmt/a/x.png | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ]
+  check $? "-o x.png is not a PNG"
+  [ "$(head -c 4 fmt/b/x.exr | od -An -tx1 | tr -d ' \n')" = "762f3101" ]
+  check $? "-o x.exr is not an EXR"
+  [ "$(head -2 fmt/x.pfm | tr '\n' ' ')" = "PF 64 32 " ]
+  check $? "-o x.pfm is not a 64 x 32 PFM: $(head -2 fmt/x.pfm | tr '\n' ' ')"
+  grep -q '"width": 64' fmt/s/s.json && grep -q '"height": 32' fmt/s/s.json
+  check $? "--width/--height not in the stats"
+  for f in fmt/c/c.csv fmt/p/p.csv fmt/y/p.ply; do [ -s "$f" ] || fail "$f missing"; done
+else
+  fail "formats run: $(cat err.txt)"
+fi
+# --aov makes its directory.
+"$bin" solve --builtin cornell-box --patch-size 200 --iterations 10 --width 32 --height 32 --gather 2 \
+  --aov made/aov >/dev/null 2>err.txt && [ -s made/aov/direct.exr ]
+check $? "--aov into a missing directory: $(cat err.txt)"
+
+# -D and the shortcuts are validated like the file, and change what they name.
+"$bin" solve --builtin cornell-box --iterations 5 -D patch_size=200 --stats d1.json >/dev/null 2>&1 &&
+  "$bin" solve --builtin cornell-box --iterations 5 --stats d2.json >/dev/null 2>&1
+p1=$(grep -o '"patches": [0-9]*' d1.json | grep -o '[0-9]*$')
+p2=$(grep -o '"patches": [0-9]*' d2.json | grep -o '[0-9]*$')
+[ -n "$p1" ] && [ -n "$p2" ] && [ "$p1" -lt "$p2" ]
+check $? "-D patch_size=200 should give fewer patches ($p1) than the default ($p2)"
+"$bin" solve good.json --iterations 5 --width 16 --height 16 --fov 20 -o fov20.pfm >/dev/null 2>&1 &&
+  "$bin" solve good.json --iterations 5 -D camera.width=16 -D camera.height=16 -D camera.fov_y=60 -o fov60.pfm >/dev/null 2>&1 &&
+  ! cmp -s fov20.pfm fov60.pfm
+check $? "--fov should change the image"
+
+# Threads default to all cores, and any count gives the same result.
+"$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --stats t.json --patches tall.csv >/dev/null 2>&1
+grep -q "\"threads_requested\": $(nproc)," t.json
+check $? "threads default is not $(nproc): $(grep threads_requested t.json)"
+"$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --threads 1 --patches t1.csv >/dev/null 2>&1 &&
+  "$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --threads 3 --patches t3.csv >/dev/null 2>&1 &&
+  cmp -s t1.csv t3.csv && cmp -s t1.csv tall.csv
+check $? "--threads 1 and 3 differ"
+
+# The progress bar on a 50-column terminal: every phase, elapsed and remaining time,
+# no line of 50 characters or more; then one summary line. --quiet: nothing at all.
+if command -v script >/dev/null; then
+  script -qc "stty cols 50 2>/dev/null; '$bin' solve --builtin cornell-box --patch-size 60 --iterations 4000 --diffuse-shot \
+    --gather 4 --width 96 --height 96 -o bar.exr 2>&1 >/dev/null" /dev/null | tr '\r' '\n' | sed 's/[[:space:]]*$//' \
+    | grep -v '^$' > bar.txt
+  ok=0
+  for phase in "diffuse shot" solve "final gather" filter; do grep -q "^$phase " bar.txt || { fail "progress bar lacks $phase"; ok=1; }; done
+  grep -q "s left" bar.txt || { fail "progress bar lacks the time left"; ok=1; }
+  long=$(awk 'length($0) >= 50' bar.txt | wc -l)
+  [ "$long" -eq 0 ] || { fail "progress bar wider than 49 columns: $(awk 'length($0) >= 50' bar.txt | head -1)"; ok=1; }
+  check $ok "progress bar"
+fi
+script -qc "'$bin' solve --builtin cornell-box --patch-size 100 --iterations 200 --quiet -o q.exr" /dev/null > q.txt 2>&1
+check $(( $(wc -c <q.txt) != 0 )) "--quiet printed: $(head -c 200 q.txt)"
+"$bin" solve --builtin cornell-box --patch-size 100 --iterations 20 -o s.exr >sum.txt 2>/dev/null
+[ "$(wc -l <sum.txt)" -eq 1 ] && grep -q "cornell-box: .* patches, iteration 20 steps in .*; wrote s.exr" sum.txt
+check $? "summary line: $(cat sum.txt)"
+
+# raybundle check: what the scene holds, and the signs of inverted winding.
+"$bin" check --builtin cornell-box >chk.txt 2>err.txt
+rc=$?
+[ "$rc" -eq 0 ] && grep -q "^patches .*after refinement" chk.txt && grep -q "^lights .*emissive patches" chk.txt \
+  && grep -q "^bounds" chk.txt && grep -q "^unseen .*0 patches" chk.txt && grep -q "face the camera" chk.txt
+check $? "check cornell-box: $(cat chk.txt err.txt | head -5)"
+lamp='{"quad": [[0,1,0], [1,1,0], [1,1,1], [0,1,1]], "material": "lamp"}'
+floor='{"quad": [[0,0,0], [1,0,0], [1,0,1], [0,0,1]], "material": "MAT", "name": "floor"}'
+twocam='"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0.5]}'
+for mat in paint plaster; do
+  printf '{%s, "materials": {"lamp": {"albedo": [0, 0, 0], "emission": [1, 1, 1]}, "paint": {"albedo": [0.5, 0.5, 0.5]}, "plaster": {"albedo": [0.5, 0.5, 0.5], "two_sided": true}}, "objects": [%s, %s]}\n' \
+    "$twocam" "$lamp" "${floor/MAT/$mat}" > "floor-$mat.json"
+done
+"$bin" check floor-paint.json >chk.txt 2>&1
+grep -q "^unseen .*[1-9][0-9]* patches" chk.txt && grep -q "floor: the camera sees its back side in 100 %" chk.txt
+check $? "check of an inverted floor: $(cat chk.txt)"
+"$bin" solve floor-paint.json --iterations 200 --patches fp.csv >/dev/null 2>err.txt
+[ "$(wc -l <err.txt)" -eq 1 ] && grep -q "warning: floor-paint.json: floor: the camera sees its back side in 100 %" err.txt
+check $? "facing warning: $(cat err.txt)"
+"$bin" solve floor-plaster.json --iterations 200 --patches fs.csv >/dev/null 2>err.txt
+[ ! -s err.txt ]
+check $? "a two_sided floor was warned about: $(cat err.txt)"
+# A panel behind the camera facing away from everything: its front faces nothing.
+scene "$quad, {\"quad\": [[0,0,5], [1,0,5], [1,1,5], [0,1,5]], \"material\": \"w\", \"name\": \"panel\"}" > away.json
+"$bin" check away.json >chk.txt 2>&1
+grep -q "warning     panel: the front side of 100 % of its area faces nothing" chk.txt && ! grep -q "objects\[0\].*warning" chk.txt
+check $? "check of a panel facing nothing: $(cat chk.txt)"
+# A closed mesh turned inside out: the camera sees its back side.
+printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 2 3 4 1\nf 8 7 6 5\nf 5 6 2 1\nf 3 7 8 4\nf 4 8 5 1\nf 6 7 3 2\n' > inside-out.obj
+printf '{"camera": {"eye": [2.5, 2, 3.5], "target": [0.5, 0.5, 0.5]}, %s, "objects": [{"mesh": "inside-out.obj", "material": "w", "name": "cube"}]}\n' "$materials" > inside-out.json
+"$bin" check inside-out.json >chk.txt 2>&1
+grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it" chk.txt
+check $? "check of an inside-out cube: $(cat chk.txt)"
+# Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
+lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }
+[ "$(lit fp.csv)" = dark ] && [ "$(lit fs.csv)" = lit ]
+check $? "two_sided: one-sided floor $(lit fp.csv), two-sided $(lit fs.csv)"
+
+# The example scenes: each checks without a warning and solves; the scene-format
+# document's example is scenes/examples/minimal.json, word for word.
+for example in "$src"/scenes/examples/*.json; do
+  name=$(basename "$example")
+  "$bin" check "$example" >chk.txt 2>&1 && ! grep -q warning chk.txt
+  check $? "check $name: $(grep warning chk.txt | head -2)"
+  "$bin" solve "$example" --iterations 20 --width 48 --height 32 --gather 2 -o "ex-$name.png" >sum.txt 2>err.txt \
+    && [ ! -s err.txt ] && grep -qE "mean radiance 0*[.]?[0-9]*[1-9]" sum.txt && [ -s "ex-$name.png" ]
+  check $? "solve $name: $(cat err.txt sum.txt)"
+done
+awk '/^```json$/ { on = 1; next } /^```$/ { if (on) exit } on' "$src/docs/scene-format.md" > doc-example.json
+cmp -s doc-example.json "$src/scenes/examples/minimal.json"
+check $? "docs/scene-format.md's example differs from scenes/examples/minimal.json"
 
 # Determinism through the CLI: same seed, byte-identical per-patch output.
 run_seed() { "$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 100 --seed "$1" -o "$2.exr" --patches "$2.csv" 2>/dev/null; }

@@ -1,0 +1,61 @@
+#pragma once
+// The `raybundle` command line: what it holds between parsing and running. Options
+// are parsed straight into the libraries' own structs (SolverOptions, GatherOptions,
+// RunOptions, scene overrides); the command line adds only what it alone knows: the
+// files to write, and its own checks. Libraries report bad options in their own terms
+// (OptionError), which flag_of() turns into flags.
+#include "render/final_gather.h"
+#include "sampling/run.h"
+#include "scenes/loader.h"
+#include "solver/solver.h"
+#include "solver/transport.h"
+
+#include <CLI/CLI.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace raybundle::apps {
+
+// The user's command line is wrong: one line, exit code 2.
+struct UsageError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+struct Command {
+    // The scene.
+    std::string scene_file, builtin;
+    std::vector<std::string> defines;  // -D key=value
+    scenes::Overrides overrides;       // the defines, then --patch-size, --width, --height, --fov
+    // Solving and rendering.
+    solver::SolverOptions solver;
+    solver::ShotOptions shots;
+    sampling::RunOptions run;
+    std::string shading = "smooth";
+    render::GatherOptions gather;
+    int gather_rays = 0;  // 0: the patch image, no final gather
+    // Outputs: nothing is written that was not asked for.
+    std::vector<std::string> images;  // -o, the format by the extension
+    double exposure = 0.0;
+    std::string stats, csv, patches_csv, ply, aov;
+    long csv_every = 0;
+    bool quiet = false;
+};
+
+// The options of `solve` (and the scene options of `check`) on their subcommand.
+void add_scene_options(CLI::App& cmd, Command& c);
+void add_solve_options(CLI::App& cmd, Command& c);
+// What only the command line can check, after parsing: one scene source, outputs that
+// can be written, flags that need others. Throws UsageError.
+void check_command(const CLI::App& cmd, Command& c);
+
+scenes::Scene load_scene(const Command& c);
+// `raybundle solve` and `raybundle check`: exit codes.
+int solve(const Command& c);
+int check_scene(const Command& c);
+
+// The flag that sets a library option (OptionError::option()), or the name itself.
+std::string flag_of(const std::string& option);
+
+}  // namespace raybundle::apps

@@ -1,0 +1,197 @@
+// The options of `raybundle solve` and `raybundle check`, and the checks only the
+// command line can make.
+#include "cli.h"
+
+#include "render/image_io.h"
+#include "scenes/errors.h"
+#include "scenes/threads.h"
+#include "visibility/backend.h"
+
+#include <sys/stat.h>
+
+#include <cmath>
+#include <map>
+
+namespace raybundle::apps {
+
+namespace {
+
+// CLI11 validators: a finite number (NaN and infinities pass CLI11's ranges), a
+// positive one, and digits only (an unsigned option would take -1 as 2^64 - 1).
+const CLI::Validator kFinite(
+    [](std::string& text) {
+        try {
+            std::size_t used = 0;
+            const double x = std::stod(text, &used);
+            if (used == text.size() && std::isfinite(x)) return std::string();
+        } catch (const std::exception&) {
+        }
+        return "'" + text + "' is not a finite number";
+    },
+    "FINITE");
+const CLI::Validator kPositive(
+    [](std::string& text) {
+        std::string copy = text;
+        const std::string bad = kFinite(copy);
+        return !bad.empty() ? bad : std::stod(text) > 0.0 ? std::string() : "'" + text + "' is not > 0";
+    },
+    "POSITIVE");
+const CLI::Validator kDigits(
+    [](std::string& text) {
+        if (!text.empty() && text.size() <= 20 && text.find_first_not_of("0123456789") == std::string::npos &&
+            (text.size() < 20 || text <= "18446744073709551615"))
+            return std::string();
+        return "'" + text + "' is not an integer in 0..2^64-1";
+    },
+    "UINT64");
+
+// The library's option names and the flags that set them.
+const std::map<std::string, std::string> kFlags = {
+    {"method", "--method"},       {"basis", "--basis"},
+    {"steps", "--iterations"},    {"both_ways", "--one-way"},
+    {"depth", "--depth"},         {"unbiased", "--unbiased"},
+    {"sampler", "--sampler"},     {"visibility", "--visibility"},
+    {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
+    {"gather_rays", "--gather"},  {"direct_samples", "--direct-samples"},
+    {"spp", "--spp"},             {"filter", "--filter"},
+    {"shading", "--shading"},     {"output", "-o"},
+};
+
+void check_output(const std::string& path, const std::string& flag) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+        throw UsageError(flag + " " + path + ": is a directory, not a file");
+}
+
+}  // namespace
+
+std::string flag_of(const std::string& option) {
+    const auto it = kFlags.find(option);
+    return it == kFlags.end() ? option : it->second;
+}
+
+void add_scene_options(CLI::App& cmd, Command& c) {
+    cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md)");
+    cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)");
+    cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)");
+    auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check) {
+        cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
+                                             help)
+            ->check(check);
+    };
+    shortcut("--patch-size", "patch_size", "refine until no patch edge is longer (-D patch_size=L)", kPositive);
+    shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::PositiveNumber);
+    shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::PositiveNumber);
+    shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);
+    cmd.add_option("--threads", c.run.threads, "threads (default: all cores; the same result for any count)")
+        ->check(CLI::Range(1, 1024));
+    c.run.threads = hardware_threads();
+}
+
+void add_solve_options(CLI::App& cmd, Command& c) {
+    add_scene_options(cmd, c);
+    solver::SolverOptions& s = c.solver;
+    cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several");
+    cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite);
+    cmd.add_option("--method", s.method, "iteration | walk | combined | bidirectional")->capture_default_str();
+    cmd.add_option("--iterations", s.steps, "stochastic iteration steps, or walks for the walk methods")
+        ->capture_default_str()
+        ->check(CLI::Range(1L, 1000000000L));
+    cmd.add_option("--depth", s.depth, "walks: directions (bounces) per walk")->capture_default_str();
+    cmd.add_flag("--unbiased", s.unbiased, "walks: correct the next walk's emission with this walk's last bounce");
+    cmd.add_option_function<std::string>(
+           "--sampler", [&s](const std::string& v) { s.sampler = sampling::parse_sampler(v); },
+           "walk directions: random | halton | sobol")
+        ->check(CLI::IsMember({"random", "halton", "sobol"}));
+    cmd.add_flag("--both-ways,!--one-way", s.both_ways,
+                 "iteration: every geometry matrix serves w and -w (default), or w only");
+    cmd.add_option("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)")->capture_default_str();
+    cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
+    cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
+        ->check(CLI::Range(1, 16384));
+    cmd.add_flag("--diffuse-shot", c.shots.diffuse_shot, "area lights' direct light once, with shadow rays (004 9.1)");
+    cmd.add_option("--seed", c.run.seed, "random seed; the same seed gives bit-identical output")
+        ->check(kDigits)
+        ->capture_default_str();
+    cmd.add_option("--shading", c.shading, "patch image: smooth | flat")->capture_default_str();
+    cmd.add_option("--gather", c.gather_rays, "final gather with N rays per pixel for the indirect light (0: off)")
+        ->check(CLI::Range(0, 1 << 20));
+    render::GatherOptions& g = c.gather;
+    cmd.add_option("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 1 << 16));
+    cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel")->capture_default_str()->check(CLI::Range(1, 4096));
+    cmd.add_option_function<std::string>(
+           "--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
+           "final gather: guided | bilateral | atrous | none")
+        ->check(CLI::IsMember({"guided", "bilateral", "atrous", "none"}));
+    cmd.add_option("--filter-radius", g.filter.radius, "guided and bilateral filters: window radius in pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1024));
+    cmd.add_option("--eps-normal", g.filter.eps_normal, "guided filter: regularisation of the normals")
+        ->capture_default_str()
+        ->check(kPositive);
+    cmd.add_option("--eps-depth", g.filter.eps_depth, "guided filter: regularisation of the depth")
+        ->capture_default_str()
+        ->check(kPositive);
+    cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR");
+    cmd.add_option("--stats", c.stats, "run statistics (JSON)");
+    cmd.add_option("--csv", c.csv, "convergence: iteration,seconds,relative_l1_error,mean_radiance");
+    cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")
+        ->check(CLI::Range(1L, 1000000000L));
+    cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
+    cmd.add_option("--ply", c.ply, "per-patch PLY with radiance colours (MeshLab)");
+    cmd.add_flag("-q,--quiet", c.quiet, "no progress bar and no summary line");
+}
+
+void check_command(const CLI::App& cmd, Command& c) {
+    if (c.scene_file.empty() == c.builtin.empty()) throw UsageError("give exactly one of SCENE.json or --builtin NAME");
+    scenes::Overrides shortcuts;
+    shortcuts.swap(c.overrides);
+    for (const auto& d : c.defines) {
+        const auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw UsageError("-D " + d + ": expected key=value");
+        c.overrides.push_back({d.substr(0, eq), d.substr(eq + 1)});
+    }
+    c.overrides.insert(c.overrides.end(), shortcuts.begin(), shortcuts.end());
+    if (cmd.get_name() != "solve") return;
+
+    if (c.gather_rays == 0)
+        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--filter", "--filter-radius", "--eps-normal",
+                                 "--eps-depth"})
+            if (cmd.count(flag) > 0) throw UsageError(std::string(flag) + " needs the final gather (--gather N)");
+    if (c.solver.method == "iteration" && cmd.count("--depth") > 0)
+        throw UsageError("--depth applies to the walk methods, not to --method iteration");
+    if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");
+    c.gather.gather_rays = c.gather_rays;
+    c.run.progress_every = c.csv_every;
+    // Every output names a writable file, and no two the same one.
+    std::vector<std::pair<std::string, std::string>> outputs;  // path, flag
+    for (const auto& image : c.images) {
+        try {
+            render::image_format(image);
+        } catch (const scenes::OptionError& e) {
+            throw UsageError("-o " + e.problem());
+        }
+        outputs.emplace_back(image, "-o");
+    }
+    for (const auto& [path, flag] : {std::pair{c.stats, "--stats"}, {c.csv, "--csv"}, {c.patches_csv, "--patches"},
+                                     {c.ply, "--ply"}})
+        if (!path.empty()) outputs.emplace_back(path, flag);
+    for (std::size_t a = 0; a < outputs.size(); ++a) {
+        check_output(outputs[a].first, outputs[a].second);
+        for (std::size_t b = a + 1; b < outputs.size(); ++b)
+            if (outputs[a].first == outputs[b].first)
+                throw UsageError(outputs[a].second + " and " + outputs[b].second + " name the same file " +
+                                 outputs[a].first);
+    }
+    struct stat st {};
+    if (!c.aov.empty() && ::stat(c.aov.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+        throw UsageError("--aov " + c.aov + ": not a directory");
+}
+
+scenes::Scene load_scene(const Command& c) {
+    return c.builtin.empty() ? scenes::load_scene(c.scene_file, c.overrides) : scenes::load_builtin(c.builtin, c.overrides);
+}
+
+}  // namespace raybundle::apps
