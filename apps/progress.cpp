@@ -62,8 +62,8 @@ void ProgressBar::operator()(const sampling::Progress& p) {
 }
 
 void ProgressBar::clear() {
-    if (!drawn_) return;
     const std::lock_guard<std::mutex> guard(lock_);
+    if (!drawn_) return;
     std::fprintf(stderr, "\r%*s\r", std::max(0, terminal_width() - 1), "");
     std::fflush(stderr);
     drawn_ = false;

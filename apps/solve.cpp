@@ -155,9 +155,11 @@ int solve(const Command& c) {
     stats["decisions"]["image"] = gathered ? "final gather: direct light per sample, indirect at guide rays, " +
                                                  std::string(render::filter_name(c.gather.filter.filter)) + " filter"
                                            : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";
+    std::optional<double> error;
     if (exact) {
+        error = field.relative_l1_error(scene, *exact);
         stats["exact_radiance"] = *exact;
-        stats["relative_l1_error"] = field.relative_l1_error(scene, *exact);
+        stats["relative_l1_error"] = *error;
     }
     if (!c.stats.empty()) write_json(c.stats, stats);
 
@@ -166,7 +168,7 @@ int solve(const Command& c) {
                     report.method.c_str(), report.steps, seconds_solve);
         if (gathered) std::printf(", final gather %.2f s", seconds_render);
         std::printf(", mean radiance %.6g", mean);
-        if (exact) std::printf(", relative L1 error %.3g", field.relative_l1_error(scene, *exact));
+        if (error) std::printf(", relative L1 error %.3g", *error);
         std::vector<std::string> written = c.images;
         if (gathered && !c.aov.empty()) written.push_back(c.aov + "/");
         for (const auto* path : {&c.stats, &c.csv, &c.patches_csv, &c.ply})

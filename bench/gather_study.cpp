@@ -14,7 +14,7 @@
 #include "render/metrics.h"
 #include "scenes/builtin.h"
 #include "scenes/ray_caster.h"
-#include "solver/stochastic_iteration.h"
+#include "solver/solver.h"
 #include "visibility/backend.h"
 
 #include <CLI/CLI.hpp>
@@ -31,15 +31,14 @@ namespace {
 solver::RadianceField solve(const scenes::Scene& scene, long steps, double& seconds) {
     const auto t0 = Clock::now();
     const solver::Transport transport(scene, solver::ShotOptions{true});
-    auto backend = visibility::make_backend(visibility::kDefaultBackend, scene, {});
-    solver::SolverOptions opt;
-    sampling::RunOptions opt_run;
-    opt.steps = steps;
-    opt_run.seed = 99;
-    solver::StochasticIteration it(transport, *backend, opt, opt_run);
-    it.run();
+    solver::SolverOptions options;  // stochastic iteration, the default backend
+    options.steps = steps;
+    sampling::RunOptions run;
+    run.seed = 99;
+    const auto it = solver::make_solver(transport, options, run);
+    it->run();
     seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    return it.field();
+    return it->field();
 }
 
 }  // namespace

@@ -7,8 +7,8 @@
 #include <array>
 #include <atomic>
 #include <chrono>
-#include <mutex>
 #include <cmath>
+#include <mutex>
 
 namespace raybundle::solver {
 
@@ -68,70 +68,70 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     long done = 0;
     const auto start = std::chrono::steady_clock::now();
     parallel_bands(static_cast<int>(n), run.threads, [&](int i0, int i1) {
-    long rays = 0;
-    std::vector<Vec3> targets;
-    for (int ii = i0; ii < i1; ++ii) {
-        const auto i = static_cast<std::size_t>(ii);
-        if (run.progress) {
-            const std::lock_guard<std::mutex> lock(progress_lock);
-            run.report("diffuse shot", ++done, static_cast<long>(n),
-                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        long rays = 0;
+        std::vector<Vec3> targets;
+        for (int ii = i0; ii < i1; ++ii) {
+            const auto i = static_cast<std::size_t>(ii);
+            if (run.progress) {
+                const std::lock_guard<std::mutex> lock(progress_lock);
+                run.report("diffuse shot", ++done, static_cast<long>(n),
+                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+            }
+            const auto& p = patches[i];
+            const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
+            const double edge_i = longest_edge(a, b, c);
+            for (const std::uint32_t j : emitters) {
+                if (j == i) continue;
+                const auto& q = patches[j];
+                const std::array<Vec3, 3> tri = {pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]};
+                // One-sided: the receiver must be (partly) in front of the emitter and see its front.
+                const double dist = std::max((q.centroid - p.centroid).norm(), 1e-9 * scene.bounds_radius());
+                const int Ni = std::clamp(static_cast<int>(std::ceil(4.0 * edge_i / dist)), 1, 16);
+                const double edge_j = longest_edge(tri[0], tri[1], tri[2]);
+                const int Nj = std::clamp(static_cast<int>(std::ceil(2.0 * edge_j / dist)), 1, 4);
+                targets.clear();
+                subtriangle_centroids(Nj, [&](double u, double v) {
+                    targets.push_back(tri[0] + u * (tri[1] - tri[0]) + v * (tri[2] - tri[0]));
+                });
+                double sum = 0.0;
+                subtriangle_centroids(Ni, [&](double u, double v) {
+                    const Vec3 x = a + u * (b - a) + v * (c - a);
+                    if (q.normal.dot(x - tri[0]) <= 0.0) return;  // behind the emitter
+                    // The emitter's part in front of x's plane, and its form factor.
+                    std::array<Vec3, 4> poly;
+                    const int m = clip_front(tri, x, p.normal, poly);
+                    if (m < 3) return;
+                    double F = point_to_triangle(x, p.normal, {poly[0], poly[1], poly[2]});
+                    if (m == 4) F += point_to_triangle(x, p.normal, {poly[0], poly[2], poly[3]});
+                    if (F <= 0.0) return;
+                    // Visibility: the fraction of shadow rays to the emitter's points that arrive.
+                    const Vec3 from = x + offset * p.normal;
+                    int seen = 0, cast = 0;
+                    for (const Vec3& y : targets) {
+                        const Vec3 d = y - from;
+                        const double r = d.norm();
+                        if (p.normal.dot(d) <= 0.0 || q.normal.dot(d) >= 0.0) continue;  // point not mutually visible
+                        ++cast;
+                        if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) ++seen;
+                    }
+                    rays += cast;
+                    if (cast == 0) {
+                        // Every sample point lies behind a plane (a sliver in front): visible
+                        // unless something blocks the line to the clipped polygon's centre.
+                        Vec3 centre = Vec3::Zero();
+                        for (int k = 0; k < m; ++k) centre += poly[k] / m;
+                        const Vec3 d = centre - from;
+                        const double r = d.norm();
+                        ++rays;
+                        if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
+                        return;
+                    }
+                    sum += M_PI * F * seen / cast;
+                });
+                irradiance[i] += scene.material_of(j).emission * (sum / (static_cast<double>(Ni) * Ni));
+            }
         }
-        const auto& p = patches[i];
-        const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
-        const double edge_i = longest_edge(a, b, c);
-        for (const std::uint32_t j : emitters) {
-            if (j == i) continue;
-            const auto& q = patches[j];
-            const std::array<Vec3, 3> tri = {pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]};
-            // One-sided: the receiver must be (partly) in front of the emitter and see its front.
-            const double dist = std::max((q.centroid - p.centroid).norm(), 1e-9 * scene.bounds_radius());
-            const int Ni = std::clamp(static_cast<int>(std::ceil(4.0 * edge_i / dist)), 1, 16);
-            const double edge_j = longest_edge(tri[0], tri[1], tri[2]);
-            const int Nj = std::clamp(static_cast<int>(std::ceil(2.0 * edge_j / dist)), 1, 4);
-            targets.clear();
-            subtriangle_centroids(Nj, [&](double u, double v) {
-                targets.push_back(tri[0] + u * (tri[1] - tri[0]) + v * (tri[2] - tri[0]));
-            });
-            double sum = 0.0;
-            subtriangle_centroids(Ni, [&](double u, double v) {
-                const Vec3 x = a + u * (b - a) + v * (c - a);
-                if (q.normal.dot(x - tri[0]) <= 0.0) return;  // behind the emitter
-                // The emitter's part in front of x's plane, and its form factor.
-                std::array<Vec3, 4> poly;
-                const int m = clip_front(tri, x, p.normal, poly);
-                if (m < 3) return;
-                double F = point_to_triangle(x, p.normal, {poly[0], poly[1], poly[2]});
-                if (m == 4) F += point_to_triangle(x, p.normal, {poly[0], poly[2], poly[3]});
-                if (F <= 0.0) return;
-                // Visibility: the fraction of shadow rays to the emitter's points that arrive.
-                const Vec3 from = x + offset * p.normal;
-                int seen = 0, cast = 0;
-                for (const Vec3& y : targets) {
-                    const Vec3 d = y - from;
-                    const double r = d.norm();
-                    if (p.normal.dot(d) <= 0.0 || q.normal.dot(d) >= 0.0) continue;  // point not mutually visible
-                    ++cast;
-                    if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) ++seen;
-                }
-                rays += cast;
-                if (cast == 0) {
-                    // Every sample point lies behind a plane (a sliver in front): visible
-                    // unless something blocks the line to the clipped polygon's centre.
-                    Vec3 centre = Vec3::Zero();
-                    for (int k = 0; k < m; ++k) centre += poly[k] / m;
-                    const Vec3 d = centre - from;
-                    const double r = d.norm();
-                    ++rays;
-                    if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
-                    return;
-                }
-                sum += M_PI * F * seen / cast;
-            });
-            irradiance[i] += scene.material_of(j).emission * (sum / (static_cast<double>(Ni) * Ni));
-        }
-    }
-    all_rays += rays;
+        all_rays += rays;
     });
     rays_out += all_rays;
     return irradiance;

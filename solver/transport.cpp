@@ -1,7 +1,7 @@
 #include "solver/transport.h"
 
-#include "scenes/errors.h"
 #include "scenes/brdf.h"
+#include "scenes/errors.h"
 
 #include <algorithm>
 #include <chrono>

@@ -102,7 +102,7 @@ TEST_CASE("iteration with both w and -w: unbiased, and a smaller error", "[solve
     auto run = [&](bool both, std::uint64_t seed, long iterations) {
         auto backend = visibility::make_backend("painter", scene, {});
         solver::SolverOptions opt;
-    sampling::RunOptions opt_run;
+        sampling::RunOptions opt_run;
         opt.steps = iterations;
         opt_run.seed = seed;
         opt.both_ways = both;
@@ -152,7 +152,7 @@ TEST_CASE("a glossy scene takes the view-dependent path and agrees with unbiased
     const solver::Transport transport(scene);
     std::vector<double> iteration, walks;
     for (std::uint64_t seed = 1; seed <= 4; ++seed) {
-        sampling::RunOptions run;
+    sampling::RunOptions run;
         run.seed = seed;
         solver::SolverOptions it_opt;
         it_opt.steps = 2000;

@@ -219,7 +219,7 @@ TEST_CASE("diffuse shot: the same solution, less noise", "[solver][diffuse-shot]
         const solver::Transport transport(scene, solver::ShotOptions{shot});
         auto backend = visibility::make_backend("painter", scene, {});
         solver::SolverOptions opt;
-    sampling::RunOptions opt_run;
+        sampling::RunOptions opt_run;
         opt.steps = 1000;
         opt_run.seed = seed;
         solver::StochasticIteration it(transport, *backend, opt, opt_run);

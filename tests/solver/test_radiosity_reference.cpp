@@ -39,7 +39,7 @@ TEST_CASE("closed box with different wall albedos agrees with a deterministic ra
     for (int k = 0; k < K; ++k) {
         auto backend = visibility::make_backend("painter", scene, {});
         solver::SolverOptions opt;
-    sampling::RunOptions opt_run;
+        sampling::RunOptions opt_run;
         opt.steps = 1500;
         opt_run.seed = 1000 + k;
         solver::StochasticIteration it(scene, *backend, opt, opt_run);

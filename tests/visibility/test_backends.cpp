@@ -256,7 +256,7 @@ TEST_CASE("the solver reaches the same radiance with every backend", "[visibilit
             opt.resolution = 256;
             auto backend = visibility::make_backend(info.name, scene, opt);
             solver::SolverOptions it_opt;
-    sampling::RunOptions it_opt_run;
+            sampling::RunOptions it_opt_run;
             it_opt.steps = 200;
             it_opt_run.seed = 4;
             solver::StochasticIteration it(scene, *backend, it_opt, it_opt_run);

@@ -7,7 +7,7 @@
 #include "scenes/builtin.h"
 #include "scenes/diagnostics.h"
 #include "scenes/loader.h"
-#include "solver/stochastic_iteration.h"
+#include "solver/solver.h"
 #include "visibility/backend.h"
 #include "visibility/exact_painter.h"
 #include "visibility/exact_spans.h"
@@ -211,16 +211,16 @@ TEST_CASE("contact scenes: every exact backend solves the radiance ray casting d
     // differ only where the matrices do. (The arrangement costs ~0.2 s a direction
     // here: it runs fewer steps, against ray casting with as many.)
     auto mean_radiance = [](const scenes::Scene& scene, const std::string& backend_name, long steps) {
-        visibility::BackendOptions opt;
-        opt.resolution = 160;
-        auto backend = visibility::make_backend(backend_name, scene, opt);
-        solver::SolverOptions it;
-    sampling::RunOptions it_run;
-        it.steps = steps;
-        it_run.seed = 11;
-        solver::StochasticIteration solve(scene, *backend, it, it_run);
-        solve.run();
-        return solve.field().mean_radiance(scene);
+        const solver::Transport transport(scene);
+        solver::SolverOptions options;
+        options.visibility = backend_name;
+        options.map.resolution = 160;
+        options.steps = steps;
+        sampling::RunOptions run;
+        run.seed = 11;
+        const auto solve = solver::make_solver(transport, options, run);
+        solve->run();
+        return solve->field().mean_radiance(scene);
     };
     for (auto& [what, scene] : contact_scenes()) {
         std::map<long, double> raycast;
