@@ -5,6 +5,7 @@
 // files to write, and its own checks. Libraries report bad options in their own terms
 // (OptionError), which flag_of() turns into flags.
 #include "render/final_gather.h"
+#include "render/path_tracer.h"
 #include "sampling/run.h"
 #include "scenes/loader.h"
 #include "solver/solver.h"
@@ -35,6 +36,7 @@ struct Command {
     std::string shading = "smooth";
     render::GatherOptions gather;
     int gather_rays = 0;  // 0: the patch image, no final gather
+    render::PathTraceOptions path;  // --method pathtrace
     // Outputs: nothing is written that was not asked for.
     std::vector<std::string> images;  // -o, the format by the extension
     double exposure = 0.0;

@@ -54,6 +54,7 @@ const std::map<std::string, std::string> kFlags = {
     {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
     {"gather_rays", "--gather"},  {"direct_samples", "--direct-samples"},
     {"spp", "--spp"},             {"filter", "--filter"},
+    {"direct", "--direct"},       {"glossy_rays", "--glossy-rays"},
     {"shading", "--shading"},     {"output", "-o"},
 };
 
@@ -93,7 +94,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     solver::SolverOptions& s = c.solver;
     cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several");
     cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite);
-    cmd.add_option("--method", s.method, "iteration | walk | combined | bidirectional")->capture_default_str();
+    cmd.add_option("--method", s.method,
+                   "iteration | walk | combined | bidirectional; or pathtrace: no solve, a reference image by "
+                   "brute-force path tracing (--spp paths per pixel, default 256)")
+        ->capture_default_str();
     cmd.add_option("--iterations", s.steps, "stochastic iteration steps, or walks for the walk methods")
         ->capture_default_str()
         ->check(CLI::Range(1L, 1000000000L));
@@ -120,7 +124,16 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
         ->capture_default_str()
         ->check(CLI::Range(0, 1 << 16));
-    cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel")->capture_default_str()->check(CLI::Range(1, 4096));
+    cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel (pathtrace: paths per pixel)")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1 << 20));
+    cmd.add_option_function<std::string>(
+           "--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
+           "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
+        ->check(CLI::IsMember({"analytic", "sampled"}));
+    cmd.add_option("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 1 << 16));
     cmd.add_option_function<std::string>(
            "--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
            "final gather: guided | bilateral | atrous | none")
@@ -156,10 +169,21 @@ void check_command(const CLI::App& cmd, Command& c) {
     c.overrides.insert(c.overrides.end(), shortcuts.begin(), shortcuts.end());
     if (cmd.get_name() != "solve") return;
 
-    if (c.gather_rays == 0)
-        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--filter", "--filter-radius", "--eps-normal",
-                                 "--eps-depth"})
+    if (c.solver.method == "pathtrace") {
+        for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
+                                 "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
+                                 "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
+                                 "--one-way", "--both-ways", "--csv", "--csv-every", "--patches", "--ply", "--shading"})
+            if (cmd.count(flag) > 0)
+                throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
+        c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;
+    } else if (c.gather_rays == 0) {
+        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
+                                 "--filter-radius", "--eps-normal", "--eps-depth"})
             if (cmd.count(flag) > 0) throw UsageError(std::string(flag) + " needs the final gather (--gather N)");
+    } else if (c.gather.spp > 4096) {
+        throw UsageError("--spp " + std::to_string(c.gather.spp) + ": the final gather takes at most 4096");
+    }
     if (c.solver.method == "iteration" && cmd.count("--depth") > 0)
         throw UsageError("--depth applies to the walk methods, not to --method iteration");
     if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");

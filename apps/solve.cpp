@@ -68,6 +68,44 @@ void make_parent(const std::string& path) {
     if (!parent.empty()) std::filesystem::create_directories(parent);
 }
 
+// `--method pathtrace`: the reference image, no radiance field.
+int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCaster& caster,
+               const sampling::RunOptions& run, ProgressBar& bar, Clock::time_point t_start) {
+    const render::PinholeCamera camera(scene.camera);
+    const render::PathTraceResult traced = render::path_trace(scene, caster, camera, c.path, run);
+    bar.clear();
+    for (const auto& path : c.images) {
+        make_parent(path);
+        render::write_image(path, traced.image, c.exposure);
+    }
+    json stats = {{"scene", scene.name},
+                  {"patches", scene.patch_count()},
+                  {"method", "pathtrace"},
+                  {"seed", c.run.seed},
+                  {"threads_requested", c.run.threads},
+                  {"image", {{"width", scene.camera.width}, {"height", scene.camera.height}}},
+                  {"path_trace", {{"spp", c.path.spp}, {"paths", traced.paths}, {"rays", traced.rays}}},
+                  {"seconds_render", traced.seconds},
+                  {"seconds_total", since(t_start)},
+                  {"decisions",
+                   {{"image", "brute-force path tracing: next-event estimation and BRDF sampling with the balance "
+                              "heuristic, Russian roulette; unbiased (render/path_tracer.h)"}}}};
+    if (!c.stats.empty()) {
+        make_parent(c.stats);
+        write_json(c.stats, stats);
+    }
+    if (!c.quiet) {
+        std::printf("%s: %zu patches, path traced %d paths per pixel in %.2f s", scene.name.c_str(),
+                    scene.patch_count(), c.path.spp, traced.seconds);
+        std::string wrote;
+        for (const auto& path : c.images) wrote += (wrote.empty() ? "" : ", ") + path;
+        if (!c.stats.empty()) wrote += (wrote.empty() ? "" : ", ") + c.stats;
+        if (!wrote.empty()) std::printf("; wrote %s", wrote.c_str());
+        std::printf("\n");
+    }
+    return 0;
+}
+
 }  // namespace
 
 int solve(const Command& c) {
@@ -93,6 +131,7 @@ int solve(const Command& c) {
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
     const render::SceneSummary summary = render::summarize(scene, caster, run.threads, 128 * 128);
     warn_about(scene, summary);
+    if (c.solver.method == "pathtrace") return path_trace(c, scene, caster, run, bar, t_start);
 
     // The first shot (point lights) and the diffuse shot, once, before any direction.
     const solver::Transport transport(scene, c.shots, run);

@@ -58,6 +58,8 @@ json gather_record(const Command& c, const render::GatherResult& g) {
     const auto& o = c.gather;
     return {{"gather_rays", o.gather_rays},
             {"direct_samples", o.direct_samples},
+            {"direct", render::direct_light_name(o.direct)},
+            {"glossy_rays", o.glossy_rays},
             {"spp", o.spp},
             {"filter", render::filter_name(o.filter.filter)},
             {"filter_radius", o.filter.radius},

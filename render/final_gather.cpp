@@ -1,6 +1,7 @@
 #include "render/final_gather.h"
 
 #include "render/gbuffer.h"
+#include "render/lights.h"
 #include "render/shade.h"
 #include "sampling/directions.h"
 #include "sampling/rng.h"
@@ -45,26 +46,23 @@ int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>
     return best;
 }
 
+DirectLight parse_direct_light(const std::string& name) {
+    if (name == "analytic") return DirectLight::analytic;
+    if (name == "sampled") return DirectLight::sampled;
+    throw scenes::OptionError("direct", "unknown direct light method '" + name + "' (analytic | sampled)");
+}
+
+const char* direct_light_name(DirectLight d) { return d == DirectLight::analytic ? "analytic" : "sampled"; }
+
 namespace {
 
 class Gatherer {
 public:
-    Gatherer(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field)
-        : scene_(scene), caster_(caster), patches_(scene.patch_list()), offset_(1e-5 * scene.bounds_radius()) {
+    Gatherer(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
+             const GatherOptions& options)
+        : scene_(scene), caster_(caster), patches_(scene.patch_list()), lights_(scene),
+          offset_(1e-5 * scene.bounds_radius()), analytic_(options.direct == DirectLight::analytic) {
         corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
-        // Emitters by power (area times mean emitted radiance), as a CDF.
-        double total = 0.0;
-        power_.assign(patches_.size(), 0.0);
-        for (std::size_t j = 0; j < patches_.size(); ++j) {
-            const double power = patches_[j].area * scene.material_of(j).emission.mean();
-            if (power <= 0.0) continue;
-            total += power;
-            power_[j] = power;
-            emitters_.push_back(static_cast<std::uint32_t>(j));
-            cdf_.push_back(total);
-        }
-        for (auto& c : cdf_) c /= total;
-        for (auto& p : power_) p /= total;  // now the probability of choosing the patch
     }
 
     // Where secondary rays start: off the surface, and back towards the eye, which
@@ -78,61 +76,9 @@ public:
         const auto& m = scene_.material_of(p);
         const Vec3 from = origin(x, n, to_eye);
         Rgb sum = Rgb::Zero();
-        if (!emitters_.empty() && samples > 0) {
-            // Multiple importance sampling (balance heuristic) of two strategies per
-            // sample: a point on an emitter chosen by power, and a cosine-weighted
-            // direction. Near a seam with an emitting wall, where the first has
-            // unbounded variance, the second takes over.
-            const auto& pos = scene_.vertex_positions();
-            Vec3 u, v;
-            scenes::orthonormal_basis(n, u, v);
-            // Solid-angle density of light sampling towards emitter j seen at distance r.
-            auto light_pdf = [&](std::uint32_t j, double r, double cos_y) {
-                return power_[j] / patches_[j].area * r * r / cos_y;
-            };
-            // Stratified: sample k picks its emitter in the k-th of `samples` equal slices
-            // of the power CDF, and its cosine direction in the k-th slice of azimuth.
-            for (int k = 0; k < samples; ++k) {
-                {  // A point on an emitter.
-                    const double pick = (k + rng.uniform()) / samples;
-                    const std::size_t e = std::min<std::size_t>(
-                        static_cast<std::size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), pick) - cdf_.begin()),
-                        emitters_.size() - 1);
-                    const std::uint32_t j = emitters_[e];
-                    const double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();  // uniform on the triangle
-                    const auto& q = patches_[j];
-                    const Vec3 y = (1.0 - r1) * pos[q.v[0]] + r1 * (1.0 - r2) * pos[q.v[1]] + r1 * r2 * pos[q.v[2]];
-                    const Vec3 d = y - from;
-                    const double r = d.norm();
-                    const Vec3 w = d / r;
-                    const double cos_x = n.dot(w), cos_y = -q.normal.dot(w);
-                    if (r > 0.0 && cos_x > 0.0 && cos_y > 0.0) {
-                        ++rays;
-                        if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) {
-                            const double pdf = light_pdf(j, r, cos_y) + cos_x / M_PI;
-                            sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(j).emission * (cos_x / pdf);
-                        }
-                    }
-                }
-                {  // A cosine-weighted direction.
-                    const double u1 = rng.uniform(), u2 = (k + rng.uniform()) / samples;
-                    const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
-                    const double cos_x = n.dot(w);
-                    ++rays;
-                    const auto hit = caster_.intersect(from, w);
-                    if (cos_x > 0.0 && hit.valid() && power_[hit.patch] > 0.0) {
-                        const double cos_y = -patches_[hit.patch].normal.dot(w);
-                        if (cos_y > 0.0) {
-                            const double pdf = light_pdf(static_cast<std::uint32_t>(hit.patch), hit.t, cos_y) +
-                                               cos_x / M_PI;
-                            sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(hit.patch).emission *
-                                   (cos_x / pdf);
-                        }
-                    }
-                }
-            }
-            sum /= samples;
-        }
+        if (!lights_.empty() && samples > 0)
+            sum = analytic_ ? analytic_direct(m, n, from, to_eye, samples, rng, rays)
+                            : sampled_direct(m, n, from, to_eye, samples, rng, rays);
         for (const auto& light : scene_.point_lights) {
             const Vec3 d = light.position - from;
             const double r = d.norm();
@@ -166,30 +112,154 @@ public:
             }
             const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
             ++rays;
-            const auto hit = caster_.intersect(from, w);
-            if (!hit.valid()) {
-                // Out into the open: the sky (light from direction w travels along -w).
-                if (scene_.sky) sum += scene_.sky->arriving_along(-w);
-                continue;
+            sum += field_along(from, w);
+        }
+        return sum / count;
+    }
+
+    // Glossy reflection of the field at x (patch p, a glossy material): the mean over
+    // `count` directions drawn from the Phong lobe (stratified like indirect()) of the
+    // lobe's weight times the radiance the field reflects at their hits.
+    Rgb glossy(std::size_t p, const Vec3& x, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
+        const Vec3& n = patches_[p].normal;
+        const auto& m = scene_.material_of(p);
+        const Vec3 from = origin(x, n, to_eye);
+        const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
+        const bool strata = side * side == count;
+        Rgb sum = Rgb::Zero();
+        for (int k = 0; k < count; ++k) {
+            double u1 = rng.uniform(), u2 = rng.uniform();
+            if (strata) {
+                u1 = ((k % side) + u1) / side;
+                u2 = ((k / side) + u2) / side;
             }
-            const auto& q = patches_[hit.patch];
-            if (q.normal.dot(w) >= 0.0) continue;  // the back of a patch sends nothing
-            const auto& c = corners_[hit.patch];
-            const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
-            sum += (L - scene_.material_of(hit.patch).emission).max(0.0);
+            const auto s = scenes::sample_glossy(m, n, to_eye, u1, u2);
+            const double cos_x = n.dot(s.direction);
+            if (cos_x <= 0.0 || s.pdf <= 0.0) continue;
+            ++rays;
+            sum += scenes::brdf_glossy(m, n, -s.direction, to_eye) * (cos_x / s.pdf) * field_along(from, s.direction);
         }
         return sum / count;
     }
 
 private:
+    // The radiance arriving at `from` along -w that the solved field reflects (the hit
+    // patch's smooth radiance less its emission, which direct light counts; nothing
+    // from the back of a patch; the sky where the ray leaves the scene).
+    Rgb field_along(const Vec3& from, const Vec3& w) const {
+        const auto hit = caster_.intersect(from, w);
+        if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
+        if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
+        const auto& c = corners_[hit.patch];
+        const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
+        return (L - scene_.material_of(hit.patch).emission).max(0.0);
+    }
+
+    // A point of an area light for stratum k of `samples`: the light chosen in the k-th
+    // of `samples` equal slices of the power CDF.
+    AreaLights::Sample light_sample(int k, int samples, sampling::Rng& rng) const {
+        const double pick = (k + rng.uniform()) / samples;
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        return lights_.sample(pick, u1, u2);
+    }
+
+    // The diffuse part exactly, unoccluded (AreaLights::irradiance), times the shadow
+    // ratio of `samples` light samples: sum of their visible unshadowed contributions
+    // over the sum of all of them (one ratio for all lights; render/lights.h). The
+    // glossy part by multiple importance sampling of the light samples and as many
+    // directions from the Phong lobe (balance heuristic).
+    Rgb analytic_direct(const scenes::Material& m, const Vec3& n, const Vec3& from, const Vec3& to_eye, int samples,
+                        sampling::Rng& rng, long& rays) const {
+        double seen = 0.0, all = 0.0;
+        Rgb gloss = Rgb::Zero();
+        for (int k = 0; k < samples; ++k) {
+            const auto s = light_sample(k, samples, rng);
+            const Vec3 d = s.point - from;
+            const double r = d.norm();
+            const Vec3 w = d / r;
+            const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
+            if (!(r > 0.0) || cos_x <= 0.0 || cos_y <= 0.0) continue;
+            const auto& le = scene_.material_of(s.patch).emission;
+            const double pl = lights_.pdf_solid_angle(s.patch, r, cos_y);
+            const double contribution = le.mean() * cos_x / pl;
+            all += contribution;
+            ++rays;
+            if (caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) continue;
+            seen += contribution;
+            if (m.glossy())
+                gloss += scenes::brdf_glossy(m, n, -w, to_eye) * le *
+                         (cos_x / (pl + scenes::glossy_pdf(m, n, to_eye, w)));
+        }
+        Rgb sum = Rgb::Zero();
+        if (all > 0.0) sum = m.albedo / M_PI * lights_.irradiance(from, n) * (seen / all);
+        if (m.glossy()) {
+            for (int k = 0; k < samples; ++k) {
+                const double u1 = rng.uniform(), u2 = (k + rng.uniform()) / samples;
+                const auto s = scenes::sample_glossy(m, n, to_eye, u1, u2);
+                const Vec3& w = s.direction;
+                const double cos_x = n.dot(w);
+                if (cos_x <= 0.0 || s.pdf <= 0.0) continue;
+                ++rays;
+                const auto hit = caster_.intersect(from, w);
+                if (!hit.valid() || lights_.probability(hit.patch) <= 0.0) continue;
+                const double cos_y = -patches_[hit.patch].normal.dot(w);
+                if (cos_y <= 0.0) continue;
+                const double pl = lights_.pdf_solid_angle(hit.patch, hit.t, cos_y);
+                gloss += scenes::brdf_glossy(m, n, -w, to_eye) * scene_.material_of(hit.patch).emission *
+                         (cos_x / (pl + s.pdf));
+            }
+            sum += gloss / samples;
+        }
+        return sum;
+    }
+
+    // Everything sampled: per sample a point on an emitter and a direction from the
+    // BRDF, combined by the balance heuristic. (Light sampling alone has unbounded
+    // variance next to a seam with an emitting wall, seen edge-on from the seam; the
+    // directions cover that near field.) The full BRDF.
+    Rgb sampled_direct(const scenes::Material& m, const Vec3& n, const Vec3& from, const Vec3& to_eye, int samples,
+                       sampling::Rng& rng, long& rays) const {
+        Rgb sum = Rgb::Zero();
+        for (int k = 0; k < samples; ++k) {
+            {  // A point on an emitter.
+                const auto s = light_sample(k, samples, rng);
+                const Vec3 d = s.point - from;
+                const double r = d.norm();
+                const Vec3 w = d / r;
+                const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
+                if (r > 0.0 && cos_x > 0.0 && cos_y > 0.0) {
+                    ++rays;
+                    if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) {
+                        const double pdf = lights_.pdf_solid_angle(s.patch, r, cos_y) + scenes::brdf_pdf(m, n, to_eye, w);
+                        sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(s.patch).emission * (cos_x / pdf);
+                    }
+                }
+            }
+            {  // A direction from the BRDF (its azimuth or lobe stratified by k).
+                const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = (k + rng.uniform()) / samples;
+                const auto s = scenes::sample_brdf(m, n, to_eye, u1, u2, u3);
+                const Vec3& w = s.direction;
+                const double cos_x = n.dot(w);
+                if (cos_x <= 0.0 || s.pdf <= 0.0) continue;
+                ++rays;
+                const auto hit = caster_.intersect(from, w);
+                if (!hit.valid() || lights_.probability(hit.patch) <= 0.0) continue;
+                const double cos_y = -patches_[hit.patch].normal.dot(w);
+                if (cos_y <= 0.0) continue;
+                const double pdf = lights_.pdf_solid_angle(hit.patch, hit.t, cos_y) + s.pdf;
+                sum += scenes::brdf(m, n, -w, to_eye) * scene_.material_of(hit.patch).emission * (cos_x / pdf);
+            }
+        }
+        return sum / samples;
+    }
+
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
     const std::vector<scenes::Patch>& patches_;
+    AreaLights lights_;
     double offset_;
+    bool analytic_;
     std::vector<std::array<Rgb, 3>> corners_;
-    std::vector<std::uint32_t> emitters_;
-    std::vector<double> cdf_;
-    std::vector<double> power_;  // per patch: the probability that light sampling picks it
 };
 
 void put(Image& img, int x, int y, const Rgb& c) {
@@ -210,8 +280,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     if (o.direct_samples < 0)
         throw scenes::OptionError("direct_samples", "must be >= 0, got " + std::to_string(o.direct_samples));
     if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
+    if (o.glossy_rays < 0)
+        throw scenes::OptionError("glossy_rays", "must be >= 0, got " + std::to_string(o.glossy_rays));
     const int W = camera.width(), H = camera.height();
-    const Gatherer g(scene, caster, field);
+    const Gatherer g(scene, caster, field, o);
     const auto& patches = scene.patch_list();
     GatherResult r;
     r.image = Image(W, H);
@@ -246,8 +318,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             put(r.normal, x, y, s.normal);
             put(r.depth, x, y, Rgb::Constant(s.depth));
             put(r.position, x, y, s.point);
-            const Rgb direct =
+            Rgb direct =
                 scene.material_of(s.patch).emission + g.direct(s.patch, s.point, -d, o.direct_samples, rng, shadow_rays[y]);
+            if (scene.material_of(s.patch).glossy() && o.glossy_rays > 0)
+                direct += g.glossy(s.patch, s.point, -d, o.glossy_rays, rng, gather_rays[y]);
             put(r.direct, x, y, direct);
             put(r.indirect, x, y, g.indirect(s.patch, s.point, -d, o.gather_rays, rng, gather_rays[y]));
         }
@@ -264,8 +338,12 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 
-    // Pass 3: compose; further samples look the indirect light up at the guides.
+    // Pass 3: compose. With spp > 1 the pixel is the mean of spp camera samples (on a
+    // jittered sqrt(spp)^2 grid when spp is a square) that compute their own direct
+    // light and look the indirect light up at the guides.
     rows_done = 0;
+    const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(o.spp))));
+    const bool strata = side * side == o.spp;
     parallel_rows(H, run.threads, [&](int y) {
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
@@ -273,13 +351,21 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
             Rgb sum = Rgb::Zero();
-            sum = get(r.direct, x, y);  // the background's sky, if any, on a guide that met nothing
-            if (guide_patch[p] >= 0) sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
-            if (o.spp > 1) {
+            if (o.spp == 1) {
+                sum = get(r.direct, x, y);  // the background's sky, if any, on a guide that met nothing
+                if (guide_patch[p] >= 0)
+                    sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
+            } else {
                 // A stream of its own, so that the guide pass is the same with any spp.
                 sampling::Rng rng(run.seed, sampling::streams::kSamplePixels[p]);
-                for (int s = 1; s < o.spp; ++s) {
-                    const double fx = x + rng.uniform(), fy = y + rng.uniform();
+                for (int s = 0; s < o.spp; ++s) {
+                    double fx = rng.uniform(), fy = rng.uniform();
+                    if (strata) {
+                        fx = ((s % side) + fx) / side;
+                        fy = ((s / side) + fy) / side;
+                    }
+                    fx += x;
+                    fy += y;
                     const Vec3 d = camera.direction(fx, fy);
                     ++camera_rays[y];
                     const auto hit = caster.intersect(camera.eye(), d);
@@ -289,6 +375,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     const Vec3 point = camera.eye() + hit.t * d;
                     Rgb L = scene.material_of(hit.patch).emission +
                             g.direct(hit.patch, point, -d, o.direct_samples, rng, shadow_rays[y]);
+                    if (scene.material_of(hit.patch).glossy() && o.glossy_rays > 0)
+                        L += g.glossy(hit.patch, point, -d, o.glossy_rays, rng, gather_rays[y]);
                     // The four guide pixels around the sample point.
                     cand_n.clear();
                     cand_d.clear();

@@ -6,13 +6,19 @@
 //
 //   L = Le + L_direct + albedo * E_indirect
 //
-//  - Direct light per camera sample: `direct_samples` pairs of samples combined by
-//    multiple importance sampling (balance heuristic): a point on an emissive patch,
-//    chosen in proportion to its power and uniform on the triangle, with a shadow
-//    ray; and a cosine-weighted direction, which counts if it hits an emitter's front.
-//    (Light sampling alone has unbounded variance next to a seam with an emitting
-//    wall, seen edge-on from the seam; the directions cover that near field.) Every
-//    point light exactly, with one shadow ray. The full BRDF.
+//  - Direct light per camera sample, from `direct_samples` light samples (points on
+//    emissive patches chosen by power, uniform on the triangle, with shadow rays):
+//    with DirectLight::analytic (the default) the diffuse part is the exact unoccluded
+//    irradiance of every area light (render/lights.h) times the samples' shadow ratio,
+//    so noise remains only in penumbrae; the glossy part combines the light samples
+//    with as many directions from the Phong lobe by multiple importance sampling
+//    (balance heuristic). DirectLight::sampled estimates all of it by sampling: per
+//    sample a light point and a direction from the BRDF, balance heuristic. Every point
+//    light exactly, with one shadow ray. The full BRDF.
+//  - Glossy reflection per camera sample (004 section 10, "per-pixel Phong"): at a
+//    glossy surface `glossy_rays` directions drawn from the Phong lobe read the solved
+//    field at their hits (its emission excluded, the sky included), weighted by the
+//    lobe; not filtered, since it depends on the view.
 //  - Indirect light only at the guide sample of every pixel (the ray through its
 //    centre, 003 section 3.2): `gather_rays` cosine-weighted rays; each hit gives the
 //    radiance the solved field reflects there (interpolated smoothly across the
@@ -23,16 +29,18 @@
 //    that the guided filter cleans with the guide sample's normal (3 channels) and
 //    depth (scaled to [0, 1] by the eye's distance to the far side of the scene's
 //    bounding sphere).
-//  - Further samples of a pixel (spp > 1, uniform in the pixel) compute their own
-//    direct light and take E from the most similar of the four guide pixels around
-//    them: similarity s = s_n s_d with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2
-//    and s_d = 1 - |D_a - D_i| / max_j |D_a - D_j| (eq. 3-5; no thresholds). The pixel
-//    is the box average of its samples.
+//  - With spp > 1 the pixel is the box average of spp camera samples (a jittered
+//    sqrt(spp)^2 grid when spp is a square, else uniform in the pixel), which compute
+//    their own direct light and take E from the most similar of the four guide pixels
+//    around them: similarity s = s_n s_d with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2
+//    and s_d = 1 - |D_a - D_i| / max_j |D_a - D_j| (eq. 3-5; no thresholds). The guide
+//    sample serves the indirect light and the AOVs only. With spp = 1 the guide sample
+//    is the pixel.
 //
-// The indirect term uses the diffuse albedo: at glossy surfaces only the diffuse part
-// of the BRDF reflects indirect light, and a glossy scene's field, which holds the
-// radiance towards the camera, stands in for the radiance towards the gather point.
-// Both are approximations, exact for diffuse scenes.
+// The filtered indirect term uses the diffuse albedo; the glossy lobe reflects the
+// field per sample as above. Where a gather or glossy ray meets a glossy surface, the
+// field holds that surface's radiance towards the camera, which stands in for its
+// radiance towards the ray's origin: an approximation, exact for diffuse scenes.
 //
 // Reproducible: pixel p draws from its own streams (sampling/streams.h) whatever the
 // thread count, so the same seed gives the same image and there is no flicker between
@@ -51,16 +59,23 @@
 
 namespace raybundle::render {
 
+// How direct light from area lights is computed (see above).
+enum class DirectLight { analytic, sampled };
+DirectLight parse_direct_light(const std::string& name);  // throws OptionError
+const char* direct_light_name(DirectLight d);
+
 struct GatherOptions {
     int gather_rays = 64;     // N, per guide sample
     int direct_samples = 16;  // K, per camera sample
+    int glossy_rays = 16;     // per camera sample on a glossy surface
+    DirectLight direct = DirectLight::analytic;
     int spp = 1;              // camera samples per pixel (the first is the guide)
     FilterOptions filter;     // what cleans the indirect light (render/filters.h)
 };
 
 struct GatherResult {
     Image image;              // the final image
-    Image direct;             // direct light of the guide samples (plus emission)
+    Image direct;             // per guide sample: emission, direct light and glossy reflection
     Image indirect;           // noisy incident indirect radiance E at the guide samples
     Image indirect_filtered;  // E after the filter (= indirect with Filter::none)
     Image normal;             // guide normals (unit; zero for background)

@@ -28,7 +28,9 @@ inline constexpr Range kWalks{"walks", 0x3a1c0000ull, 1ull << 32};    // random 
 inline constexpr Range kGuidePixels{"guide pixels", 1ull << 40, 1ull << 32};    // the guide sample of pixel p
 inline constexpr Range kSamplePixels{"sample pixels", 2ull << 40, 1ull << 32};  // its further samples
 
-inline constexpr Range kAll[] = {kDirections, kWalkShifts, kMapJitters, kWalks, kGuidePixels, kSamplePixels};
+inline constexpr Range kPathPixels{"path pixels", 3ull << 40, 1ull << 32};    // the path tracer's pixel p
+inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kMapJitters, kWalks,
+                                 kGuidePixels, kSamplePixels, kPathPixels};
 
 constexpr bool disjoint() {
     for (const Range& a : kAll)

@@ -54,6 +54,7 @@ private:
     bool glossy_;
     std::vector<scenes::Vec3> to_eye_;             // glossy path only
     std::vector<scenes::Rgb> irradiance_, next_, outgoing_;
+    long burn_in_ = 0;                             // steps left out of sum_
     std::vector<scenes::Rgb> sum_;                 // sum of I (diffuse) or of 4 pi F(w, eye) I (glossy)
     scenes::Vec3 previous_ = scenes::Vec3::Zero();
     long steps_ = 0;

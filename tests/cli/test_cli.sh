@@ -197,7 +197,7 @@ check() { if [ "$1" -eq 0 ]; then passed=$((passed + 1)); else fail "$2"; fi; }
 check $(( $? != 0 )) "--version: $(cat v.txt err.txt)"
 grep -qE "^raybundle [0-9]+\.[0-9]+\.[0-9]+$" v.txt && grep -q "^compiler" v.txt && grep -q "^backends .*exact-painter" v.txt
 check $? "--version lacks version, compiler or backends: $(cat v.txt)"
-"$bin" help >h.txt 2>&1 && grep -q "solve" h.txt && grep -q "check" h.txt && "$bin" help solve | grep -q -- "--width"
+"$bin" help >h.txt 2>&1 && grep -q "solve" h.txt && grep -q "check" h.txt && "$bin" help solve >hs.txt && grep -q -- "--width" hs.txt
 check $? "help: $(head -3 h.txt)"
 "$bin" help nosuch >/dev/null 2>err.txt
 check $(( $? != 2 )) "help nosuch should exit 2"
@@ -328,6 +328,24 @@ if cmp -s a.csv b.csv && cmp -s a.exr b.exr && ! cmp -s a.csv c.csv; then
 else
   fail "same seed did not give identical output (or another seed did)"
 fi
+
+# The reference path tracer: an image and its record, no field; solver flags refused.
+"$bin" solve --builtin homogeneous-box --method pathtrace --spp 16 --width 8 --height 8 -o pt.pfm --stats pt.json -q
+check $? "--method pathtrace failed"
+grep -q '"method": "pathtrace"' pt.json && grep -q '"spp": 16' pt.json
+check $? "--method pathtrace: the stats lack the method or spp: $(head -c 300 pt.json)"
+expect_bad "pathtrace with --gather" "--gather does not apply to --method pathtrace" solve --builtin cornell-box --method pathtrace --gather 4
+# Final gather: both direct-light methods, glossy rays, and their need for --gather.
+for d in analytic sampled; do
+  "$bin" solve --builtin cornell-box --iterations 50 --gather 4 --direct $d --glossy-rays 2 --width 16 --height 16 \
+    -o d-$d.pfm --stats d-$d.json -q
+  check $? "--direct $d failed"
+  grep -q "\"direct\": \"$d\"" d-$d.json
+  check $? "--direct $d: not in the stats"
+done
+expect_bad "--direct without --gather" "--direct needs the final gather" solve --builtin cornell-box --direct sampled
+expect_bad "--glossy-rays without --gather" "--glossy-rays needs the final gather" solve --builtin cornell-box --glossy-rays 3
+expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 --direct exact
 
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

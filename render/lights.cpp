@@ -1,0 +1,124 @@
+#include "render/lights.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <set>
+#include <tuple>
+
+namespace raybundle::render {
+
+using scenes::Rgb;
+using scenes::Vec3;
+
+namespace {
+
+// Lambert's sum over the edges of a polygon given relative to the receiver (vertices
+// counter-clockwise about the front normal, which faces the receiver), all on or
+// above the receiver's plane.
+double edge_term(const Vec3& n, const Vec3& p, const Vec3& q) {
+    const double lp = p.norm(), lq = q.norm();
+    if (lp <= 0.0 || lq <= 0.0) return 0.0;
+    const Vec3 u = p / lp, v = q / lq;
+    const Vec3 c = v.cross(u);
+    const double s = c.norm();
+    if (s <= 0.0) return 0.0;
+    const double beta = std::atan2(s, u.dot(v));
+    return 0.5 * beta * n.dot(c) / s;
+}
+
+}  // namespace
+
+AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(scene.patch_list()) {
+    double total = 0.0;
+    power_.assign(patches_.size(), 0.0);
+    // Lights: emissive patches of one object and material on one plane.
+    std::map<std::tuple<int, int, long, long, long, long>, std::size_t> index;
+    const double scale = 1e6, plane_scale = 1e6 / std::max(scene.bounds_radius(), 1e-300);
+    for (std::size_t j = 0; j < patches_.size(); ++j) {
+        const auto& m = scene.material_of(j);
+        const double power = patches_[j].area * m.emission.mean();
+        if (!(power > 0.0)) continue;
+        total += power;
+        power_[j] = power;
+        emitters_.push_back(static_cast<std::uint32_t>(j));
+        cdf_.push_back(total);
+        const auto& p = patches_[j];
+        const double offset = p.normal.dot(scene.vertex_positions()[p.v[0]]);
+        const auto key = std::make_tuple(p.object, p.material, std::lround(p.normal.x() * scale),
+                                         std::lround(p.normal.y() * scale), std::lround(p.normal.z() * scale),
+                                         std::lround(offset * plane_scale));
+        auto [it, added] = index.emplace(key, lights_.size());
+        if (added) lights_.push_back({m.emission, p.normal, offset, {}, {}, {}});
+        lights_[it->second].patches.push_back(static_cast<std::uint32_t>(j));
+    }
+    for (auto& c : cdf_) c /= total;
+    for (auto& p : power_) p /= total;
+    // Each light's boundary: the directed edges whose reverse is not an edge of it.
+    for (auto& light : lights_) {
+        std::set<std::pair<int, int>> edges;
+        for (auto j : light.patches)
+            for (int k = 0; k < 3; ++k) edges.emplace(patches_[j].v[k], patches_[j].v[(k + 1) % 3]);
+        std::set<int> vertices;
+        for (const auto& [a, b] : edges)
+            if (edges.count({b, a}) == 0) {
+                light.boundary.emplace_back(a, b);
+                vertices.insert(a);
+                vertices.insert(b);
+            }
+        light.boundary_vertices.assign(vertices.begin(), vertices.end());
+    }
+}
+
+AreaLights::Sample AreaLights::sample(double pick, double u1, double u2) const {
+    const std::size_t e = std::min<std::size_t>(
+        static_cast<std::size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), pick) - cdf_.begin()), emitters_.size() - 1);
+    const std::uint32_t j = emitters_[e];
+    const double r1 = std::sqrt(u1);
+    const auto& q = patches_[j];
+    const auto& pos = scene_.vertex_positions();
+    return {j, (1.0 - r1) * pos[q.v[0]] + r1 * (1.0 - u2) * pos[q.v[1]] + r1 * u2 * pos[q.v[2]]};
+}
+
+double AreaLights::projected_solid_angle(const Vec3& x, const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 front = (b - a).cross(c - a);
+    if (front.dot(x - a) <= 0.0) return 0.0;  // x behind the triangle or in its plane
+    // Clip the triangle (relative to x) to the half-space above x's plane.
+    const std::array<Vec3, 3> in = {a - x, b - x, c - x};
+    std::array<Vec3, 4> out;
+    int m = 0;
+    for (int i = 0; i < 3; ++i) {
+        const Vec3& p = in[i];
+        const Vec3& q = in[(i + 1) % 3];
+        const double dp = n.dot(p), dq = n.dot(q);
+        if (dp >= 0.0) out[m++] = p;
+        if ((dp >= 0.0) != (dq >= 0.0)) out[m++] = p + (dp / (dp - dq)) * (q - p);
+    }
+    double omega = 0.0;
+    for (int i = 0; i < m; ++i) omega += edge_term(n, out[i], out[(i + 1) % m]);
+    return std::max(0.0, omega);
+}
+
+Rgb AreaLights::irradiance(const Vec3& x, const Vec3& n) const {
+    const auto& pos = scene_.vertex_positions();
+    Rgb e = Rgb::Zero();
+    for (const auto& light : lights_) {
+        if (light.normal.dot(x) - light.offset <= 0.0) continue;  // behind the light
+        const bool above = std::all_of(light.boundary_vertices.begin(), light.boundary_vertices.end(),
+                                       [&](int v) { return n.dot(pos[v] - x) > 0.0; });
+        double omega = 0.0;
+        if (above) {
+            for (const auto& [a, b] : light.boundary) omega += edge_term(n, pos[a] - x, pos[b] - x);
+        } else {
+            for (auto j : light.patches) {
+                const auto& q = patches_[j];
+                omega += projected_solid_angle(x, n, pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]);
+            }
+        }
+        e += light.emission * std::max(0.0, omega);
+    }
+    return e;
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,95 @@
+// Area lights (render/lights.h): Lambert's polygon formula against closed forms and
+// Monte Carlo, the boundary-only sum against the sum over triangles, clipping.
+#include "render/lights.h"
+#include "sampling/rng.h"
+#include "scenes/builtin.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace raybundle;
+using render::AreaLights;
+using scenes::Vec3;
+
+namespace {
+
+// Monte Carlo projected solid angle of triangle (a, b, c) seen from x, normal n:
+// uniform points y on the triangle, cos_x cos_y / r^2 * area, front side only.
+double monte_carlo(const Vec3& x, const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& c, int samples) {
+    sampling::Rng rng(7, 0);
+    const Vec3 cross = (b - a).cross(c - a);
+    const double area = 0.5 * cross.norm();
+    const Vec3 front = cross.normalized();
+    double sum = 0.0;
+    for (int i = 0; i < samples; ++i) {
+        const double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();
+        const Vec3 y = (1 - r1) * a + r1 * (1 - r2) * b + r1 * r2 * c;
+        const Vec3 d = y - x;
+        const double r2n = d.squaredNorm();
+        const Vec3 w = d / std::sqrt(r2n);
+        const double cx = n.dot(w), cy = -front.dot(w);
+        if (cx > 0 && cy > 0) sum += cx * cy / r2n;
+    }
+    return sum * area / samples;
+}
+
+}  // namespace
+
+TEST_CASE("projected solid angle: a square over a point (closed form)", "[render][lights]") {
+    // A square of side 2s at height h centred over x, facing down: the unoccluded
+    // point-to-square form factor times pi (Hottel): 4 * s / sqrt(h^2+s^2) * atan(s / sqrt(h^2+s^2)).
+    const double s = 0.7, h = 1.3;
+    const Vec3 x(0, 0, 0), n(0, 0, 1);
+    const Vec3 p0(-s, -s, h), p1(s, -s, h), p2(s, s, h), p3(-s, s, h);
+    // Counter-clockwise about the downward normal: p0, p3, p2, p1.
+    const double omega = AreaLights::projected_solid_angle(x, n, p0, p3, p2) +
+                         AreaLights::projected_solid_angle(x, n, p0, p2, p1);
+    const double q = std::sqrt(h * h + s * s);
+    const double exact = 4.0 * s / q * std::atan(s / q);
+    CHECK(omega == Approx(exact).epsilon(1e-12));
+    // The back side gives nothing.
+    CHECK(AreaLights::projected_solid_angle(x, n, p0, p2, p3) == 0.0);
+}
+
+TEST_CASE("projected solid angle: clipped triangles against Monte Carlo", "[render][lights]") {
+    // Triangles cut by the receiver's plane, tilted receivers, a receiver on the far side.
+    sampling::Rng rng(3, 1);
+    int checked = 0;
+    for (int t = 0; t < 40; ++t) {
+        auto rnd = [&]() -> Vec3 { return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0; };
+        const Vec3 a = rnd() + Vec3(0, 0, 1), b = rnd() + Vec3(0, 0, 1), c = rnd() + Vec3(0, 0, 1);
+        const Vec3 n = (rnd() + Vec3(0, 0, 1.2)).normalized();
+        const Vec3 x = 0.3 * rnd();
+        const double exact = AreaLights::projected_solid_angle(x, n, a, b, c);
+        const double mc = monte_carlo(x, n, a, b, c, 400000);
+        INFO("triangle " << t << ": exact " << exact << ", Monte Carlo " << mc);
+        CHECK(exact >= 0.0);
+        CHECK(std::abs(exact - mc) <= 0.01 * std::max(mc, 0.05));
+        if (exact > 0.0) ++checked;
+    }
+    CHECK(checked >= 10);
+}
+
+TEST_CASE("area lights: the boundary sum equals the sum over the light's triangles", "[render][lights]") {
+    // The Cornell box's light panel refined into many patches: the irradiance from its
+    // boundary alone equals the per-triangle sum, above the panel's plane and cut by it.
+    const auto scene = scenes::make_builtin("cornell-box", 20.0);
+    const AreaLights lights(scene);
+    REQUIRE(lights.light_count() >= 1);
+    REQUIRE(lights.patch_count() > 8);
+    const auto& pos = scene.vertex_positions();
+    sampling::Rng rng(5, 2);
+    for (int t = 0; t < 50; ++t) {
+        const Vec3 x(550 * rng.uniform(), 540 * rng.uniform(), 560 * rng.uniform());
+        const Vec3 n = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5).normalized();
+        double per_triangle = 0.0;
+        for (std::size_t j = 0; j < scene.patch_count(); ++j) {
+            if (lights.probability(j) <= 0.0) continue;
+            const auto& p = scene.patch_list()[j];
+            per_triangle += scene.material_of(j).emission[0] *
+                            AreaLights::projected_solid_angle(x, n, pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]);
+        }
+        CHECK(lights.irradiance(x, n)[0] == Approx(per_triangle).epsilon(1e-9).margin(1e-12));
+    }
+}
