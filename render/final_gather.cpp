@@ -70,11 +70,18 @@ public:
     // side of the other one) starts inside the room.
     Vec3 origin(const Vec3& x, const Vec3& n, const Vec3& to_eye) const { return x + offset_ * (n + to_eye); }
 
-    // Direct light leaving x (on patch p, front side) towards `to_eye`.
-    Rgb direct(std::size_t p, const Vec3& x, const Vec3& to_eye, int samples, sampling::Rng& rng, long& rays) const {
-        const Vec3& n = patches_[p].normal;
+    // The normal that shades patch p at barycentric (b1, b2): its shading normal
+    // (scenes/scene.h), or the patch normal where the eye is below the shading normal's
+    // horizon (a silhouette of a coarse curved mesh), where the BRDF would be zero.
+    Vec3 shading_normal(std::size_t p, double b1, double b2, const Vec3& to_eye) const {
+        const Vec3 n = scene_.shading_normal(p, b1, b2);
+        return n.dot(to_eye) > 0.0 ? n : patches_[p].normal;
+    }
+
+    // Direct light leaving x (on patch p, front side, shading normal n) towards `to_eye`.
+    Rgb direct(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int samples, sampling::Rng& rng, long& rays) const {
         const auto& m = scene_.material_of(p);
-        const Vec3 from = origin(x, n, to_eye);
+        const Vec3 from = origin(x, patches_[p].normal, to_eye);
         Rgb sum = Rgb::Zero();
         if (!lights_.empty() && samples > 0)
             sum = analytic_ ? analytic_direct(m, n, from, to_eye, samples, rng, rays)
@@ -96,11 +103,10 @@ public:
     // Incident indirect radiance at x (patch p): the mean over `count` cosine-weighted
     // rays (stratified on a sqrt(count)^2 grid when count is a square) of the radiance
     // the field reflects at their hits.
-    Rgb indirect(std::size_t p, const Vec3& x, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
-        const Vec3& n = patches_[p].normal;
+    Rgb indirect(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
         Vec3 u, v;
         scenes::orthonormal_basis(n, u, v);
-        const Vec3 from = origin(x, n, to_eye);
+        const Vec3 from = origin(x, patches_[p].normal, to_eye);
         const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
         const bool strata = side * side == count;
         Rgb sum = Rgb::Zero();
@@ -120,10 +126,9 @@ public:
     // Glossy reflection of the field at x (patch p, a glossy material): the mean over
     // `count` directions drawn from the Phong lobe (stratified like indirect()) of the
     // lobe's weight times the radiance the field reflects at their hits.
-    Rgb glossy(std::size_t p, const Vec3& x, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
-        const Vec3& n = patches_[p].normal;
+    Rgb glossy(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
         const auto& m = scene_.material_of(p);
-        const Vec3 from = origin(x, n, to_eye);
+        const Vec3 from = origin(x, patches_[p].normal, to_eye);
         const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
         const bool strata = side * side == count;
         Rgb sum = Rgb::Zero();
@@ -315,15 +320,16 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             if (s.patch < 0 || !s.front) continue;                        // a back side: black
             sampling::Rng rng(run.seed, sampling::streams::kGuidePixels[p]);
             guide_patch[p] = s.patch;
-            put(r.normal, x, y, s.normal);
+            const Vec3 n = g.shading_normal(s.patch, s.b1, s.b2, -d);
+            put(r.normal, x, y, n);
             put(r.depth, x, y, Rgb::Constant(s.depth));
             put(r.position, x, y, s.point);
             Rgb direct =
-                scene.material_of(s.patch).emission + g.direct(s.patch, s.point, -d, o.direct_samples, rng, shadow_rays[y]);
+                scene.material_of(s.patch).emission + g.direct(s.patch, s.point, n, -d, o.direct_samples, rng, shadow_rays[y]);
             if (scene.material_of(s.patch).glossy() && o.glossy_rays > 0)
-                direct += g.glossy(s.patch, s.point, -d, o.glossy_rays, rng, gather_rays[y]);
+                direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gather_rays[y]);
             put(r.direct, x, y, direct);
-            put(r.indirect, x, y, g.indirect(s.patch, s.point, -d, o.gather_rays, rng, gather_rays[y]));
+            put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gather_rays[y]));
         }
         row_done("final gather", t0);
     });
@@ -371,12 +377,12 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     const auto hit = caster.intersect(camera.eye(), d);
                     if (!hit.valid()) sum += background(scene, d);
                     if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;
-                    const auto& patch = patches[hit.patch];
                     const Vec3 point = camera.eye() + hit.t * d;
+                    const Vec3 n = g.shading_normal(hit.patch, hit.b1, hit.b2, -d);
                     Rgb L = scene.material_of(hit.patch).emission +
-                            g.direct(hit.patch, point, -d, o.direct_samples, rng, shadow_rays[y]);
+                            g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow_rays[y]);
                     if (scene.material_of(hit.patch).glossy() && o.glossy_rays > 0)
-                        L += g.glossy(hit.patch, point, -d, o.glossy_rays, rng, gather_rays[y]);
+                        L += g.glossy(hit.patch, point, n, -d, o.glossy_rays, rng, gather_rays[y]);
                     // The four guide pixels around the sample point.
                     cand_n.clear();
                     cand_d.clear();
@@ -386,12 +392,12 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                         for (int dx = 0; dx < 2; ++dx) {
                             const int cx = std::clamp(x0 + dx, 0, W - 1), cy = std::clamp(y0 + dy, 0, H - 1);
                             if (guide_patch[static_cast<std::size_t>(cy) * W + cx] < 0) continue;
-                            const float* n = r.normal.at(cx, cy);
-                            cand_n.emplace_back(n[0], n[1], n[2]);
+                            const float* gn = r.normal.at(cx, cy);
+                            cand_n.emplace_back(gn[0], gn[1], gn[2]);
                             cand_d.push_back(r.depth.at(cx, cy)[0]);
                             cand_xy.emplace_back(cx, cy);
                         }
-                    const int best = most_similar_guide(patch.normal, hit.t, cand_n, cand_d);
+                    const int best = most_similar_guide(n, hit.t, cand_n, cand_d);
                     if (best >= 0) {
                         const auto [bx, by] = cand_xy[static_cast<std::size_t>(best)];
                         L += scene.material_of(hit.patch).albedo * get(r.indirect_filtered, bx, by);

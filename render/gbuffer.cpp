@@ -21,6 +21,7 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
             s.patch = hit.patch;
             s.point = camera.eye() + hit.t * d;
             s.normal = patches[hit.patch].normal;
+            s.shading_normal = scene.shading_normal(hit.patch, hit.b1, hit.b2);
             s.depth = hit.t;
             s.b1 = hit.b1;
             s.b2 = hit.b2;

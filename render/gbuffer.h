@@ -1,6 +1,6 @@
 #pragma once
 // The G-buffer: for every pixel centre, the patch the camera sees there, the point,
-// the patch normal, the depth and the barycentric coordinates.
+// the patch normal and the shading normal, the depth and the barycentric coordinates.
 #include "render/camera.h"
 #include "scenes/ray_caster.h"
 
@@ -12,7 +12,8 @@ struct GSample {
     int patch = -1;  // -1: background
     scenes::Vec3 direction = scenes::Vec3::Zero();  // the camera ray's (unit)
     scenes::Vec3 point = scenes::Vec3::Zero();
-    scenes::Vec3 normal = scenes::Vec3::Zero();
+    scenes::Vec3 normal = scenes::Vec3::Zero();          // the patch's (geometric): decides `front`
+    scenes::Vec3 shading_normal = scenes::Vec3::Zero();  // Scene::shading_normal at the point
     double depth = 0.0;    // distance from the eye
     double b1 = 0.0, b2 = 0.0;  // barycentric weights of the patch's 2nd and 3rd vertex
     bool front = false;    // the camera sees the patch's front side (one-sided patches)

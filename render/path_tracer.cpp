@@ -41,9 +41,11 @@ public:
                 break;
             }
             const auto& patch = patches_[hit.patch];
-            const Vec3& n = patch.normal;
-            const double cos_y = -n.dot(d);
+            const double cos_y = -patch.normal.dot(d);
             if (cos_y <= 0.0) break;  // the back of a one-sided patch: black
+            // Shading with the interpolated normal, unless the eye is below its horizon.
+            Vec3 n = scene_.shading_normal(hit.patch, hit.b1, hit.b2);
+            if (n.dot(d) >= 0.0) n = patch.normal;
             const auto& m = scene_.material_of(hit.patch);
             const Vec3 x = from + hit.t * d, to_eye = -d;
             if (m.emissive()) {
@@ -54,7 +56,7 @@ public:
                 }
                 L += throughput * m.emission * w;
             }
-            const Vec3 origin = x + offset_ * (n + to_eye);
+            const Vec3 origin = x + offset_ * (patch.normal + to_eye);
             // Next-event estimation: one point of an area light, every point light.
             if (!lights_.empty()) {
                 const auto s = lights_.sample(rng.uniform(), rng.uniform(), rng.uniform());

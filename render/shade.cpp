@@ -18,7 +18,8 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
     const std::size_t n = patches.size();
     const scenes::VertexCorners star = scenes::vertex_corners(scene);
 
-    const double crease = std::cos(30.0 * M_PI / 180.0);
+    const auto& normals = scene.corner_normals();
+    const double same = std::cos(1.0 * M_PI / 180.0);
     std::vector<std::array<Rgb, 3>> corners(n);
     for (std::size_t i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k) {
@@ -28,7 +29,8 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
             for (std::size_t e = star.start[v]; e < star.start[v + 1]; ++e) {
                 const std::uint32_t j = star.corners[e] / 3;
                 const auto& q = patches[j];
-                if (q.material != patches[i].material || q.normal.dot(patches[i].normal) < crease) continue;
+                if (q.material != patches[i].material || normals[j][star.corners[e] % 3].dot(normals[i][k]) < same)
+                    continue;
                 sum += q.area * field.radiance[j];
                 weight += q.area;
             }

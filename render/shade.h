@@ -17,9 +17,10 @@ enum class Shading { Flat, Smooth };
 Shading parse_shading(const std::string& name);
 
 // Per patch, the radiance at its three corners: the area-weighted mean over the
-// patches around the corner's vertex that share the patch's material and whose
-// normals lie within 30 degrees of its own (so walls meeting at a crease keep their
-// own colours, and light does not bleed across materials).
+// patches around the corner's vertex that share the patch's material and its shading
+// normal there (within 1 degree: the same smooth surface, Scene::corner_normals), so
+// that walls meeting at a crease keep their own colours, and light does not bleed
+// across materials.
 std::vector<std::array<scenes::Rgb, 3>> corner_radiance(const scenes::Scene& scene,
                                                         const solver::RadianceField& field);
 

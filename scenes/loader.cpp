@@ -202,6 +202,13 @@ Sky parse_sky(const Node& n) {
     return s;
 }
 
+// A crease angle in degrees, 0 (flat) to 180 (every patch around a vertex counts).
+double crease_angle(const Node& n) {
+    const double a = n.number("crease_angle");
+    if (!(a >= 0.0 && a <= 180.0)) n.fail("crease_angle", "must be in [0, 180] degrees, got " + format_number(a));
+    return a;
+}
+
 json camera_json(const Camera& c) {
     auto v = [](const Vec3& p) { return json::array({p.x(), p.y(), p.z()}); };
     return {{"eye", v(c.eye)}, {"target", v(c.target)}, {"up", v(c.up)},
@@ -286,7 +293,8 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     for (const Override& o : overrides) apply_override(doc, o, shown);
     Node root(doc, shown, "");
     root.require_object();
-    root.check_keys({"camera", "materials", "objects", "patch_size", "point_lights", "sky"});
+    root.check_keys({"camera", "crease_angle", "materials", "objects", "patch_size", "point_lights", "sky"});
+    const double crease = root.has("crease_angle") ? crease_angle(root) : Scene::default_crease_angle;
 
     Scene scene;
     scene.name = shown;
@@ -303,7 +311,8 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     for (std::size_t i = 0; i < objects.size(); ++i) {
         const Node obj(objects[i], shown, "objects[" + std::to_string(i) + "]");
         obj.require_object();
-        obj.check_keys({"mesh", "quad", "triangle", "material", "name"});
+        obj.check_keys({"mesh", "quad", "triangle", "material", "name", "crease_angle", "normals"});
+        const double obj_crease = obj.has("crease_angle") ? crease_angle(obj) : crease;
         // The object's name in warnings and `raybundle check`: its own, or where it is.
         const std::string given = obj.has("name") ? obj.string("name") : "";
         const std::string mat_name = obj.string("material");
@@ -328,10 +337,23 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                 for (int k : t)
                     if (k < 0 || k >= static_cast<int>(data.vertices.size()))
                         obj.fail("mesh", "face index " + std::to_string(k) + " out of range");
+            // The file's normals unless the object asks for computed ones.
+            const std::string source = obj.has("normals") ? obj.string("normals") : "auto";
+            if (source != "auto" && source != "file" && source != "computed")
+                obj.fail("normals", "unknown normals '" + source + "' (known: auto, file, computed)");
+            if (source == "file" && data.normals.empty()) obj.fail("normals", "'file', but " + rel + " has no normals");
+            if (source == "computed") data.normals.clear();
             const int id = scene.add_object(data.vertices, data.triangles, mat,
-                                            !given.empty() ? given : obj.path() + " (" + rel + ")");
-            if (scene.materials[mat].two_sided) scene.add_object(data.vertices, reversed(data.triangles), mat, "", id);
+                                            !given.empty() ? given : obj.path() + " (" + rel + ")", -1, data.normals);
+            // The twin faces the other way: its corners in reverse, its normals negated.
+            if (scene.materials[mat].two_sided) {
+                auto twin_normals = data.normals;
+                for (auto& n : twin_normals) n = {-n[0], -n[2], -n[1]};
+                scene.add_object(data.vertices, reversed(data.triangles), mat, "", id, twin_normals);
+            }
+            scene.crease_angles[id] = obj_crease;
         } else {
+            if (obj.has("normals")) obj.fail("normals", "only a mesh object has a choice of normals");
             const bool quad = obj.has("quad");
             const char* key = quad ? "quad" : "triangle";
             const json& pts = obj.raw(key);
@@ -345,6 +367,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                 quad ? std::vector<std::array<int, 3>>{{0, 1, 2}, {0, 2, 3}} : std::vector<std::array<int, 3>>{{0, 1, 2}};
             const int id = scene.add_object(v, tris, mat, !given.empty() ? given : obj.path() + " (" + key + ")");
             if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);
+            scene.crease_angles[id] = obj_crease;
         }
     }
 

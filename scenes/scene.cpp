@@ -4,17 +4,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace raybundle::scenes {
 
 Scene::Scene() {
     mesh.add_property(material_handle, "material");
     mesh.add_property(object_handle, "object");
+    mesh.add_property(corner_normal_handle, "corner normal");
 }
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                      int material, const std::string& name, int object) {
-    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), name, object);
+                      int material, const std::string& name, int object,
+                      const std::vector<std::array<Vec3, 3>>& normals) {
+    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), name, object, normals);
 }
 
 int Scene::add_material(Material m) {
@@ -29,26 +32,102 @@ int Scene::find_material(const std::string& material_name) const {
 }
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                      const std::vector<int>& triangle_materials, const std::string& name, int object) {
+                      const std::vector<int>& triangle_materials, const std::string& name, int object,
+                      const std::vector<std::array<Vec3, 3>>& normals) {
+    if (!normals.empty() && normals.size() != triangles.size())
+        throw std::invalid_argument("add_object: " + std::to_string(normals.size()) + " corner normal triples for " +
+                                    std::to_string(triangles.size()) + " triangles");
     if (object < 0) {
         object = static_cast<int>(object_names.size());
         object_names.push_back(name.empty() ? "object " + std::to_string(object) : name);
     }
+    if (crease_angles.size() < object_names.size()) crease_angles.resize(object_names.size(), default_crease_angle);
     std::vector<TriMesh::VertexHandle> handles;
     handles.reserve(vertices.size());
     for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
-        auto f = mesh.add_face(handles[t[0]], handles[t[1]], handles[t[2]]);
+        std::array<TriMesh::VertexHandle, 3> corner = {handles[t[0]], handles[t[1]], handles[t[2]]};
+        auto f = mesh.add_face(corner[0], corner[1], corner[2]);
         if (!f.is_valid()) {
             // Non-manifold input (OpenMesh refuses the face): keep it as a separate triangle.
-            f = mesh.add_face(mesh.add_vertex(to_om(vertices[t[0]])), mesh.add_vertex(to_om(vertices[t[1]])),
-                              mesh.add_vertex(to_om(vertices[t[2]])));
+            for (int c = 0; c < 3; ++c) corner[c] = mesh.add_vertex(to_om(vertices[t[c]]));
+            f = mesh.add_face(corner[0], corner[1], corner[2]);
         }
         mesh.property(material_handle, f) = triangle_materials[k];
         mesh.property(object_handle, f) = object;
+        for (auto h : mesh.fh_range(f)) {
+            Vec3 n = Vec3::Zero();
+            if (!normals.empty())
+                for (int c = 0; c < 3; ++c)
+                    if (mesh.to_vertex_handle(h) == corner[c] && normals[k][c].norm() > 0.0)
+                        n = normals[k][c].normalized();
+            mesh.property(corner_normal_handle, h) = to_array(n);
+        }
     }
     return object;
+}
+
+// Every corner normal still zero (none given) becomes the angle-weighted mean of the
+// normals of the patches around the corner's vertex within the object's crease angle
+// of the patch's own normal (the patch itself always counts). Angle weights (Thuermer
+// and Wuethrich) do not depend on how a surface is cut into triangles: a quad split in
+// two gives its vertex the same normal as the quad. Face normals come from the corners
+// in the order finalize() reads them, so that a flat patch gets its patch normal to the
+// bit.
+void Scene::compute_missing_normals() {
+    std::vector<Vec3> face_normal(mesh.n_faces());
+    for (auto f : mesh.faces()) {
+        auto it = mesh.cfv_iter(f);
+        const Vec3 a = to_eigen(mesh.point(*it++));
+        const Vec3 b = to_eigen(mesh.point(*it++));
+        const Vec3 c = to_eigen(mesh.point(*it));
+        face_normal[f.idx()] = (b - a).cross(c - a).normalized();
+    }
+    for (auto f : mesh.faces()) {
+        const int object = mesh.property(object_handle, f);
+        const double crease =
+            object >= 0 && static_cast<std::size_t>(object) < crease_angles.size() ? crease_angles[object]
+                                                                                    : default_crease_angle;
+        const double min_cos = std::cos(crease * M_PI / 180.0);
+        const Vec3& own = face_normal[f.idx()];
+        for (auto h : mesh.fh_range(f)) {
+            auto& n = mesh.property(corner_normal_handle, h);
+            if (n != std::array<double, 3>{0, 0, 0}) continue;
+            if (!(crease > 0.0)) {
+                n = to_array(own);
+                continue;
+            }
+            // The patches around the vertex: each incoming halfedge ends there in its face.
+            const auto v = mesh.to_vertex_handle(h);
+            const Vec3 at = to_eigen(mesh.point(v));
+            Vec3 sum = Vec3::Zero();
+            for (auto in : mesh.vih_range(v)) {
+                const auto g = mesh.face_handle(in);
+                if (!g.is_valid() || face_normal[g.idx()].dot(own) < min_cos) continue;
+                const Vec3 e1 = to_eigen(mesh.point(mesh.from_vertex_handle(in))) - at;
+                const Vec3 e2 = to_eigen(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in)))) - at;
+                sum += std::atan2(e1.cross(e2).norm(), e1.dot(e2)) * face_normal[g.idx()];
+            }
+            n = to_array(sum.norm() > 0.0 ? Vec3(sum.normalized()) : own);
+        }
+    }
+}
+
+Vec3 Scene::shading_normal(std::size_t patch, double b1, double b2) const {
+    const auto& c = shading_normals[patch];
+    const Vec3& front = patches[patch].normal;
+    Vec3 n;
+    if (c[0] == c[1] && c[1] == c[2]) {
+        n = c[0];  // a flat patch: no rounding
+    } else {
+        n = (1.0 - b1 - b2) * c[0] + b1 * c[1] + b2 * c[2];
+        const double length = n.norm();
+        // Corner normals that cancel (only file normals can): the patch normal.
+        if (!(length > 1e-9)) return front;
+        n /= length;
+    }
+    return n.dot(front) < 0.0 ? Vec3(-n) : n;
 }
 
 void Scene::finalize() {
@@ -71,6 +150,7 @@ void Scene::finalize() {
     }
     mesh.garbage_collection();
     dropped_degenerate += dropped;
+    compute_missing_normals();
 
     positions.clear();
     positions.reserve(mesh.n_vertices());
@@ -78,6 +158,8 @@ void Scene::finalize() {
 
     patches.clear();
     patches.reserve(mesh.n_faces());
+    shading_normals.clear();
+    shading_normals.reserve(mesh.n_faces());
     area_sum = 0.0;
     for (auto f : mesh.faces()) {
         Patch p{};
@@ -94,13 +176,18 @@ void Scene::finalize() {
         p.object = mesh.property(object_handle, f);
         area_sum += p.area;
         patches.push_back(p);
+        // The corner normals in the order of p.v; one within 1.4e-6 rad of the patch
+        // normal (cos > 1 - 1e-12) is the patch normal.
+        std::array<Vec3, 3> corner;
+        for (auto h : mesh.fh_range(f)) {
+            const int v = mesh.to_vertex_handle(h).idx();
+            const int slot = v == p.v[0] ? 0 : v == p.v[1] ? 1 : 2;
+            const Vec3 n = to_eigen(mesh.property(corner_normal_handle, h));
+            corner[slot] = n.dot(p.normal) > 1.0 - 1e-12 ? p.normal : n;
+        }
+        shading_normals.push_back(corner);
     }
     if (patches.empty()) throw SceneError(name, "", "the scene has no patches");
-
-    normals.assign(positions.size(), Vec3::Zero());
-    for (const auto& p : patches)
-        for (int v : p.v) normals[v] += p.area * p.normal;
-    for (auto& n : normals) n.normalize();
 
     // Bounding sphere of the patches (vertices no patch uses do not count): centre of
     // the bounding box, radius to the farthest patch vertex.

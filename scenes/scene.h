@@ -103,34 +103,60 @@ public:
     // messages; every patch knows its object.
     std::vector<std::string> object_names;
 
+    // Per object, the crease angle in degrees of the shading normals finalize()
+    // computes for it (see corner_normal_handle); 0 keeps the patches flat.
+    static constexpr double default_crease_angle = 30.0;
+    std::vector<double> crease_angles;
+
     // Per-face material and object index, kept on the mesh so that subdivision copies them.
     OpenMesh::FPropHandleT<int> material_handle;
     OpenMesh::FPropHandleT<int> object_handle;
+    // The shading normal of every patch corner, on the halfedge of the face that ends
+    // at the corner's vertex, so that subdivision carries it (it gives the corners of a
+    // split edge's new vertex the normalised mean of the edge's two corner normals in
+    // each face). A zero vector (the value a new halfedge gets) marks a corner without
+    // one: finalize() computes it.
+    OpenMesh::HPropHandleT<std::array<double, 3>> corner_normal_handle;
 
     Scene();
 
     // Adds one object (returns its index): vertices shared by its triangles (so that
     // subdivision stays conforming), all with one material. Front sides are
     // counter-clockwise. With `object` >= 0 the triangles join that object instead.
+    // `normals`, when not empty, gives every triangle's corner normals (the file's; they
+    // are normalised, and a zero vector leaves that corner to finalize()).
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int material,
-                   const std::string& name = "", int object = -1);
+                   const std::string& name = "", int object = -1,
+                   const std::vector<std::array<Vec3, 3>>& normals = {});
     // The same with one material per triangle.
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                   const std::vector<int>& materials, const std::string& name = "", int object = -1);
+                   const std::vector<int>& materials, const std::string& name = "", int object = -1,
+                   const std::vector<std::array<Vec3, 3>>& normals = {});
     // Adds a material and returns its index.
     int add_material(Material m);
     // The index of the material called name, or -1.
     int find_material(const std::string& name) const;
 
-    // Derives the flat arrays below from the mesh (drops zero-area triangles first).
-    // Call after the mesh changes; everything downstream reads only the flat arrays.
+    // Derives the flat arrays below from the mesh (drops zero-area triangles first, then
+    // computes the corner normals that are missing). Call after the mesh changes;
+    // everything downstream reads only the flat arrays.
     void finalize();
 
     std::size_t patch_count() const { return patches.size(); }
     const std::vector<Patch>& patch_list() const { return patches; }
     const std::vector<Vec3>& vertex_positions() const { return positions; }
-    // Per-vertex shading normals: the area-weighted mean of the incident patch normals.
-    const std::vector<Vec3>& vertex_normals() const { return normals; }
+    // Per patch, the unit shading normals at its corners v[0], v[1], v[2]: the file's,
+    // or the angle-weighted mean of the normals of the patches around the corner's
+    // vertex that lie within the object's crease angle of the patch's own. A corner
+    // normal within 1.4e-6 rad of the patch normal is the patch normal, so flat
+    // surfaces stay exactly flat.
+    const std::vector<std::array<Vec3, 3>>& corner_normals() const { return shading_normals; }
+    // The shading normal at the point (1 - b1 - b2) v[0] + b1 v[1] + b2 v[2] of a patch
+    // (the barycentric weights of RayHit and GSample): the corner normals interpolated
+    // and normalised, and turned over when that makes it face away from the patch
+    // normal, so it is never on the back of the patch. The patch normal still decides
+    // which side is the front.
+    Vec3 shading_normal(std::size_t patch, double b1, double b2) const;
     const Material& material_of(std::size_t patch) const { return materials[patches[patch].material]; }
 
     Vec3 bounds_center() const { return center; }
@@ -142,10 +168,12 @@ public:
 private:
     std::vector<Patch> patches;
     std::vector<Vec3> positions;
-    std::vector<Vec3> normals;
+    std::vector<std::array<Vec3, 3>> shading_normals;
     Vec3 center = Vec3::Zero();
     double radius = 0.0;
     double area_sum = 0.0;
+
+    void compute_missing_normals();
 };
 
 // The patch corners around every vertex, as a compressed row list: the corners
@@ -159,5 +187,7 @@ VertexCorners vertex_corners(const Scene& scene);
 
 inline Vec3 to_eigen(const OpenMesh::Vec3d& p) { return {p[0], p[1], p[2]}; }
 inline OpenMesh::Vec3d to_om(const Vec3& p) { return {p.x(), p.y(), p.z()}; }
+inline Vec3 to_eigen(const std::array<double, 3>& n) { return {n[0], n[1], n[2]}; }
+inline std::array<double, 3> to_array(const Vec3& n) { return {n.x(), n.y(), n.z()}; }
 
 }  // namespace raybundle::scenes

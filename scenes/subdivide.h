@@ -8,7 +8,10 @@ namespace raybundle::scenes {
 // Refines the scene by conforming longest-edge bisection until no edge is longer
 // than max_edge. Each split halves an edge at its midpoint and both triangles on it,
 // so the mesh stays watertight (no T-junctions) and triangles keep their shape
-// class. Materials are copied to the new faces. Calls scene.finalize().
+// class. Materials are copied to the new faces; the corner normals are carried (the
+// new vertex of a split edge gets, in each face, the normalised mean of that face's
+// normals at the edge's ends), so call scene.finalize() first, which computes the
+// missing ones on the coarse patches. Calls scene.finalize() at the end.
 // Returns the number of splits.
 std::size_t subdivide(Scene& scene, double max_edge);
 

@@ -74,7 +74,7 @@ TEST_CASE("point lights and the sky load", "[scenes]") {
     CHECK(!plain.sky);
 }
 
-TEST_CASE("meshes load through OpenMesh with polygons triangulated", "[scenes]") {
+TEST_CASE("meshes load with polygons triangulated", "[scenes]") {
     TempDir dir;
     dir.write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
     dir.write("tri.off", "OFF\n3 1 0\n0 0 1\n1 0 1\n0 1 1\n3 0 1 2\n");
