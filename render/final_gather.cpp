@@ -56,6 +56,9 @@ const char* direct_light_name(DirectLight d) { return d == DirectLight::analytic
 
 namespace {
 
+// How often a secondary ray goes on through glossy surfaces before it reads the field.
+constexpr int kGlossyBounces = 2;
+
 class Gatherer {
 public:
     Gatherer(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
@@ -118,7 +121,7 @@ public:
             }
             const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
             ++rays;
-            sum += field_along(from, w);
+            sum += field_along(from, w, rng, rays);
         }
         return sum / count;
     }
@@ -142,7 +145,7 @@ public:
             const double cos_x = n.dot(s.direction);
             if (cos_x <= 0.0 || s.pdf <= 0.0) continue;
             ++rays;
-            sum += scenes::brdf_glossy(m, n, -s.direction, to_eye) * (cos_x / s.pdf) * field_along(from, s.direction);
+            sum += scenes::brdf_glossy(m, n, -s.direction, to_eye) * (cos_x / s.pdf) * field_along(from, s.direction, rng, rays);
         }
         return sum / count;
     }
@@ -150,14 +153,69 @@ public:
 private:
     // The radiance arriving at `from` along -w that the solved field reflects (the hit
     // patch's smooth radiance less its emission, which direct light counts; nothing
-    // from the back of a patch; the sky where the ray leaves the scene).
-    Rgb field_along(const Vec3& from, const Vec3& w) const {
+    // from the back of a patch; the sky where the ray leaves the scene). At a glossy
+    // surface the field holds the radiance towards the camera only, so the path goes on
+    // instead, up to kGlossyBounces times (glossy_bounce()).
+    Rgb field_along(const Vec3& from, const Vec3& w, sampling::Rng& rng, long& rays, int bounce = 0) const {
         const auto hit = caster_.intersect(from, w);
         if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
         if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
+        if (scene_.material_of(hit.patch).glossy() && bounce < kGlossyBounces)
+            return glossy_bounce(hit, from + hit.t * w, -w, rng, rays, bounce + 1);
         const auto& c = corners_[hit.patch];
         const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
         return (L - scene_.material_of(hit.patch).emission).max(0.0);
+    }
+
+    // The radiance a glossy surface met by a secondary ray sends back towards it, its
+    // emission excluded, estimated with one light sample and one BRDF sample (balance
+    // heuristic for the light they meet) plus every point light; what the BRDF sample
+    // meets reflects the field (field_along).
+    Rgb glossy_bounce(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng, long& rays,
+                      int bounce) const {
+        const std::size_t q = static_cast<std::size_t>(hit.patch);
+        const auto& m = scene_.material_of(q);
+        const Vec3 n = shading_normal(q, hit.b1, hit.b2, w_out);
+        const Vec3 from = origin(y, patches_[q].normal, w_out);
+        Rgb L = Rgb::Zero();
+        if (!lights_.empty()) {
+            const auto s = lights_.sample(rng.uniform(), rng.uniform(), rng.uniform());
+            const Vec3 d = s.point - from;
+            const double r = d.norm();
+            const Vec3 w = d / r;
+            const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
+            if (r > 0.0 && cos_x > 0.0 && cos_y > 0.0) {
+                ++rays;
+                if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid())
+                    L += scenes::brdf(m, n, -w, w_out) * scene_.material_of(s.patch).emission *
+                         (cos_x / (lights_.pdf_solid_angle(s.patch, r, cos_y) + scenes::brdf_pdf(m, n, w_out, w)));
+            }
+        }
+        for (const auto& light : scene_.point_lights) {
+            const Vec3 d = light.position - from;
+            const double r = d.norm();
+            const Vec3 w = d / r;
+            const double cos_x = n.dot(w);
+            if (!(r > 0.0) || cos_x <= 0.0) continue;
+            ++rays;
+            if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid())
+                L += scenes::brdf(m, n, -w, w_out) * light.intensity * (cos_x / (r * r));
+        }
+        const auto s = scenes::sample_brdf(m, n, w_out, rng.uniform(), rng.uniform(), rng.uniform());
+        const Vec3& w = s.direction;
+        const double cos_x = n.dot(w);
+        if (cos_x <= 0.0 || s.pdf <= 0.0) return L;
+        const Rgb f = scenes::brdf(m, n, -w, w_out) * (cos_x / s.pdf);
+        ++rays;
+        const auto next = caster_.intersect(from, w);
+        if (next.valid() && lights_.probability(next.patch) > 0.0) {
+            const double cos_y = -patches_[next.patch].normal.dot(w);
+            if (cos_y > 0.0) {
+                const double pl = lights_.pdf_solid_angle(next.patch, next.t, cos_y);
+                L += f * scene_.material_of(next.patch).emission * (s.pdf / (s.pdf + pl));
+            }
+        }
+        return L + f * field_along(from, w, rng, rays, bounce);
     }
 
     // A point of an area light for stratum k of `samples`: the light chosen in the k-th

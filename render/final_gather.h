@@ -39,8 +39,10 @@
 //
 // The filtered indirect term uses the diffuse albedo; the glossy lobe reflects the
 // field per sample as above. Where a gather or glossy ray meets a glossy surface, the
-// field holds that surface's radiance towards the camera, which stands in for its
-// radiance towards the ray's origin: an approximation, exact for diffuse scenes.
+// field holds only that surface's radiance towards the camera, so the path goes on
+// there: one light sample and one BRDF sample (balance heuristic), what the latter
+// meets reflecting the field, up to two glossy surfaces in a row. (Reading the field
+// there instead lost about 5 % of a glossy Cornell box's light.)
 //
 // Reproducible: pixel p draws from its own streams (sampling/streams.h) whatever the
 // thread count, so the same seed gives the same image and there is no flicker between
