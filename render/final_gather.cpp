@@ -56,15 +56,18 @@ const char* direct_light_name(DirectLight d) { return d == DirectLight::analytic
 
 namespace {
 
-// How often a secondary ray goes on through glossy surfaces before it reads the field.
-constexpr int kGlossyBounces = 2;
+// How often a secondary ray goes on before it reads the field, and how near a hit
+// must be, in sizes (square roots of the area) of the patch it meets, to go on.
+constexpr int kBounces = 2;
+constexpr double kNear = 2.0;
 
 class Gatherer {
 public:
     Gatherer(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
              const GatherOptions& options)
         : scene_(scene), caster_(caster), patches_(scene.patch_list()), lights_(scene),
-          offset_(1e-5 * scene.bounds_radius()), analytic_(options.direct == DirectLight::analytic) {
+          offset_(1e-5 * scene.bounds_radius()), analytic_(options.direct == DirectLight::analytic),
+          near_hits_(options.near_hits) {
         corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
     }
 
@@ -153,25 +156,29 @@ public:
 private:
     // The radiance arriving at `from` along -w that the solved field reflects (the hit
     // patch's smooth radiance less its emission, which direct light counts; nothing
-    // from the back of a patch; the sky where the ray leaves the scene). At a glossy
-    // surface the field holds the radiance towards the camera only, so the path goes on
-    // instead, up to kGlossyBounces times (glossy_bounce()).
+    // from the back of a patch; the sky where the ray leaves the scene). The path goes
+    // on instead (bounce_at(), up to kBounces times in a row) where the field is a poor
+    // stand-in: at a glossy surface, where it holds the radiance towards the camera
+    // only; and at a hit closer than kNear times the hit patch's size, where the
+    // patch's mean radiance, which the field holds, differs most from the radiance at
+    // the hit point (corners and contact lines, where the light changes within a patch).
     Rgb field_along(const Vec3& from, const Vec3& w, sampling::Rng& rng, long& rays, int bounce = 0) const {
         const auto hit = caster_.intersect(from, w);
         if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
         if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
-        if (scene_.material_of(hit.patch).glossy() && bounce < kGlossyBounces)
-            return glossy_bounce(hit, from + hit.t * w, -w, rng, rays, bounce + 1);
+        if (bounce < kBounces && (scene_.material_of(hit.patch).glossy() ||
+                                  (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
+            return bounce_at(hit, from + hit.t * w, -w, rng, rays, bounce + 1);
         const auto& c = corners_[hit.patch];
         const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
         return (L - scene_.material_of(hit.patch).emission).max(0.0);
     }
 
-    // The radiance a glossy surface met by a secondary ray sends back towards it, its
+    // The radiance a surface met by a secondary ray sends back towards it, its
     // emission excluded, estimated with one light sample and one BRDF sample (balance
     // heuristic for the light they meet) plus every point light; what the BRDF sample
     // meets reflects the field (field_along).
-    Rgb glossy_bounce(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng, long& rays,
+    Rgb bounce_at(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng, long& rays,
                       int bounce) const {
         const std::size_t q = static_cast<std::size_t>(hit.patch);
         const auto& m = scene_.material_of(q);
@@ -322,6 +329,7 @@ private:
     AreaLights lights_;
     double offset_;
     bool analytic_;
+    bool near_hits_;
     std::vector<std::array<Rgb, 3>> corners_;
 };
 

@@ -71,6 +71,9 @@ struct GatherOptions {
     int direct_samples = 16;  // K, per camera sample
     int glossy_rays = 16;     // per camera sample on a glossy surface
     DirectLight direct = DirectLight::analytic;
+    // Gather rays that hit closer than twice the size of the patch they meet go on
+    // one more bounce instead of reading the field there (the contact bias).
+    bool near_hits = true;
     int spp = 1;              // camera samples per pixel (the first is the guide)
     FilterOptions filter;     // what cleans the indirect light (render/filters.h)
 };
