@@ -35,7 +35,9 @@ struct Command {
     sampling::RunOptions run;
     std::string shading = "smooth";
     render::GatherOptions gather;
-    int gather_rays = 0;  // 0: the patch image, no final gather
+    // The defaults make a final-gathered image (0 rays: the patch image instead).
+    int gather_rays = 64;
+    int diffuse_shot = -1;  // --diffuse-shot 1, --no-diffuse-shot 0, -1: decided per scene
     render::PathTraceOptions path;  // --method pathtrace
     // Outputs: nothing is written that was not asked for.
     std::vector<std::string> images;  // -o, the format by the extension

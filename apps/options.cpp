@@ -113,14 +113,20 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
     cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
         ->check(CLI::Range(1, 16384));
-    cmd.add_flag("--diffuse-shot", c.shots.diffuse_shot, "area lights' direct light once, with shadow rays (004 9.1)");
+    cmd.add_flag_function(
+        "--diffuse-shot,!--no-diffuse-shot", [&c](std::int64_t n) { c.diffuse_shot = n > 0 ? 1 : 0; },
+        "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse scenes with area lights");
     cmd.add_option("--seed", c.run.seed, "random seed; the same seed gives bit-identical output")
         ->check(kDigits)
         ->capture_default_str();
     cmd.add_option("--shading", c.shading, "patch image: smooth | flat")->capture_default_str();
-    cmd.add_option("--gather", c.gather_rays, "final gather with N rays per pixel for the indirect light (0: off)")
+    cmd.add_option("--gather", c.gather_rays,
+                   "final gather with N rays per pixel for the indirect light (0: the patch image instead)")
+        ->capture_default_str()
         ->check(CLI::Range(0, 1 << 20));
     render::GatherOptions& g = c.gather;
+    g.spp = 16;
+    g.direct_samples = 8;
     cmd.add_option("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
         ->capture_default_str()
         ->check(CLI::Range(0, 1 << 16));
@@ -173,14 +179,15 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
-                                 "--one-way", "--both-ways", "--csv", "--csv-every", "--patches", "--ply", "--shading"})
+                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--csv", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
         c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;
     } else if (c.gather_rays == 0) {
         for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
                                  "--filter-radius", "--eps-normal", "--eps-depth"})
-            if (cmd.count(flag) > 0) throw UsageError(std::string(flag) + " needs the final gather (--gather N)");
+            if (cmd.count(flag) > 0)
+                throw UsageError(std::string(flag) + " needs the final gather (--gather N, N > 0)");
     } else if (c.gather.spp > 4096) {
         throw UsageError("--spp " + std::to_string(c.gather.spp) + ": the final gather takes at most 4096");
     }

@@ -134,7 +134,20 @@ int solve(const Command& c) {
     if (c.solver.method == "pathtrace") return path_trace(c, scene, caster, run, bar, t_start);
 
     // The first shot (point lights) and the diffuse shot, once, before any direction.
-    const solver::Transport transport(scene, c.shots, run);
+    // The diffuse shot, unless the command line decided: for diffuse scenes with area
+    // lights, whose direct light it makes exact up to its quadrature.
+    solver::ShotOptions shots = c.shots;
+    std::string shot_choice;
+    if (c.diffuse_shot >= 0) {
+        shots.diffuse_shot = c.diffuse_shot == 1;
+        shot_choice = std::string(shots.diffuse_shot ? "--diffuse-shot" : "--no-diffuse-shot") + " given";
+    } else {
+        shots.diffuse_shot = scene.has_emission() && !scene.has_glossy();
+        shot_choice = shots.diffuse_shot ? "on: a diffuse scene with area lights"
+                      : scene.has_glossy() ? "off: the scene has glossy materials"
+                                           : "off: the scene has no area lights";
+    }
+    const solver::Transport transport(scene, shots, run);
     auto solver = solver::make_solver(transport, c.solver, run);
     // What the method converges to on a scene with a known answer (walks truncated at D
     // bounces: a known fraction of it on a homogeneous scene).
@@ -191,6 +204,7 @@ int solve(const Command& c) {
     stats["seconds_per_direction"] = report.directions > 0 ? seconds_solve / report.directions : 0.0;
     stats["mean_radiance"] = mean;
     if (gathered) stats["final_gather"] = gather_record(c, *gathered);
+    stats["decisions"]["diffuse_shot_choice"] = shot_choice;
     stats["decisions"]["image"] = gathered ? "final gather: direct light per sample, indirect at guide rays, " +
                                                  std::string(render::filter_name(c.gather.filter.filter)) + " filter"
                                            : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";

@@ -16,7 +16,7 @@ passed=0
 failed=0
 fail() { echo "FAIL: $*"; failed=$((failed + 1)); }
 
-camera='"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]}'
+camera='"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "width": 32, "height": 32}'
 materials='"materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}}'
 quad='{"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "w"}'
 scene() { printf '{%s, %s, "objects": [%s]%s}\n' "$camera" "$materials" "$1" "${2:-}"; }
@@ -103,9 +103,9 @@ for case in "-o same.exr -o same.exr|-o and -o name the same file" "-o same.exr 
     fail "$args: exit $rc, $(cat err.txt)"
   fi
 done
-expect_bad "filter without gather" "--filter needs the final gather" solve good.json --filter atrous
+expect_bad "filter without gather" "--filter needs the final gather" solve good.json --gather 0 --filter atrous
 expect_bad "unbiased QMC walks" "--unbiased: needs the random sampler" solve good.json --method walk --unbiased --sampler sobol
-expect_bad "spp without gather" "--spp needs the final gather" solve good.json --spp 4
+expect_bad "spp without gather" "--spp needs the final gather" solve good.json --gather 0 --spp 4
 expect_bad "unknown filter" "--filter" solve good.json --gather 4 --filter median
 echo file > afile
 expect_bad "aov not a directory" "--aov afile: not a directory" solve good.json --gather 4 --aov afile
@@ -134,7 +134,7 @@ fi
 # A backend whose library is missing at run time: one clear line, exit 1, no output.
 if "$bin" backends | grep -q "^zbuffer "; then
   rm -rf outdir && mkdir outdir
-  RAYBUNDLE_OSMESA_LIBRARY=/nonexistent/libOSMesa.so "$bin" solve --builtin homogeneous-box --visibility zbuffer \
+  RAYBUNDLE_OSMESA_LIBRARY=/nonexistent/libOSMesa.so "$bin" solve --builtin homogeneous-box --width 32 --height 32 --visibility zbuffer \
     -o outdir/z.exr --stats outdir/z.json >out.txt 2>err.txt
   rc=$?
   if [ "$rc" -eq 1 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF "zbuffer: cannot load OSMesa" err.txt \
@@ -146,7 +146,7 @@ if "$bin" backends | grep -q "^zbuffer "; then
 fi
 
 # A good run writes every output, with the documented stats and CSV headers.
-if "$bin" solve --builtin homogeneous-box --iterations 200 -o h.exr -o h.png --stats h.json \
+if "$bin" solve --builtin homogeneous-box --width 32 --height 32 --iterations 200 -o h.exr -o h.png --stats h.json \
      --csv h.csv --patches h-patches.csv --ply h.ply 2>err.txt; then
   ok=1
   for f in h.exr h.png h.json h.csv h-patches.csv h.ply; do [ -s "$f" ] || { fail "good run: $f missing"; ok=0; }; done
@@ -163,7 +163,7 @@ else
 fi
 
 # Walks: their stats name depth, sampler and the truncated exact value 1 - 2^-(D+1).
-if "$bin" solve --builtin homogeneous-box --patch-size 0.34 --method combined --depth 3 --sampler sobol \
+if "$bin" solve --builtin homogeneous-box --width 32 --height 32 --patch-size 0.34 --no-diffuse-shot --method combined --depth 3 --sampler sobol \
      --iterations 20 -o w.exr --stats w.json 2>err.txt; then
   ok=1
   for key in walks depth sampler unbiased storage; do grep -q "\"$key\"" w.json || { fail "walk stats lack $key"; ok=0; }; done
@@ -227,8 +227,8 @@ fi
 check $? "--aov into a missing directory: $(cat err.txt)"
 
 # -D and the shortcuts are validated like the file, and change what they name.
-"$bin" solve --builtin cornell-box --iterations 5 -D patch_size=200 --stats d1.json >/dev/null 2>&1 &&
-  "$bin" solve --builtin cornell-box --iterations 5 --stats d2.json >/dev/null 2>&1
+"$bin" solve --builtin cornell-box --width 32 --height 32 --iterations 5 -D patch_size=200 --stats d1.json >/dev/null 2>&1 &&
+  "$bin" solve --builtin cornell-box --width 32 --height 32 --iterations 5 --stats d2.json >/dev/null 2>&1
 p1=$(grep -o '"patches": [0-9]*' d1.json | grep -o '[0-9]*$')
 p2=$(grep -o '"patches": [0-9]*' d2.json | grep -o '[0-9]*$')
 [ -n "$p1" ] && [ -n "$p2" ] && [ "$p1" -lt "$p2" ]
@@ -239,11 +239,11 @@ check $? "-D patch_size=200 should give fewer patches ($p1) than the default ($p
 check $? "--fov should change the image"
 
 # Threads default to all cores, and any count gives the same result.
-"$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --stats t.json --patches tall.csv >/dev/null 2>&1
+"$bin" solve --builtin homogeneous-box --width 32 --height 32 --patch-size 0.34 --iterations 50 --stats t.json --patches tall.csv >/dev/null 2>&1
 grep -q "\"threads_requested\": $(nproc)," t.json
 check $? "threads default is not $(nproc): $(grep threads_requested t.json)"
-"$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --threads 1 --patches t1.csv >/dev/null 2>&1 &&
-  "$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 50 --threads 3 --patches t3.csv >/dev/null 2>&1 &&
+"$bin" solve --builtin homogeneous-box --width 32 --height 32 --patch-size 0.34 --iterations 50 --threads 1 --patches t1.csv >/dev/null 2>&1 &&
+  "$bin" solve --builtin homogeneous-box --width 32 --height 32 --patch-size 0.34 --iterations 50 --threads 3 --patches t3.csv >/dev/null 2>&1 &&
   cmp -s t1.csv t3.csv && cmp -s t1.csv tall.csv
 check $? "--threads 1 and 3 differ"
 
@@ -262,7 +262,7 @@ if command -v script >/dev/null; then
 fi
 script -qc "'$bin' solve --builtin cornell-box --patch-size 100 --iterations 200 --quiet -o q.exr" /dev/null > q.txt 2>&1
 check $(( $(wc -c <q.txt) != 0 )) "--quiet printed: $(head -c 200 q.txt)"
-"$bin" solve --builtin cornell-box --patch-size 100 --iterations 20 -o s.exr >sum.txt 2>/dev/null
+"$bin" solve --builtin cornell-box --width 32 --height 32 --patch-size 100 --iterations 20 -o s.exr >sum.txt 2>/dev/null
 [ "$(wc -l <sum.txt)" -eq 1 ] && grep -q "cornell-box: .* patches, iteration 20 steps in .*; wrote s.exr" sum.txt
 check $? "summary line: $(cat sum.txt)"
 
@@ -319,7 +319,7 @@ cmp -s doc-example.json "$src/scenes/examples/minimal.json"
 check $? "docs/scene-format.md's example differs from scenes/examples/minimal.json"
 
 # Determinism through the CLI: same seed, byte-identical per-patch output.
-run_seed() { "$bin" solve --builtin homogeneous-box --patch-size 0.34 --iterations 100 --seed "$1" -o "$2.exr" --patches "$2.csv" 2>/dev/null; }
+run_seed() { "$bin" solve --builtin homogeneous-box --width 32 --height 32 --patch-size 0.34 --iterations 100 --seed "$1" -o "$2.exr" --patches "$2.csv" 2>/dev/null; }
 run_seed 9 a
 run_seed 9 b
 run_seed 10 c
@@ -343,8 +343,8 @@ for d in analytic sampled; do
   grep -q "\"direct\": \"$d\"" d-$d.json
   check $? "--direct $d: not in the stats"
 done
-expect_bad "--direct without --gather" "--direct needs the final gather" solve --builtin cornell-box --direct sampled
-expect_bad "--glossy-rays without --gather" "--glossy-rays needs the final gather" solve --builtin cornell-box --glossy-rays 3
+expect_bad "--direct without --gather" "--direct needs the final gather" solve --builtin cornell-box --gather 0 --direct sampled
+expect_bad "--glossy-rays without --gather" "--glossy-rays needs the final gather" solve --builtin cornell-box --gather 0 --glossy-rays 3
 expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 --direct exact
 
 echo "cli: $passed passed, $failed failed"
