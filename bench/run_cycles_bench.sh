@@ -54,6 +54,7 @@ SEED=1
 REF_SEED=2
 # ------------------------------------------------------------------------------------
 
+command_line="bench/run_cycles_bench.sh${*:+ $*}"
 threads=2 quick=0 build=1 out="" refs_only=0 only=""
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -151,6 +152,7 @@ done
 
 # --- timed runs ---------------------------------------------------------------------
 csv=$out/bench-cycles.csv
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 echo "scene,renderer,setting,seconds,relative_l1,mse" >"$csv.partial"
 for entry in "${SCENES[@]}"; do
   name=${entry%%|*}
@@ -175,6 +177,7 @@ for entry in "${SCENES[@]}"; do
   done
 done
 mv "$csv.partial" "$csv"
+load_after=$(cut -d' ' -f1-3 /proc/loadavg)
 
 # --- plot ---------------------------------------------------------------------------
 png=$out/bench-cycles.png
@@ -232,8 +235,10 @@ mem=$(awk '$1 == "MemTotal:" { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)
 {
   echo "# raybundle against Blender Cycles: time to error"
   echo
-  echo "Written by \`bench/run_cycles_bench.sh$([ "$quick" = 1 ] && echo " --quick") --threads $threads\` on $(date -u +%Y-%m-%d)"
+  echo "Written by \`$command_line\` on $(date -u +%Y-%m-%d)"
   echo "($(nproc) cores, $cpu, $mem; Blender $blender_version; $threads threads for both renderers)."
+  echo "Load average (1, 5, 15 min) before the timed runs: $load_before; after: $load_after"
+  echo "(above $threads, other work shared the cores and the seconds are inflated)."
   echo "Method and caveats: [benchmarks.md](benchmarks.md#against-blender-cycles)."
   echo
   echo "Error: relative L1 (Σ|a − b| / Σ|b| over pixels and channels) and MSE of each"
