@@ -3,6 +3,7 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <png.h>
 
@@ -60,6 +61,29 @@ void write_exr(const std::string& path, const Image& image) {
     });
 }
 
+Image read_exr(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        const Imf::Header& header = file.header();
+        for (const char* name : {"R", "G", "B"})
+            if (header.channels().findChannel(name) == nullptr)
+                throw std::runtime_error(std::string("no channel ") + name);
+        const Imath::Box2i dw = header.dataWindow();
+        Image image(dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1);
+        // Slice::Make addresses the data window's first pixel as pixel (min.x, min.y).
+        const std::size_t xs = 3 * sizeof(float), ys = xs * image.width;
+        float* base = image.rgb.data();
+        Imf::FrameBuffer fb;
+        fb.insert("R", Imf::Slice::Make(Imf::FLOAT, base, dw, xs, ys));
+        fb.insert("G", Imf::Slice::Make(Imf::FLOAT, base + 1, dw, xs, ys));
+        fb.insert("B", Imf::Slice::Make(Imf::FLOAT, base + 2, dw, xs, ys));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        return image;
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": cannot read EXR (" + e.what() + ")");
+    }
+}
 
 unsigned char tone_map(double linear, double exposure) {
     double v = std::clamp(linear * std::exp2(exposure), 0.0, 1.0);

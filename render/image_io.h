@@ -15,6 +15,11 @@ void write_atomically(const std::string& path, const std::function<void(const st
 // Linear RGB as 32-bit float channels R, G, B (OpenEXR).
 void write_exr(const std::string& path, const Image& image);
 
+// Reads the R, G and B channels of an OpenEXR file (any pixel type, converted to
+// float; the data window, rows top to bottom) as linear RGB. Throws
+// std::runtime_error naming the file when it cannot be read or lacks R, G or B.
+Image read_exr(const std::string& path);
+
 // Linear RGB as a portable float map (PFM: little-endian floats, rows bottom to top).
 void write_pfm(const std::string& path, const Image& image);
 

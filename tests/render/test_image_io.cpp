@@ -1,0 +1,42 @@
+// EXR reading: what write_exr writes comes back bit for bit, the right way up; a file
+// that cannot be read is named in the error.
+#include "render/image_io.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <unistd.h>
+
+using namespace raybundle;
+
+TEST_CASE("EXR: write then read gives the same image", "[render][image_io]") {
+    render::Image image(5, 3);  // not square: width and height must not swap
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = 0.1f * static_cast<float>(k) - 1.0f / 3.0f;
+    image.at(4, 2)[1] = 1e6f;  // the last row's last pixel: rows are not flipped
+    const std::string path =
+        (std::filesystem::temp_directory_path() / ("raybundle-test-" + std::to_string(::getpid()) + ".exr")).string();
+    render::write_exr(path, image);
+    const render::Image back = render::read_exr(path);
+    std::remove(path.c_str());
+    REQUIRE(back.width == 5);
+    REQUIRE(back.height == 3);
+    REQUIRE(back.rgb == image.rgb);
+}
+
+TEST_CASE("EXR: a missing or malformed file throws, naming it", "[render][image_io]") {
+    const std::string dir = std::filesystem::temp_directory_path().string();
+    const std::string missing = dir + "/raybundle-no-such-file-" + std::to_string(::getpid()) + ".exr";
+    REQUIRE_THROWS_WITH(render::read_exr(missing), Catch::Contains(missing));
+    const std::string text = dir + "/raybundle-not-an-exr-" + std::to_string(::getpid()) + ".exr";
+    {
+        std::FILE* f = std::fopen(text.c_str(), "w");
+        REQUIRE(f != nullptr);
+        std::fputs("not an image\n", f);
+        std::fclose(f);
+    }
+    REQUIRE_THROWS_WITH(render::read_exr(text), Catch::Contains(text) && Catch::Contains("cannot read EXR"));
+    std::remove(text.c_str());
+}
