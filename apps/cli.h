@@ -43,6 +43,7 @@ struct Command {
     std::vector<std::string> images;  // -o, the format by the extension
     double exposure = 0.0;
     std::string stats, csv, patches_csv, ply, aov;
+    std::string reference;  // an EXR the image is compared with (relative L1, MSE)
     long csv_every = 0;
     bool quiet = false;
 };

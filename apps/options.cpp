@@ -154,6 +154,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         ->capture_default_str()
         ->check(kPositive);
     cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR");
+    cmd.add_option("--reference", c.reference,
+                   "an EXR of the same size (e.g. from --method pathtrace): the image's relative L1 error and MSE "
+                   "against it go into the summary line and the stats")
+        ->check(CLI::ExistingFile);
     cmd.add_option("--stats", c.stats, "run statistics (JSON)");
     cmd.add_option("--csv", c.csv, "convergence: iteration,seconds,relative_l1_error,mean_radiance");
     cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")

@@ -6,6 +6,7 @@
 #include "render/camera.h"
 #include "render/gbuffer.h"
 #include "render/image_io.h"
+#include "render/metrics.h"
 #include "render/patch_io.h"
 #include "render/scene_check.h"
 #include "render/shade.h"
@@ -68,12 +69,47 @@ void make_parent(const std::string& path) {
     if (!parent.empty()) std::filesystem::create_directories(parent);
 }
 
+// --reference: read before any work, so that a wrong size stops the run at once.
+std::optional<render::Image> load_reference(const Command& c, const scenes::Scene& scene) {
+    if (c.reference.empty()) return std::nullopt;
+    render::Image ref;
+    try {
+        ref = render::read_exr(c.reference);
+    } catch (const std::runtime_error& e) {
+        throw UsageError(std::string("--reference ") + e.what());
+    }
+    if (ref.width != scene.camera.width || ref.height != scene.camera.height)
+        throw UsageError("--reference " + c.reference + ": " + std::to_string(ref.width) + "x" +
+                         std::to_string(ref.height) + " pixels, the image is " + std::to_string(scene.camera.width) +
+                         "x" + std::to_string(scene.camera.height));
+    return ref;
+}
+
+struct Compared {
+    double relative_l1, mse;
+};
+std::optional<Compared> compare(const std::optional<render::Image>& ref, const render::Image& image) {
+    if (!ref) return std::nullopt;
+    return Compared{render::relative_l1(image, *ref), render::mse(image, *ref)};
+}
+
+void record(json& stats, const Command& c, const std::optional<Compared>& against) {
+    if (against)
+        stats["reference"] = {{"file", c.reference}, {"relative_l1", against->relative_l1}, {"mse", against->mse}};
+}
+
+void print_against(const std::optional<Compared>& against) {
+    if (against) std::printf(", against the reference: relative L1 %.4g, MSE %.4g", against->relative_l1, against->mse);
+}
+
 // `--method pathtrace`: the reference image, no radiance field.
 int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCaster& caster,
-               const sampling::RunOptions& run, ProgressBar& bar, Clock::time_point t_start) {
+               const sampling::RunOptions& run, ProgressBar& bar, Clock::time_point t_start,
+               const std::optional<render::Image>& reference) {
     const render::PinholeCamera camera(scene.camera);
     const render::PathTraceResult traced = render::path_trace(scene, caster, camera, c.path, run);
     bar.clear();
+    const auto against = compare(reference, traced.image);
     for (const auto& path : c.images) {
         make_parent(path);
         render::write_image(path, traced.image, c.exposure);
@@ -90,6 +126,7 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
                   {"decisions",
                    {{"image", "brute-force path tracing: next-event estimation and BRDF sampling with the balance "
                               "heuristic, Russian roulette; unbiased (render/path_tracer.h)"}}}};
+    record(stats, c, against);
     if (!c.stats.empty()) {
         make_parent(c.stats);
         write_json(c.stats, stats);
@@ -97,6 +134,7 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
     if (!c.quiet) {
         std::printf("%s: %zu patches, path traced %d paths per pixel in %.2f s", scene.name.c_str(),
                     scene.patch_count(), c.path.spp, traced.seconds);
+        print_against(against);
         std::string wrote;
         for (const auto& path : c.images) wrote += (wrote.empty() ? "" : ", ") + path;
         if (!c.stats.empty()) wrote += (wrote.empty() ? "" : ", ") + c.stats;
@@ -131,7 +169,8 @@ int solve(const Command& c) {
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
     const render::SceneSummary summary = render::summarize(scene, caster, run.threads, 128 * 128);
     warn_about(scene, summary);
-    if (c.solver.method == "pathtrace") return path_trace(c, scene, caster, run, bar, t_start);
+    const std::optional<render::Image> reference = load_reference(c, scene);
+    if (c.solver.method == "pathtrace") return path_trace(c, scene, caster, run, bar, t_start, reference);
 
     // The first shot (point lights) and the diffuse shot, once, before any direction.
     // The diffuse shot, unless the command line decided: for diffuse scenes with area
@@ -175,6 +214,7 @@ int solve(const Command& c) {
     }
     const double seconds_render = since(t_render);
     bar.clear();
+    const auto against = compare(reference, image);
 
     // The outputs asked for, their directories made when missing.
     for (const auto& path : c.images) {
@@ -214,6 +254,7 @@ int solve(const Command& c) {
         stats["exact_radiance"] = *exact;
         stats["relative_l1_error"] = *error;
     }
+    record(stats, c, against);
     if (!c.stats.empty()) write_json(c.stats, stats);
 
     if (!c.quiet) {
@@ -222,6 +263,7 @@ int solve(const Command& c) {
         if (gathered) std::printf(", final gather %.2f s", seconds_render);
         std::printf(", mean radiance %.6g", mean);
         if (error) std::printf(", relative L1 error %.3g", *error);
+        print_against(against);
         std::vector<std::string> written = c.images;
         if (gathered && !c.aov.empty()) written.push_back(c.aov + "/");
         for (const auto* path : {&c.stats, &c.csv, &c.patches_csv, &c.ply})

@@ -37,12 +37,12 @@ SCENES=(
 )
 # raybundle's budgets, cheapest first: `raybundle solve SCENE BUDGET --threads N`.
 RAYBUNDLE_BUDGETS=(
-  "--iterations 1000 --diffuse-shot --gather 16 --direct-samples 2 --spp 4"
-  "--iterations 2000 --diffuse-shot --gather 16 --direct-samples 2 --spp 8"
-  "--iterations 2000 --diffuse-shot --gather 64 --direct-samples 4 --spp 16"
-  "--iterations 5000 --diffuse-shot --gather 64 --direct-samples 8 --spp 32"
-  "--iterations 20000 --diffuse-shot --gather 256 --direct-samples 16 --spp 64"
-  "--iterations 20000 --diffuse-shot --gather 256 --direct-samples 32 --spp 128"
+  "--iterations 500 --gather 16 --direct-samples 4 --spp 16"
+  "--iterations 1000 --gather 64 --direct-samples 4 --spp 16"
+  "--iterations 1000 --gather 64 --direct-samples 4 --spp 64"
+  "--iterations 2000 --gather 128 --direct-samples 8 --spp 64"
+  "--iterations 4000 --gather 256 --direct-samples 8 --spp 256"
+  "--iterations 16000 --gather 512 --direct-samples 8 --spp 256"
 )
 # Cycles samples per pixel for the timed runs, and for the reference.
 CYCLES_SPP=(16 64 256 1024 4096)

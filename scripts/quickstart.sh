@@ -1,13 +1,12 @@
 #!/usr/bin/env bash
 # Command 1 of the README: install the dependencies, build, and solve the built-in
-# Cornell box (stochastic iteration with the diffuse shot), then render it with the
-# final gather and the guided filter, writing out/cornell.{exr,png},
+# Cornell box with the default settings (stochastic iteration, the diffuse shot chosen
+# for the scene, the final gather with the guided filter), writing out/cornell.{exr,png},
 # out/cornell.ply (the patch radiance) and out/cornell-{stats.json,convergence.csv}.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup-deps.sh
 bash scripts/build.sh
-./build/apps/raybundle solve --builtin cornell-box --iterations "${RAYBUNDLE_ITERATIONS:-20000}" --diffuse-shot \
-  --gather 16 --direct-samples 32 \
+./build/apps/raybundle solve --builtin cornell-box \
   -o out/cornell.exr -o out/cornell.png --exposure 1 --ply out/cornell.ply \
   --stats out/cornell-stats.json --csv out/cornell-convergence.csv

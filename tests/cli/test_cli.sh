@@ -335,6 +335,18 @@ check $? "--method pathtrace failed"
 grep -q '"method": "pathtrace"' pt.json && grep -q '"spp": 16' pt.json
 check $? "--method pathtrace: the stats lack the method or spp: $(head -c 300 pt.json)"
 expect_bad "pathtrace with --gather" "--gather does not apply to --method pathtrace" solve --builtin cornell-box --method pathtrace --gather 4
+# --reference: the error against an image in the summary and the stats; bad ones refused.
+"$bin" solve --builtin homogeneous-box --method pathtrace --spp 4 --width 8 --height 8 -o ref8.exr -q
+"$bin" solve --builtin homogeneous-box --method pathtrace --spp 4 --seed 3 --width 8 --height 8 --reference ref8.exr \
+  --stats cmp.json >cmp.txt 2>&1
+check $? "--reference failed: $(cat cmp.txt)"
+grep -q "against the reference: relative L1" cmp.txt && grep -q '"relative_l1"' cmp.json && grep -q '"mse"' cmp.json
+check $? "--reference: no error in the summary or stats: $(cat cmp.txt)"
+expect_bad "--reference of another size" "--reference ref8.exr: 8x8 pixels, the image is 16x16" \
+  solve --builtin homogeneous-box --width 16 --height 16 --iterations 5 --reference ref8.exr
+echo "not an exr" > notexr.exr
+expect_bad "--reference not an EXR" "--reference notexr.exr: cannot read EXR" \
+  solve --builtin homogeneous-box --width 8 --height 8 --iterations 5 --reference notexr.exr
 # Final gather: both direct-light methods, glossy rays, and their need for --gather.
 for d in analytic sampled; do
   "$bin" solve --builtin cornell-box --iterations 50 --gather 4 --direct $d --glossy-rays 2 --width 16 --height 16 \
