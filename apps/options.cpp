@@ -9,6 +9,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -113,9 +114,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
     cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
         ->check(CLI::Range(1, 16384));
-    cmd.add_flag_function(
-        "--diffuse-shot,!--no-diffuse-shot", [&c](std::int64_t n) { c.diffuse_shot = n > 0 ? 1 : 0; },
-        "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse scenes with area lights");
+    cmd.add_flag_callback("--diffuse-shot", [&c] { c.diffuse_shot = 1; },
+                          "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse "
+                          "scenes with area lights");
+    cmd.add_flag_callback("--no-diffuse-shot", [&c] { c.diffuse_shot = 0; }, "no diffuse shot");
     cmd.add_option("--seed", c.run.seed, "random seed; the same seed gives bit-identical output")
         ->check(kDigits)
         ->capture_default_str();
@@ -179,6 +181,16 @@ void check_command(const CLI::App& cmd, Command& c) {
     c.overrides.insert(c.overrides.end(), shortcuts.begin(), shortcuts.end());
     if (cmd.get_name() != "solve") return;
 
+    if (cmd.count("--diffuse-shot") > 0 && cmd.count("--no-diffuse-shot") > 0)
+        throw UsageError("give one of --diffuse-shot and --no-diffuse-shot");
+    if (c.solver.method != "pathtrace") {
+        const auto& names = solver::method_names();
+        if (std::find(names.begin(), names.end(), c.solver.method) == names.end()) {
+            std::string known;
+            for (const auto& m : names) known += m + ", ";
+            throw UsageError("--method: unknown method '" + c.solver.method + "' (known: " + known + "pathtrace)");
+        }
+    }
     if (c.solver.method == "pathtrace") {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",

@@ -154,9 +154,10 @@ int solve(const Command& c) {
     std::optional<double> exact;
     const scenes::Scene* scene_ptr = nullptr;
     sampling::RunOptions run = c.run;
+    long burn_in = 0;  // steps the solver leaves out of its average: no rows for them
     run.progress = [&](const sampling::Progress& p) {
         bar(p);
-        if (c.csv.empty() || solving == nullptr || std::string(p.phase) != "solve") return;
+        if (c.csv.empty() || solving == nullptr || std::string(p.phase) != "solve" || p.done <= burn_in) return;
         const auto field = solving->field();
         std::optional<double> err;
         if (exact) err = field.relative_l1_error(*scene_ptr, *exact);
@@ -195,6 +196,7 @@ int solve(const Command& c) {
         if (scene.homogeneous_albedo) *exact *= solver->converged_fraction(*scene.homogeneous_albedo);
     }
     const auto t_solve = Clock::now();
+    burn_in = solver->report().details.value("burn_in_steps", 0L);
     solving = solver.get();
     solver->run();
     solving = nullptr;

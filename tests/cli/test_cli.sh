@@ -74,7 +74,8 @@ expect_bad "unknown backend" "unknown visibility backend 'zbufer' (known: exact-
 expect_bad "unknown built-in" "unknown built-in scene 'teapot'" solve --builtin teapot
 expect_bad "scene and built-in" "exactly one of" solve good.json --builtin homogeneous-box
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
-expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration" solve good.json --method metropolis
+expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration, walk, combined, bidirectional, pathtrace)" solve good.json --method metropolis
+expect_bad "both diffuse-shot flags" "give one of --diffuse-shot and --no-diffuse-shot" solve good.json --no-diffuse-shot --diffuse-shot
 expect_bad "QMC for iteration" "stochastic iteration needs independent consecutive directions" \
   solve good.json --sampler halton
 expect_bad "unbiased iteration" "--unbiased: applies to the walk methods" solve good.json --unbiased
