@@ -233,36 +233,87 @@ private:
         return lights_.sample(pick, u1, u2);
     }
 
-    // The diffuse part exactly, unoccluded (AreaLights::irradiance), times the shadow
-    // ratio of `samples` light samples: sum of their visible unshadowed contributions
-    // over the sum of all of them (one ratio for all lights; render/lights.h). The
-    // glossy part by multiple importance sampling of the light samples and as many
+    // The diffuse part exactly, unoccluded (AreaLights::irradiance, light by light),
+    // times each light's shadow ratio (Heitz, Hill, McGuire 2018): of `samples` points
+    // on the lights, chosen light by light in proportion to the unoccluded irradiance
+    // each gives x (stratified), uniform over the part of the light in front of x and
+    // above its horizon (points elsewhere are drawn again, up to 16 times), the sum of
+    // the visible points' unshadowed contributions over the sum of all of them.
+    // A light's points tell its shadow only where they carry its light: their Monte
+    // Carlo estimate of its unoccluded projected solid angle must reach an eighth of the
+    // exact one. Where x lies on (or within rounding of) the light's plane, as on the
+    // seam of an emitting wall, all its light comes from the strip next to x that
+    // uniform points never meet, and the estimate is orders of magnitude short. Such a
+    // light, and one that got no usable point, takes the ratio of the points of the
+    // lights that passed (of all points if none did; 0 if there are none). The glossy
+    // part by multiple importance sampling of points chosen by power and as many
     // directions from the Phong lobe (balance heuristic).
     Rgb analytic_direct(const scenes::Material& m, const Vec3& n, const Vec3& from, const Vec3& to_eye, int samples,
                         sampling::Rng& rng, long& rays) const {
-        double seen = 0.0, all = 0.0;
-        Rgb gloss = Rgb::Zero();
-        for (int k = 0; k < samples; ++k) {
-            const auto s = light_sample(k, samples, rng);
-            const Vec3 d = s.point - from;
-            const double r = d.norm();
-            const Vec3 w = d / r;
-            const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
-            if (!(r > 0.0) || cos_x <= 0.0 || cos_y <= 0.0) continue;
-            const auto& le = scene_.material_of(s.patch).emission;
-            const double pl = lights_.pdf_solid_angle(s.patch, r, cos_y);
-            const double contribution = le.mean() * cos_x / pl;
-            all += contribution;
-            ++rays;
-            if (caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) continue;
-            seen += contribution;
-            if (m.glossy())
-                gloss += scenes::brdf_glossy(m, n, -w, to_eye) * le *
-                         (cos_x / (pl + scenes::glossy_pdf(m, n, to_eye, w)));
+        const std::size_t count = lights_.light_count();
+        std::vector<Rgb> unoccluded(count);
+        std::vector<double> cdf(count), seen(count, 0.0), all(count, 0.0);
+        std::vector<int> attempts(count, 0);
+        double total = 0.0;
+        for (std::size_t l = 0; l < count; ++l) {
+            unoccluded[l] = lights_.irradiance(l, from, n);
+            total += unoccluded[l].mean();
+            cdf[l] = total;
         }
         Rgb sum = Rgb::Zero();
-        if (all > 0.0) sum = m.albedo / M_PI * lights_.irradiance(from, n) * (seen / all);
+        if (total > 0.0 && (m.albedo > 0.0).any()) {
+            for (int k = 0; k < samples; ++k) {
+                const double pick = (k + rng.uniform()) / samples * total;
+                const std::size_t l = std::min<std::size_t>(
+                    static_cast<std::size_t>(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin()), count - 1);
+                for (int attempt = 0; attempt < 16; ++attempt) {
+                    ++attempts[l];
+                    const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+                    const auto s = lights_.sample_light(l, u0, u1, u2);
+                    const Vec3 d = s.point - from;
+                    const double r = d.norm();
+                    if (!(r > 0.0)) continue;
+                    const Vec3 w = d / r;
+                    const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
+                    if (cos_x <= 0.0 || cos_y <= 0.0) continue;
+                    const double contribution = cos_x * cos_y / (r * r);
+                    all[l] += contribution;
+                    ++rays;
+                    if (!caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) seen[l] += contribution;
+                    break;
+                }
+            }
+            std::vector<bool> told(count);
+            double seen_told = 0.0, all_told = 0.0, seen_any = 0.0, all_any = 0.0;
+            for (std::size_t l = 0; l < count; ++l) {
+                const double area = lights_.light_area(l);
+                const double omega = unoccluded[l].mean() / lights_.light_emission(l).mean();
+                told[l] = all[l] > 0.0 && area * all[l] / attempts[l] >= omega / 8.0;
+                seen_any += seen[l] / area;
+                all_any += all[l] / area;
+                if (!told[l]) continue;
+                seen_told += seen[l] / area;
+                all_told += all[l] / area;
+            }
+            const double fallback = all_told > 0.0 ? seen_told / all_told : all_any > 0.0 ? seen_any / all_any : 0.0;
+            Rgb e = Rgb::Zero();
+            for (std::size_t l = 0; l < count; ++l) e += unoccluded[l] * (told[l] ? seen[l] / all[l] : fallback);
+            sum = m.albedo / M_PI * e;
+        }
         if (m.glossy()) {
+            Rgb gloss = Rgb::Zero();
+            for (int k = 0; k < samples; ++k) {
+                const auto s = light_sample(k, samples, rng);
+                const Vec3 d = s.point - from;
+                const double r = d.norm();
+                const Vec3 w = d / r;
+                const double cos_x = n.dot(w), cos_y = -patches_[s.patch].normal.dot(w);
+                if (!(r > 0.0) || cos_x <= 0.0 || cos_y <= 0.0) continue;
+                ++rays;
+                if (caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid()) continue;
+                gloss += scenes::brdf_glossy(m, n, -w, to_eye) * scene_.material_of(s.patch).emission *
+                         (cos_x / (lights_.pdf_solid_angle(s.patch, r, cos_y) + scenes::glossy_pdf(m, n, to_eye, w)));
+            }
             for (int k = 0; k < samples; ++k) {
                 const double u1 = rng.uniform(), u2 = (k + rng.uniform()) / samples;
                 const auto s = scenes::sample_glossy(m, n, to_eye, u1, u2);

@@ -9,7 +9,8 @@
 //  - Direct light per camera sample, from `direct_samples` light samples (points on
 //    emissive patches chosen by power, uniform on the triangle, with shadow rays):
 //    with DirectLight::analytic (the default) the diffuse part is the exact unoccluded
-//    irradiance of every area light (render/lights.h) times the samples' shadow ratio,
+//    irradiance of every area light (render/lights.h) times that light's shadow ratio
+//    from the samples (chosen light by light in proportion to the unoccluded light),
 //    so noise remains only in penumbrae; the glossy part combines the light samples
 //    with as many directions from the Phong lobe by multiple importance sampling
 //    (balance heuristic). DirectLight::sampled estimates all of it by sampling: per

@@ -53,8 +53,10 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         if (added) lights_.push_back({m.emission, p.normal, offset, {}, {}, {}});
         lights_[it->second].patches.push_back(static_cast<std::uint32_t>(j));
     }
-    for (auto& c : cdf_) c /= total;
-    for (auto& p : power_) p /= total;
+    if (total > 0.0) {
+        for (auto& c : cdf_) c /= total;
+        for (auto& p : power_) p /= total;
+    }
     // Each light's boundary: the directed edges whose reverse is not an edge of it.
     for (auto& light : lights_) {
         std::set<std::pair<int, int>> edges;
@@ -68,6 +70,11 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
                 vertices.insert(b);
             }
         light.boundary_vertices.assign(vertices.begin(), vertices.end());
+        for (auto j : light.patches) {
+            light.area += patches_[j].area;
+            light.area_cdf.push_back(light.area);
+        }
+        for (auto& c : light.area_cdf) c /= light.area;
     }
 }
 
@@ -100,11 +107,31 @@ double AreaLights::projected_solid_angle(const Vec3& x, const Vec3& n, const Vec
     return std::max(0.0, omega);
 }
 
+AreaLights::Sample AreaLights::sample_light(std::size_t l, double pick, double u1, double u2) const {
+    const Light& light = lights_[l];
+    const std::size_t k = std::min<std::size_t>(
+        static_cast<std::size_t>(std::upper_bound(light.area_cdf.begin(), light.area_cdf.end(), pick) -
+                                 light.area_cdf.begin()),
+        light.patches.size() - 1);
+    const std::uint32_t j = light.patches[k];
+    const double r1 = std::sqrt(u1);
+    const auto& q = patches_[j];
+    const auto& pos = scene_.vertex_positions();
+    return {j, (1.0 - r1) * pos[q.v[0]] + r1 * (1.0 - u2) * pos[q.v[1]] + r1 * u2 * pos[q.v[2]]};
+}
+
 Rgb AreaLights::irradiance(const Vec3& x, const Vec3& n) const {
+    Rgb e = Rgb::Zero();
+    for (std::size_t l = 0; l < lights_.size(); ++l) e += irradiance(l, x, n);
+    return e;
+}
+
+Rgb AreaLights::irradiance(std::size_t l, const Vec3& x, const Vec3& n) const {
     const auto& pos = scene_.vertex_positions();
     Rgb e = Rgb::Zero();
-    for (const auto& light : lights_) {
-        if (light.normal.dot(x) - light.offset <= 0.0) continue;  // behind the light
+    {
+        const Light& light = lights_[l];
+        if (light.normal.dot(x) - light.offset <= 0.0) return e;  // behind the light
         const bool above = std::all_of(light.boundary_vertices.begin(), light.boundary_vertices.end(),
                                        [&](int v) { return n.dot(pos[v] - x) > 0.0; });
         double omega = 0.0;

@@ -12,9 +12,9 @@
 // grouped into planar lights (same object, material and plane); a light's Omega is the
 // sum over its boundary edges alone, since interior edges cancel, and only a light
 // that the plane of x cuts is clipped triangle by triangle. The final gather multiplies
-// this exact value by a stochastic shadow ratio (Heitz, Hill, McGuire, "Combining
-// analytic direct illumination and stochastic shadows", 2018): noise remains only where
-// a light is partly hidden.
+// each light's exact value by that light's stochastic shadow ratio (Heitz, Hill,
+// McGuire, "Combining analytic direct illumination and stochastic shadows", 2018): noise
+// remains only where a light is partly hidden.
 #include "scenes/scene.h"
 
 #include <cstdint>
@@ -48,6 +48,13 @@ public:
     // The exact unoccluded irradiance at x (unit normal n) from every area light's
     // front side, per channel: sum over lights of Le * Omega(x).
     scenes::Rgb irradiance(const scenes::Vec3& x, const scenes::Vec3& n) const;
+    // The same from light l alone (0 <= l < light_count()).
+    scenes::Rgb irradiance(std::size_t l, const scenes::Vec3& x, const scenes::Vec3& n) const;
+    // A point of light l, uniform over its area (a patch by area with `pick`, uniform on
+    // the triangle by (u1, u2)); the density in area is 1 / light_area(l).
+    Sample sample_light(std::size_t l, double pick, double u1, double u2) const;
+    double light_area(std::size_t l) const { return lights_[l].area; }
+    const scenes::Rgb& light_emission(std::size_t l) const { return lights_[l].emission; }
     // The projected solid angle of one triangle (a, b, c counter-clockwise about its
     // front normal) seen from x with normal n: clipped to the hemisphere above x, zero
     // when x is behind it. Exposed for tests.
@@ -62,6 +69,8 @@ private:
         std::vector<std::uint32_t> patches;
         std::vector<std::pair<int, int>> boundary;  // directed vertex pairs, counter-clockwise about the normal
         std::vector<int> boundary_vertices;         // the vertices the boundary touches
+        std::vector<double> area_cdf;               // over its patches, normalised
+        double area = 0.0;
     };
     const scenes::Scene& scene_;
     const std::vector<scenes::Patch>& patches_;

@@ -37,7 +37,7 @@ public:
             ++rays;
             const auto hit = caster_.intersect(from, d);
             if (!hit.valid()) {
-                if (scene_.sky) L += throughput * scene_.sky->arriving_along(d);
+                if (scene_.sky) L += throughput * scene_.sky->arriving_along(-d);  // light travels along -d
                 break;
             }
             const auto& patch = patches_[hit.patch];
