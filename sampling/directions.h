@@ -33,7 +33,7 @@ inline Eigen::Vector3d cosine_hemisphere(double u1, double u2, const Eigen::Vect
 // (its proof, 004 section 4.4, asks for independent consecutive directions).
 class RandomDirections {
 public:
-    explicit RandomDirections(std::uint64_t seed) : rng_(seed, streams::kDirections[0]) {}
+    explicit RandomDirections(std::uint64_t seed, std::uint64_t chain = 0) : rng_(seed, streams::kDirections[chain]) {}
     Eigen::Vector3d next() {
         const double u1 = rng_.uniform();
         const double u2 = rng_.uniform();

@@ -14,12 +14,17 @@ struct Progress {
     const char* phase;  // "diffuse shot", "solve", "final gather", "filter", ...
     long done, total;
     double seconds;
+    long round = 0;          // the round of a run made in rounds (render/progressive.h); 0: none
+    double estimate = -1.0;  // the image's estimated relative error so far; negative: none yet
 };
 using ProgressCallback = std::function<void(const Progress&)>;
 
 struct RunOptions {
     std::uint64_t seed = 1;           // the same seed gives bit-identical results
     std::uint64_t jitter_stream = 0;  // which stream of map jitters (streams::kMapJitters)
+    // Which independent chain of the run a solver is (its own directions, walks and
+    // jitters; below streams::kMaxChains): the two halves of a run are chains 0 and 1.
+    std::uint64_t chain = 0;
     int threads = 1;                  // results do not depend on it
     long progress_every = 0;          // units between progress calls (0: about 100 per phase)
     ProgressCallback progress;        // may be empty

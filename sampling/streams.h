@@ -19,16 +19,31 @@ struct Range {
         if (k >= count) throw std::out_of_range(std::string("random stream ") + name + "[" + std::to_string(k) + "]");
         return first + k;
     }
+    // Stream `minor` of block `major`, blocks of 2^minor_bits streams: the same checks.
+    std::uint64_t operator()(std::uint64_t major, std::uint64_t minor, int minor_bits) const {
+        if (minor >> minor_bits != 0)
+            throw std::out_of_range(std::string("random stream ") + name + ": " + std::to_string(minor) +
+                                    " does not fit in " + std::to_string(minor_bits) + " bits");
+        return (*this)[(major << minor_bits) | minor];
+    }
 };
 
-inline constexpr Range kDirections{"directions", 0x5eed, 1};          // stochastic iteration's directions
-inline constexpr Range kWalkShifts{"walk shifts", 0x9a17, 1};         // QMC randomisation of the walk samplers
-inline constexpr Range kMapJitters{"map jitters", 0x717e4, 1u << 16};  // per jitter stream of a run
-inline constexpr Range kWalks{"walks", 0x3a1c0000ull, 1ull << 32};    // random walk m
-inline constexpr Range kGuidePixels{"guide pixels", 1ull << 40, 1ull << 32};    // the guide sample of pixel p
-inline constexpr Range kSamplePixels{"sample pixels", 2ull << 40, 1ull << 32};  // its further samples
+// A run's independent chains (RunOptions::chain: the two halves whose difference
+// estimates the error, and later ranks) and the passes of a progressive image draw
+// from blocks of their own.
+inline constexpr std::uint64_t kMaxChains = 1024;
+inline constexpr std::uint64_t kMaxPasses = 1ull << 16;
 
-inline constexpr Range kPathPixels{"path pixels", 3ull << 40, 1ull << 32};    // the path tracer's pixel p
+inline constexpr Range kDirections{"directions", 0x5eed, kMaxChains};  // stochastic iteration's directions, per chain
+inline constexpr Range kWalkShifts{"walk shifts", 0x9a17, kMaxChains};  // QMC randomisation of the walks, per chain
+// Per chain, per jitter stream of a run (blocks of 2^16).
+inline constexpr Range kMapJitters{"map jitters", 0x717e4, kMaxChains << 16};
+inline constexpr Range kWalks{"walks", 0x3a1c0000ull, kMaxChains << 32};  // per chain, random walk m (blocks of 2^32)
+// Per pass, pixel p (blocks of 2^32 pixels).
+inline constexpr Range kGuidePixels{"guide pixels", 1ull << 50, kMaxPasses << 32};    // the guide sample of pixel p
+inline constexpr Range kSamplePixels{"sample pixels", 2ull << 50, kMaxPasses << 32};  // its further samples
+inline constexpr Range kPathPixels{"path pixels", 3ull << 50, kMaxPasses << 32};      // the path tracer's pixel p
+
 inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kMapJitters, kWalks,
                                  kGuidePixels, kSamplePixels, kPathPixels};
 

@@ -15,7 +15,7 @@
 // unbiased estimate and independent seeds give an error estimate; the points of one
 // run stay low-discrepancy.
 //
-// Call order: WalkSampler(kind, depth, seed); then for each walk m = 0, 1, 2, ...:
+// Call order: WalkSampler(kind, depth, seed, chain); then for each walk m = 0, 1, 2, ...:
 // start_walk(m), followed by direction(0) ... direction(D-1) (any order; each is a
 // pure function of (seed, m, d)). Walks may be visited in any order: walk m is the
 // same points whatever came before it.
@@ -148,7 +148,8 @@ public:
     static constexpr int kMaxSobolDepth = 15;  // 30 dimensions
     static constexpr int kMaxHaltonDepth = 32;
 
-    WalkSampler(SamplerKind kind, int depth, std::uint64_t seed) : kind_(kind), depth_(depth), seed_(seed) {
+    WalkSampler(SamplerKind kind, int depth, std::uint64_t seed, std::uint64_t chain = 0)
+        : kind_(kind), depth_(depth), seed_(seed), chain_(chain) {
         if (depth < 1) throw std::invalid_argument("walk depth must be >= 1, got " + std::to_string(depth));
         const int limit = kind == SamplerKind::sobol ? kMaxSobolDepth
                           : kind == SamplerKind::halton ? kMaxHaltonDepth : 1 << 20;
@@ -156,7 +157,7 @@ public:
             throw std::invalid_argument(std::string("the ") + sampler_name(kind) + " sampler supports walks of depth " +
                                         "up to " + std::to_string(limit) + ", got " + std::to_string(depth));
         const int dims = 2 * depth;
-        Rng shift_rng(seed, streams::kWalkShifts[0]);
+        Rng shift_rng(seed, streams::kWalkShifts[chain]);
         if (kind == SamplerKind::halton) {
             for (int k = 0; k < dims; ++k) {
                 shift_.push_back(shift_rng.uniform());
@@ -181,7 +182,7 @@ public:
         point_.resize(static_cast<std::size_t>(dims));
         switch (kind_) {
             case SamplerKind::random: {
-                Rng rng(seed_, streams::kWalks[m]);  // one stream per walk
+                Rng rng(seed_, streams::kWalks(chain_, m, 32));  // one stream per walk
                 for (int k = 0; k < dims; ++k) point_[k] = rng.uniform();
                 break;
             }
@@ -212,7 +213,7 @@ public:
 private:
     SamplerKind kind_;
     int depth_;
-    std::uint64_t seed_;
+    std::uint64_t seed_, chain_;
     std::vector<double> point_;
     std::vector<double> shift_;
     std::vector<std::vector<unsigned>> perm_;

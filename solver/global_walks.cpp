@@ -73,15 +73,16 @@ const SolverOptions& checked(const SolverOptions& o) {
 GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
                          visibility::BackendSet* backends, WalkMethod method, const SolverOptions& options,
                          const sampling::RunOptions& run)
-    : t_(transport),
+    : Solver(options.steps),
+      t_(transport),
       own_set_(std::move(own)),
       backends_(own_set_ ? *own_set_ : *backends),
       method_(method),
       options_(checked(options)),
       run_(run),
       glossy_(transport.glossy()),
-      sampler_(options.sampler, options.depth, run.seed),
-      jitter_(run.seed, sampling::streams::kMapJitters[run.jitter_stream]) {
+      sampler_(options.sampler, options.depth, run.seed, run.chain),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));
@@ -254,8 +255,7 @@ void GlobalWalks::walk_combined(bool both) {
     }
 }
 
-void GlobalWalks::run() {
-    const long total = options_.steps;
+void GlobalWalks::advance(long total) {
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
         sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));

@@ -60,8 +60,9 @@ public:
     GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends, WalkMethod method,
                 const SolverOptions& options, const sampling::RunOptions& run);
 
-    void run() override;
+    void advance(long walks) override;
     RadianceField field() const override;
+    long averaged() const override { return walks_done_; }
     SolverReport report() const override { return report_; }
     // (The diffuse shot adds the first bounce exactly: D + 1 bounces in all.)
     double converged_fraction(double albedo) const override {

@@ -23,11 +23,14 @@ const Transport& diffuse_only(const Transport& t) {
 
 LinearIteration::LinearIteration(const Transport& transport, const SolverOptions& options,
                                  const sampling::RunOptions& run)
-    : t_(diffuse_only(transport)),
+    : Solver(options.steps),
+      t_(diffuse_only(transport)),
       scene_(transport.scene()),
       options_(options),
       run_(run),
-      painter_(transport.scene(), options.map) {
+      painter_(transport.scene(), options.map),
+      directions_(run.seed, run.chain),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     const auto& patches = scene_.patch_list();
     const std::size_t n = patches.size();
 
@@ -93,15 +96,12 @@ void LinearIteration::pass(const Vec3& w, const Eigen::Vector2d& jitter, double 
     ++report_.directions;
 }
 
-void LinearIteration::run() {
-    sampling::RandomDirections directions(run_.seed);
-    sampling::Rng jitter(run_.seed, sampling::streams::kMapJitters[run_.jitter_stream]);
-    const long total = options_.steps;
+void LinearIteration::advance(long total) {
     const bool both = options_.both_ways;
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
-        const Vec3 w = directions.next();
-        const Eigen::Vector2d offset(jitter.uniform(), jitter.uniform());
+        const Vec3 w = directions_.next();
+        const Eigen::Vector2d offset(jitter_.uniform(), jitter_.uniform());
         // Radiance at every corner: its node's emission and reflection of the last step.
         for (std::size_t c = 0; c < corner_out_.size(); ++c) {
             const std::uint32_t k = node_of_corner_[c];

@@ -21,6 +21,7 @@
 // Options read: steps, both_ways (w and -w: two passes, weight 1/2 each), map.
 // Call order: see solver.h.
 #include "solver/solver.h"
+#include "sampling/directions.h"
 #include "visibility/painter.h"
 
 #include <array>
@@ -33,8 +34,9 @@ public:
     // Throws OptionError("basis") for a scene with glossy materials.
     LinearIteration(const Transport& transport, const SolverOptions& options, const sampling::RunOptions& run);
 
-    void run() override;
+    void advance(long steps) override;
     RadianceField field() const override;
+    long averaged() const override { return steps_; }
     SolverReport report() const override { return report_; }
     int resolution() const { return painter_.resolution(); }
     std::size_t nodes() const { return mass_.size(); }
@@ -53,6 +55,8 @@ private:
     std::vector<Rgb> irradiance_, next_, sum_;    // per node
     std::vector<Rgb> corner_out_, corner_in_;     // 3 per patch
     long steps_ = 0;
+    sampling::RandomDirections directions_;
+    sampling::Rng jitter_;
     SolverReport report_;
 };
 

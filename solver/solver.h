@@ -10,9 +10,15 @@
 //   bidirectional  combined, each matrix used for w and -w (4.2)
 //
 // Call order: make_solver(...) once (it checks the options against the scene and
-// throws OptionError for what it cannot do); run(), which reports progress through
-// RunOptions::progress ("solve", steps or walks) and never prints; then field() and
-// report(). field() may also be called from inside the progress callback.
+// throws OptionError for what it cannot do); run() for SolverOptions::steps, or
+// advance(k) as often as wanted, each going on where the last stopped; both report
+// progress through RunOptions::progress ("solve", steps or walks of that call) and
+// never print; then field(), averaged() and report(), also between calls and from
+// inside the progress callback.
+//
+// Chains: RunOptions::chain picks the solver's random streams. Solvers of one seed
+// and different chains are independent; the pipeline runs two and compares them to
+// estimate the error (render/progressive.h).
 #include "sampling/run.h"
 #include "sampling/walk_sampler.h"
 #include "solver/radiance_field.h"
@@ -69,9 +75,16 @@ struct SolverReport {
 class Solver {
 public:
     virtual ~Solver() = default;
-    virtual void run() = 0;
+    // `steps` more steps (or walks), going on from where the last call stopped: the
+    // same seed and chain give the same result however the steps are split into calls.
+    virtual void advance(long steps) = 0;
+    // SolverOptions::steps of them.
+    void run() { advance(planned_); }
     // The current estimate (the mean of the steps or walks so far).
     virtual RadianceField field() const = 0;
+    // How many steps or walks field() averages (burn-in steps left out): the field of
+    // the steps between two moments is (n2 field2 - n1 field1) / (n2 - n1).
+    virtual long averaged() const = 0;
     virtual SolverReport report() const = 0;
     // What the method converges to on a closed homogeneous scene of albedo `albedo`,
     // relative to the exact answer: 1, or 1 - a^(D+1) for walks truncated at D bounces.
@@ -79,6 +92,12 @@ public:
         (void)albedo;
         return 1.0;
     }
+
+protected:
+    explicit Solver(long planned_steps) : planned_(planned_steps) {}
+
+private:
+    long planned_;
 };
 
 // The methods make_solver knows.

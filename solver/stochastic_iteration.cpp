@@ -16,18 +16,28 @@ using Clock = std::chrono::steady_clock;
 
 StochasticIteration::StochasticIteration(const Transport& transport, visibility::BackendSet& backends,
                                          const SolverOptions& options, const sampling::RunOptions& run)
-    : transport_(transport), backends_(backends), options_(options), run_(run), glossy_(transport.glossy()) {
+    : Solver(options.steps),
+      transport_(transport),
+      backends_(backends),
+      options_(options),
+      run_(run),
+      glossy_(transport.glossy()),
+      directions_(run.seed, run.chain),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     init();
 }
 
 StochasticIteration::StochasticIteration(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends,
                                          const SolverOptions& options, const sampling::RunOptions& run)
-    : transport_(transport),
+    : Solver(options.steps),
+      transport_(transport),
       own_set_(std::move(backends)),
       backends_(*own_set_),
       options_(options),
       run_(run),
-      glossy_(transport.glossy()) {
+      glossy_(transport.glossy()),
+      directions_(run.seed, run.chain),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     init();
 }
 
@@ -37,13 +47,16 @@ StochasticIteration::StochasticIteration(const Transport& transport, visibility:
 
 StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend,
                                          const SolverOptions& options, const sampling::RunOptions& run)
-    : own_(std::make_unique<Transport>(scene)),
+    : Solver(options.steps),
+      own_(std::make_unique<Transport>(scene)),
       transport_(*own_),
       own_set_(std::make_unique<visibility::BackendSet>(backend)),
       backends_(*own_set_),
       options_(options),
       run_(run),
-      glossy_(scene.has_glossy()) {
+      glossy_(scene.has_glossy()),
+      directions_(run.seed, run.chain),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     init();
 }
 
@@ -122,12 +135,10 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
     }
 }
 
-void StochasticIteration::run() {
-    sampling::RandomDirections directions(run_.seed);
-    sampling::Rng jitter(run_.seed, sampling::streams::kMapJitters[run_.jitter_stream]);
-    const long total = options_.steps;
+void StochasticIteration::advance(long total) {
     // One direction at a time on one thread; batches of 4 per thread otherwise. The
-    // directions and jitters are drawn in the same order either way.
+    // directions and jitters are drawn in the same order either way, and however the
+    // steps are split into calls.
     const int threads = backends_.threads();
     const long batch = threads == 1 ? 1 : 4L * threads;
     std::vector<Vec3> ws;
@@ -138,8 +149,8 @@ void StochasticIteration::run() {
         ws.clear();
         offsets.clear();
         for (long b = 0; b < count; ++b) {
-            ws.push_back(directions.next());
-            offsets.emplace_back(jitter.uniform(), jitter.uniform());
+            ws.push_back(directions_.next());
+            offsets.emplace_back(jitter_.uniform(), jitter_.uniform());
         }
         const auto t0 = Clock::now();
         backends_.transfer_batch(ws, offsets, matrices_);
@@ -157,7 +168,7 @@ void StochasticIteration::run() {
 }
 
 RadianceField StochasticIteration::field() const {
-    return transport_.field_from(sum_, std::max(0L, steps_ - burn_in_), to_eye_);
+    return transport_.field_from(sum_, averaged(), to_eye_);
 }
 
 }  // namespace raybundle::solver

@@ -16,6 +16,9 @@
 #include "solver/solver.h"
 #include "visibility/parallel.h"
 
+#include "sampling/directions.h"
+
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -37,8 +40,9 @@ public:
     StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend, const SolverOptions& options,
                         const sampling::RunOptions& run);
 
-    void run() override;
+    void advance(long steps) override;
     RadianceField field() const override;
+    long averaged() const override { return std::max(0L, steps_ - burn_in_); }
     SolverReport report() const override { return report_; }
 
 private:
@@ -57,6 +61,8 @@ private:
     long burn_in_ = 0;                             // steps left out of sum_
     std::vector<scenes::Rgb> sum_;                 // sum of I (diffuse) or of 4 pi F(w, eye) I (glossy)
     scenes::Vec3 previous_ = scenes::Vec3::Zero();
+    sampling::RandomDirections directions_;
+    sampling::Rng jitter_;
     long steps_ = 0;
     std::vector<visibility::GeometryMatrix> matrices_;  // one batch
     SolverReport report_;
