@@ -5,6 +5,7 @@
 #include "render/shade.h"
 #include "sampling/directions.h"
 #include "sampling/rng.h"
+#include "sampling/strata.h"
 #include "sampling/streams.h"
 #include "scenes/brdf.h"
 #include "scenes/errors.h"
@@ -107,21 +108,17 @@ public:
     }
 
     // Incident indirect radiance at x (patch p): the mean over `count` cosine-weighted
-    // rays (stratified on a sqrt(count)^2 grid when count is a square) of the radiance
-    // the field reflects at their hits.
+    // rays (stratified, sampling/strata.h) of the radiance the field reflects at their
+    // hits.
     Rgb indirect(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
         Vec3 u, v;
         scenes::orthonormal_basis(n, u, v);
         const Vec3 from = origin(x, patches_[p].normal, to_eye);
-        const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
-        const bool strata = side * side == count;
+        const sampling::Strata strata(count);
         Rgb sum = Rgb::Zero();
         for (int k = 0; k < count; ++k) {
-            double u1 = rng.uniform(), u2 = rng.uniform();
-            if (strata) {
-                u1 = ((k % side) + u1) / side;
-                u2 = ((k / side) + u2) / side;
-            }
+            const double r1 = rng.uniform(), r2 = rng.uniform();
+            const auto [u1, u2] = strata.point(k, r1, r2);
             const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
             ++rays;
             sum += field_along(from, w, rng, rays);
@@ -135,15 +132,11 @@ public:
     Rgb glossy(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count, sampling::Rng& rng, long& rays) const {
         const auto& m = scene_.material_of(p);
         const Vec3 from = origin(x, patches_[p].normal, to_eye);
-        const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(count))));
-        const bool strata = side * side == count;
+        const sampling::Strata strata(count);
         Rgb sum = Rgb::Zero();
         for (int k = 0; k < count; ++k) {
-            double u1 = rng.uniform(), u2 = rng.uniform();
-            if (strata) {
-                u1 = ((k % side) + u1) / side;
-                u2 = ((k / side) + u2) / side;
-            }
+            const double r1 = rng.uniform(), r2 = rng.uniform();
+            const auto [u1, u2] = strata.point(k, r1, r2);
             const auto s = scenes::sample_glossy(m, n, to_eye, u1, u2);
             const double cos_x = n.dot(s.direction);
             if (cos_x <= 0.0 || s.pdf <= 0.0) continue;
@@ -417,7 +410,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     std::vector<int> guide_patch(static_cast<std::size_t>(W) * H, -1);
     std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), lookups(H, 0), across(H, 0);
 
-    // Pass 1: the guide sample of every pixel: G-buffer, direct light, indirect light.
+    // Pass 1: the guide sample of every pixel: G-buffer, indirect light, and with
+    // spp = 1 (where the guide is the pixel's only sample) direct light.
     const auto t0 = Clock::now();
     const GBuffer gbuffer = make_gbuffer(scene, caster, camera, run.threads);
     long rows_done = 0;
@@ -433,19 +427,21 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             ++camera_rays[y];
             const GSample& s = gbuffer.at(x, y);
             const Vec3& d = s.direction;
-            if (s.patch < 0) put(r.direct, x, y, background(scene, d));  // the sky, or black
+            if (s.patch < 0 && o.spp == 1) put(r.direct, x, y, background(scene, d));  // the sky, or black
             if (s.patch < 0 || !s.front) continue;                        // a back side: black
-            sampling::Rng rng(run.seed, sampling::streams::kGuidePixels[p]);
+            sampling::Rng rng(run.seed, sampling::streams::kGuidePixels(o.pass, p, 32));
             guide_patch[p] = s.patch;
             const Vec3 n = g.shading_normal(s.patch, s.b1, s.b2, -d);
             put(r.normal, x, y, n);
             put(r.depth, x, y, Rgb::Constant(s.depth));
             put(r.position, x, y, s.point);
-            Rgb direct =
-                scene.material_of(s.patch).emission + g.direct(s.patch, s.point, n, -d, o.direct_samples, rng, shadow_rays[y]);
-            if (scene.material_of(s.patch).glossy() && o.glossy_rays > 0)
-                direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gather_rays[y]);
-            put(r.direct, x, y, direct);
+            if (o.spp == 1) {
+                Rgb direct = scene.material_of(s.patch).emission +
+                             g.direct(s.patch, s.point, n, -d, o.direct_samples, rng, shadow_rays[y]);
+                if (scene.material_of(s.patch).glossy() && o.glossy_rays > 0)
+                    direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gather_rays[y]);
+                put(r.direct, x, y, direct);
+            }
             put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gather_rays[y]));
         }
         row_done("final gather", t0);
@@ -462,11 +458,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     const auto t2 = Clock::now();
 
     // Pass 3: compose. With spp > 1 the pixel is the mean of spp camera samples (on a
-    // jittered sqrt(spp)^2 grid when spp is a square) that compute their own direct
-    // light and look the indirect light up at the guides.
+    // jittered grid, sampling/strata.h) that compute their own direct light and look
+    // the indirect light up at the guides; their mean direct light is the direct AOV.
     rows_done = 0;
-    const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(o.spp))));
-    const bool strata = side * side == o.spp;
+    const sampling::Strata strata(o.spp);
     parallel_rows(H, run.threads, [&](int y) {
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
@@ -480,19 +475,20 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
             } else {
                 // A stream of its own, so that the guide pass is the same with any spp.
-                sampling::Rng rng(run.seed, sampling::streams::kSamplePixels[p]);
+                sampling::Rng rng(run.seed, sampling::streams::kSamplePixels(o.pass, p, 32));
+                Rgb direct = Rgb::Zero();
                 for (int s = 0; s < o.spp; ++s) {
-                    double fx = rng.uniform(), fy = rng.uniform();
-                    if (strata) {
-                        fx = ((s % side) + fx) / side;
-                        fy = ((s / side) + fy) / side;
-                    }
+                    const double r1 = rng.uniform(), r2 = rng.uniform();
+                    auto [fx, fy] = strata.point(s, r1, r2);
                     fx += x;
                     fy += y;
                     const Vec3 d = camera.direction(fx, fy);
                     ++camera_rays[y];
                     const auto hit = caster.intersect(camera.eye(), d);
-                    if (!hit.valid()) sum += background(scene, d);
+                    if (!hit.valid()) {
+                        sum += background(scene, d);
+                        direct += background(scene, d);
+                    }
                     if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;
                     const Vec3 point = camera.eye() + hit.t * d;
                     const Vec3 n = g.shading_normal(hit.patch, hit.b1, hit.b2, -d);
@@ -500,6 +496,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                             g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow_rays[y]);
                     if (scene.material_of(hit.patch).glossy() && o.glossy_rays > 0)
                         L += g.glossy(hit.patch, point, n, -d, o.glossy_rays, rng, gather_rays[y]);
+                    direct += L;
                     // The four guide pixels around the sample point.
                     cand_n.clear();
                     cand_d.clear();
@@ -523,6 +520,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     }
                     sum += L;
                 }
+                put(r.direct, x, y, direct / o.spp);
             }
             put(r.image, x, y, sum / o.spp);
         }

@@ -31,12 +31,12 @@
 //    depth (scaled to [0, 1] by the eye's distance to the far side of the scene's
 //    bounding sphere).
 //  - With spp > 1 the pixel is the box average of spp camera samples (a jittered
-//    sqrt(spp)^2 grid when spp is a square, else uniform in the pixel), which compute
-//    their own direct light and take E from the most similar of the four guide pixels
-//    around them: similarity s = s_n s_d with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2
-//    and s_d = 1 - |D_a - D_i| / max_j |D_a - D_j| (eq. 3-5; no thresholds). The guide
-//    sample serves the indirect light and the AOVs only. With spp = 1 the guide sample
-//    is the pixel.
+//    grid, sampling/strata.h), which compute their own direct light and take E from
+//    the most similar of the four guide pixels around them: similarity s = s_n s_d
+//    with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2 and s_d = 1 - |D_a - D_i| /
+//    max_j |D_a - D_j| (eq. 3-5; no thresholds). The guide sample serves the indirect
+//    light and the normal and depth AOVs only. With spp = 1 the guide sample is the
+//    pixel.
 //
 // The filtered indirect term uses the diffuse albedo; the glossy lobe reflects the
 // field per sample as above. Where a gather or glossy ray meets a glossy surface, the
@@ -76,12 +76,15 @@ struct GatherOptions {
     // one more bounce instead of reading the field there (the contact bias).
     bool near_hits = true;
     int spp = 1;              // camera samples per pixel (the first is the guide)
+    // Which pass of a progressive image this is (render/progressive.h): its own
+    // random streams, below sampling::streams::kMaxPasses.
+    std::uint64_t pass = 0;
     FilterOptions filter;     // what cleans the indirect light (render/filters.h)
 };
 
 struct GatherResult {
     Image image;              // the final image
-    Image direct;             // per guide sample: emission, direct light and glossy reflection
+    Image direct;             // emission, direct light and glossy reflection (the mean of the camera samples)
     Image indirect;           // noisy incident indirect radiance E at the guide samples
     Image indirect_filtered;  // E after the filter (= indirect with Filter::none)
     Image normal;             // guide normals (unit; zero for background)

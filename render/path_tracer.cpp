@@ -3,6 +3,7 @@
 #include "render/gbuffer.h"
 #include "render/lights.h"
 #include "sampling/rng.h"
+#include "sampling/strata.h"
 #include "sampling/streams.h"
 #include "scenes/brdf.h"
 #include "scenes/errors.h"
@@ -122,22 +123,18 @@ PathTraceResult path_trace(const scenes::Scene& scene, const scenes::RayCaster& 
     PathTraceResult r;
     r.image = Image(W, H);
     const PathTracer tracer(scene, caster);
-    const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(o.spp))));
-    const bool strata = side * side == o.spp;
+    const sampling::Strata strata(o.spp);
     std::vector<long> rays(H, 0);
     long rows_done = 0;
     std::mutex progress_lock;
     parallel_rows(H, run.threads, [&](int y) {
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
-            sampling::Rng rng(run.seed, sampling::streams::kPathPixels[p]);
+            sampling::Rng rng(run.seed, sampling::streams::kPathPixels(o.pass, p, 32));
             Rgb sum = Rgb::Zero();
             for (int s = 0; s < o.spp; ++s) {
-                double fx = rng.uniform(), fy = rng.uniform();
-                if (strata) {
-                    fx = ((s % side) + fx) / side;
-                    fy = ((s / side) + fy) / side;
-                }
+                const double r1 = rng.uniform(), r2 = rng.uniform();
+                const auto [fx, fy] = strata.point(s, r1, r2);
                 sum += tracer.radiance(camera.eye(), camera.direction(x + fx, y + fy), rng, rays[y]);
             }
             float* out = r.image.at(x, y);

@@ -3,7 +3,7 @@
 // (scenes/brdf.h), area lights, point lights and the sky, unbiased, so that any image
 // of the final gather can be checked against it on any scene.
 //
-// Per camera sample (uniform in the pixel, stratified on a grid when spp is a square):
+// Per camera sample (on a jittered grid over the pixel, sampling/strata.h):
 // at every vertex next-event estimation towards a power-chosen point of an area light
 // and towards every point light, and a direction drawn from the BRDF (scenes/brdf.h
 // sample_brdf) that continues the path; an emitter met by that direction counts with
@@ -19,10 +19,14 @@
 #include "sampling/run.h"
 #include "scenes/ray_caster.h"
 
+#include <cstdint>
+
 namespace raybundle::render {
 
 struct PathTraceOptions {
     int spp = 256;  // camera samples (paths) per pixel
+    // Which pass of a run in rounds (render/progressive.h): its own random streams.
+    std::uint64_t pass = 0;
 };
 
 struct PathTraceResult {

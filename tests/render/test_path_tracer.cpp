@@ -123,19 +123,19 @@ TEST_CASE("final gather against the path tracer: diffuse and glossy Cornell boxe
     }
     INFO((glossy ? "glossy" : "diffuse") << " box: relative L1 " << l1 << ", worst 8x8 block off by " << err
                                          << ", image mean by " << mean / mean_ref - 1.0);
-    if (!glossy) {
-        CHECK(l1 < 0.08);  // measured 0.063: mostly the noise of both images at 32^2
-        CHECK(err < 0.12);
-        CHECK(std::abs(mean / mean_ref - 1.0) < 0.02);
-    } else {
-        // Measured: relative L1 0.052, worst block 0.041, mean -0.8 %.
-        CHECK(l1 < 0.08);
-        CHECK(err < 0.08);
-        CHECK(std::abs(mean / mean_ref - 1.0) < 0.02);
-        // Without the lobe's rays the glossy reflection of the walls is lost.
+    // Relative L1 at 32^2 is mostly the noise of both images: over seeds 1-4 of the
+    // final gather, 0.057-0.071 (diffuse) and 0.053-0.086 (glossy); the worst 8x8
+    // block 0.05-0.10 and 0.03-0.07.
+    CHECK(l1 < 0.10);
+    CHECK(err < 0.12);
+    CHECK(std::abs(mean / mean_ref - 1.0) < 0.02);
+    if (glossy) {
+        // Without the lobe's rays the glossy reflection of the walls is lost: the worst
+        // block is off by 0.26 (seeds 1-4), against at most 0.07 with them.
         const auto flat = gather(scene, caster, 0);
-        const double l1_without = render::relative_l1(flat, reference);
-        INFO("without glossy rays: relative L1 " << l1_without << ", worst block " << worst_block(flat, reference, 8));
-        CHECK(l1_without > 1.5 * l1);  // measured 0.097 against 0.052
+        const double err_without = worst_block(flat, reference, 8);
+        INFO("without glossy rays: relative L1 " << render::relative_l1(flat, reference) << ", worst block "
+                                                 << err_without);
+        CHECK(err_without > 2.5 * err);
     }
 }
