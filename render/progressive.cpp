@@ -1,0 +1,322 @@
+#include "render/progressive.h"
+
+#include "render/gbuffer.h"
+#include "sampling/streams.h"
+#include "scenes/errors.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+
+namespace raybundle::render {
+
+using scenes::Rgb;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// dst += w src (dst empty: w src).
+void add_scaled(Image& dst, const Image& src, double w) {
+    if (dst.rgb.empty()) dst = Image(src.width, src.height);
+    for (std::size_t k = 0; k < src.rgb.size(); ++k) dst.rgb[k] += static_cast<float>(w * src.rgb[k]);
+}
+
+Image scaled(const Image& a, double s) {
+    Image out(a.width, a.height);
+    for (std::size_t k = 0; k < a.rgb.size(); ++k) out.rgb[k] = static_cast<float>(s * a.rgb[k]);
+    return out;
+}
+
+// A round of scale r gives each half r * total / 2 units, rounded, at least one.
+long half_of(long total, double scale) {
+    return std::max(1L, static_cast<long>(std::llround(scale * static_cast<double>(total) / 2.0)));
+}
+
+double first_scale(const RoundOptions& o) { return o.target_error > 0.0 || o.time_budget > 0.0 ? 0.25 : 1.0; }
+
+void check(const RoundOptions& o) {
+    if (!(o.target_error >= 0.0) || !std::isfinite(o.target_error))
+        throw scenes::OptionError("target_error", "must be a finite number >= 0, got " + std::to_string(o.target_error));
+    if (!(o.time_budget >= 0.0) || !std::isfinite(o.time_budget))
+        throw scenes::OptionError("time_budget", "must be a finite number >= 0, got " + std::to_string(o.time_budget));
+}
+
+// Progress of half h's pass, as part of the round's two: done and total doubled.
+sampling::RunOptions half_run(const sampling::RunOptions& run, int h) {
+    sampling::RunOptions r = run;
+    if (run.progress)
+        r.progress = [h, &run](const sampling::Progress& p) {
+            sampling::Progress q = p;
+            q.done = h * p.total + p.done;
+            q.total = 2 * p.total;
+            run.progress(q);
+        };
+    return r;
+}
+
+// The rounds (see the header): `advance(scale, run)` moves the solver on, `render(h,
+// scale, pass, run)` makes half h's pass, `after(round, image, estimate)` sees each
+// round's result. The runs passed on report progress with the round and the estimate.
+template <class Advance, class Render, class After>
+Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advance advance, Render render, After after) {
+    check(o);
+    Rounds out;
+    Image sum[2];  // per half: sum over rounds of scale * pass
+    double estimate = -1.0;
+    long round = 0;
+    sampling::RunOptions inner = run;
+    if (run.progress)
+        inner.progress = [&](const sampling::Progress& p) {
+            sampling::Progress q = p;
+            q.round = round;
+            q.estimate = estimate;
+            run.progress(q);
+        };
+    const auto start = Clock::now();
+    for (double scale = first_scale(o);;) {
+        ++round;
+        const auto t0 = Clock::now();
+        advance(scale, inner);
+        const auto t1 = Clock::now();
+        for (int h = 0; h < 2; ++h) {
+            const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
+            add_scaled(sum[h], render(h, scale, pass, half_run(inner, h)), scale);
+        }
+        out.seconds_solve += std::chrono::duration<double>(t1 - t0).count();
+        out.seconds_render += since(t1);
+        out.scale += scale;
+        const Image a = scaled(sum[0], 1.0 / out.scale), b = scaled(sum[1], 1.0 / out.scale);
+        estimate = estimated_relative_l1(a, b);
+        Image mean = a;
+        for (std::size_t k = 0; k < mean.rgb.size(); ++k) mean.rgb[k] = 0.5f * (a.rgb[k] + b.rgb[k]);
+        const double spent = since(start);
+        out.rounds.push_back({scale, spent, estimate});
+        out.estimate = estimate;
+        after(round, mean, estimate, spent);
+
+        // The next round, or why there is none.
+        const bool target = o.target_error > 0.0, timed = o.time_budget > 0.0;
+        if (!target && !timed) {
+            out.stopped = "one round: the budget as given";
+            break;
+        }
+        if (target && estimate <= o.target_error) {
+            out.stopped = "the estimate reached the target";
+            break;
+        }
+        if (estimate <= 0.0) {
+            out.stopped = "the halves agree exactly: nothing left to average";
+            break;
+        }
+        if (2 * static_cast<std::uint64_t>(round) + 2 > sampling::streams::kMaxPasses) {
+            out.stopped = "the most rounds a run has streams for";
+            break;
+        }
+        double next = 8.0 * out.scale;
+        if (target) {
+            const double ratio = estimate / o.target_error;
+            next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
+        }
+        if (timed) {
+            const double fits = (o.time_budget - spent) / (spent / out.scale);
+            if (fits < out.scale / 8.0) {
+                out.stopped = target ? "the time budget, before the target" : "the time budget";
+                break;
+            }
+            next = std::min(next, fits);
+        }
+        scale = next;
+    }
+    return out;
+}
+
+// The field of a chain's steps between two moments: (n2 f2 - n1 f1) / (n2 - n1).
+solver::RadianceField between(const solver::RadianceField& f1, long n1, const solver::RadianceField& f2, long n2) {
+    if (n1 <= 0 || n2 <= n1) return f2;
+    const double w2 = static_cast<double>(n2) / (n2 - n1), w1 = static_cast<double>(n1) / (n2 - n1);
+    solver::RadianceField f = f2;
+    for (std::size_t i = 0; i < f.radiance.size(); ++i) f.radiance[i] = w2 * f2.radiance[i] - w1 * f1.radiance[i];
+    for (std::size_t i = 0; i < f.corners.size(); ++i)
+        for (int k = 0; k < 3; ++k) f.corners[i][k] = w2 * f2.corners[i][k] - w1 * f1.corners[i][k];
+    return f;
+}
+
+// The mean of both chains' fields, weighted by their step counts, and its estimated
+// relative L1 error over patches (area-weighted): sqrt(na nb) / (na + nb) sum |fa - fb|
+// / sum |mean|, which for na = nb is the halves' rule of the header.
+std::pair<solver::RadianceField, double> combine(const scenes::Scene& scene, const solver::RadianceField& fa, long na,
+                                                 const solver::RadianceField& fb, long nb) {
+    solver::RadianceField f = fa;
+    const double n = static_cast<double>(na + nb);
+    if (n <= 0.0) return {f, -1.0};
+    const double wa = na / n, wb = nb / n;
+    const auto& patches = scene.patch_list();
+    double diff = 0.0, total = 0.0;
+    for (std::size_t i = 0; i < f.radiance.size(); ++i) {
+        f.radiance[i] = wa * fa.radiance[i] + wb * fb.radiance[i];
+        diff += patches[i].area * (fa.radiance[i] - fb.radiance[i]).abs().sum();
+        total += patches[i].area * f.radiance[i].abs().sum();
+    }
+    for (std::size_t i = 0; i < f.corners.size(); ++i)
+        for (int k = 0; k < 3; ++k) f.corners[i][k] = wa * fa.corners[i][k] + wb * fb.corners[i][k];
+    const double estimate = total > 0.0 ? std::sqrt(wa * wb) * diff / total : 0.0;
+    return {f, estimate};
+}
+
+// Adds one pass's gather result, weight w, into the run's (the AOV means over both
+// halves are taken at the end).
+void add_gather(GatherResult& sum, const GatherResult& pass, double w) {
+    if (sum.normal.rgb.empty()) {
+        sum.normal = pass.normal;
+        sum.depth = pass.depth;
+        sum.position = pass.position;
+    }
+    add_scaled(sum.direct, pass.direct, w);
+    add_scaled(sum.indirect, pass.indirect, w);
+    add_scaled(sum.indirect_filtered, pass.indirect_filtered, w);
+    sum.camera_rays += pass.camera_rays;
+    sum.shadow_rays += pass.shadow_rays;
+    sum.gather_rays += pass.gather_rays;
+    sum.lookups += pass.lookups;
+    sum.lookups_across += pass.lookups_across;
+    sum.seconds_guides += pass.seconds_guides;
+    sum.seconds_filter += pass.seconds_filter;
+    sum.seconds_samples += pass.seconds_samples;
+}
+
+}  // namespace
+
+double estimated_relative_l1(const Image& a, const Image& b) {
+    if (a.width != b.width || a.height != b.height) throw std::invalid_argument("image sizes differ");
+    double diff = 0.0, total = 0.0;
+    for (std::size_t k = 0; k < a.rgb.size(); ++k) {
+        diff += std::abs(static_cast<double>(a.rgb[k]) - b.rgb[k]);
+        total += std::abs(0.5 * (static_cast<double>(a.rgb[k]) + b.rgb[k]));
+    }
+    return total > 0.0 ? 0.5 * diff / total : 0.0;
+}
+
+long chain_steps(long steps, const RoundOptions& rounds) { return half_of(steps, first_scale(rounds)); }
+
+FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                       FieldChain& a, FieldChain& b, const FieldImageOptions& o, const RoundOptions& rounds,
+                       const sampling::RunOptions& run, const Observer& observe) {
+    if (o.steps < 1) throw scenes::OptionError("steps", "must be >= 1, got " + std::to_string(o.steps));
+    if (o.record_every < 0)
+        throw scenes::OptionError("record_every", "must be >= 0, got " + std::to_string(o.record_every));
+    FieldChain* chains[2] = {&a, &b};
+    struct Seen {
+        solver::RadianceField field;
+        long n = 0;
+    } seen[2];
+    FieldImage out;
+    GatherResult gathered;
+    std::optional<GBuffer> gbuffer;
+    if (!o.gather) gbuffer = make_gbuffer(scene, caster, camera, run.threads);
+    const auto start = Clock::now();
+
+    auto advance = [&](double scale, const sampling::RunOptions& r) {
+        const long per_chain = half_of(o.steps, scale);
+        const long chunk = o.record_every > 0 ? std::max(1L, o.record_every / 2) : per_chain;
+        for (long done = 0; done < per_chain;) {
+            const long count = std::min(chunk, per_chain - done);
+            for (int h = 0; h < 2; ++h) {
+                sampling::ProgressCallback progress;
+                if (r.progress)
+                    progress = [&, h](const sampling::Progress& p) {
+                        sampling::Progress q = p;
+                        q.phase = "solve";
+                        q.done = 2 * done + h * count + p.done;
+                        q.total = 2 * per_chain;
+                        r.progress(q);
+                    };
+                chains[h]->advance(count, progress);
+            }
+            done += count;
+            out.steps += 2 * count;
+            if (!observe || o.record_every <= 0 || a.averaged() <= 0 || b.averaged() <= 0) continue;
+            const auto [field, estimate] = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
+            Snapshot s;
+            s.steps = out.steps;
+            s.seconds = since(start);
+            s.field = &field;
+            s.field_estimate = estimate;
+            observe(s);
+        }
+    };
+    auto render = [&](int h, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+        FieldChain& chain = *chains[h];
+        solver::RadianceField now = chain.field();
+        const long n = chain.averaged();
+        const solver::RadianceField segment = between(seen[h].field, seen[h].n, now, n);
+        seen[h] = {std::move(now), n};
+        if (!o.gather) return shade(scene, segment, *gbuffer, o.shading);
+        GatherOptions g = o.gather_options;
+        g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
+        g.spp = static_cast<int>(half_of(g.spp, scale));
+        g.pass = pass;
+        GatherResult result = final_gather(scene, caster, segment, camera, g, r);
+        add_gather(gathered, result, scale);
+        return std::move(result.image);
+    };
+    auto after = [&](long round, const Image& image, double estimate, double seconds) {
+        out.image = image;
+        std::tie(out.field, out.field_estimate) = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
+        if (!observe) return;
+        Snapshot s;
+        s.steps = out.steps;
+        s.seconds = seconds;
+        s.field = &out.field;
+        s.field_estimate = out.field_estimate;
+        s.image = &out.image;
+        s.image_estimate = estimate;
+        s.round = round;
+        observe(s);
+    };
+    out.rounds = run_rounds(rounds, run, advance, render, after);
+    if (o.gather) {
+        // Both halves of every pass were added with their round's scale.
+        const double w = 1.0 / (2.0 * out.rounds.scale);
+        gathered.image = out.image;
+        gathered.direct = scaled(gathered.direct, w);
+        gathered.indirect = scaled(gathered.indirect, w);
+        gathered.indirect_filtered = scaled(gathered.indirect_filtered, w);
+        out.gather = std::move(gathered);
+    }
+    return out;
+}
+
+TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                         const PathTraceOptions& o, const RoundOptions& rounds, const sampling::RunOptions& run,
+                         const Observer& observe) {
+    if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
+    TracedImage out;
+    auto advance = [](double, const sampling::RunOptions&) {};
+    auto render = [&](int, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+        PathTraceOptions p = o;
+        p.spp = static_cast<int>(half_of(o.spp, scale));
+        p.pass = pass;
+        PathTraceResult traced = path_trace(scene, caster, camera, p, r);
+        out.traced.paths += traced.paths;
+        out.traced.rays += traced.rays;
+        out.traced.seconds += traced.seconds;
+        return std::move(traced.image);
+    };
+    auto after = [&](long round, const Image& image, double estimate, double seconds) {
+        out.traced.image = image;
+        if (!observe) return;
+        Snapshot s;
+        s.seconds = seconds;
+        s.image = &out.traced.image;
+        s.image_estimate = estimate;
+        s.round = round;
+        observe(s);
+    };
+    out.rounds = run_rounds(rounds, run, advance, render, after);
+    return out;
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,144 @@
+#pragma once
+// The run's image, made in rounds, with its error estimated as it goes; the budget
+// chosen for a target error or a time.
+//
+// Two independent halves. The solver runs as two chains (RunOptions::chain 0 and 1,
+// each a FieldChain: apps/ wraps solver::Solver), and half h of the image is rendered
+// from chain h's field alone, with random streams of its own. From the field to the
+// pixel everything is linear, in the field and in the samples (the final gather, the
+// guided and cross-bilateral filters for a fixed guide, the patch image), so the mean
+// of the two halves is what one run of the whole budget gives (two chains of N/2 steps
+// for one of N), and their difference measures its noise: with independent errors
+// e_A, e_B of the same symmetric distribution, e_A - e_B is distributed as e_A + e_B,
+// so E |(A + B)/2 - truth| = E |A - B| / 2 in every pixel and channel, and
+//
+//   estimated relative L1 error = sum |A - B| / (2 sum |(A + B) / 2|)
+//
+// over pixels and channels, the measure of render/metrics.h. It sees noise, not bias:
+// the visibility maps' resolution, the filter's blur, the diffuse shot's quadrature,
+// the shadow ratio's bias in penumbrae and walks truncated at D bounces are not in it
+// (docs/final-image.md measures them against references). The edge-avoiding A-Trous
+// filter weighs by colour, is not linear, and makes the estimate approximate.
+//
+// Rounds. Round k has a scale r_k: its share of the budget (the steps, camera samples
+// and gather rays of the options), halved between the halves (each at least one).
+// It advances both chains by their steps, then renders one pass of each half. A pass
+// reads the field of its chain's steps since the chain's previous pass (the mean
+// between the two moments, from Solver::averaged), and the passes are averaged with
+// weights r_k, so the field part of the image is the gather of each chain's mean over
+// all its steps: no step counts less for having come early. Pass p = 2k + h draws from
+// its own streams. The rounds:
+//   - no target and no time budget: one round of scale 1, the budget as given;
+//   - target_error E: a first round of scale 1/4, then each round sized by the
+//     estimate, which falls like 1/sqrt(scale): the scale that reaches E with 10 % to
+//     spare, at most 8 times the scale so far; until the estimate is at most E;
+//   - time_budget S: rounds sized by the seconds per unit of scale so far to fill S,
+//     until a round worth at least an eighth of the scale so far no longer fits; the
+//     first round always runs;
+//   - both: whichever stops first.
+#include "render/camera.h"
+#include "render/final_gather.h"
+#include "render/image.h"
+#include "render/path_tracer.h"
+#include "render/shade.h"
+#include "sampling/run.h"
+#include "scenes/ray_caster.h"
+#include "solver/radiance_field.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace raybundle::render {
+
+// What the image needs of a solver: one independent chain of it.
+class FieldChain {
+public:
+    virtual ~FieldChain() = default;
+    // `steps` more steps, going on from the last call; progress ("solve", done of steps).
+    virtual void advance(long steps, const sampling::ProgressCallback& progress) = 0;
+    // The mean over the steps so far, and how many steps it averages.
+    virtual solver::RadianceField field() const = 0;
+    virtual long averaged() const = 0;
+};
+
+struct RoundOptions {
+    double target_error = 0.0;  // stop once the estimate is at most this (0: none)
+    double time_budget = 0.0;   // seconds for the rounds (0: none)
+};
+
+// One round's record.
+struct Round {
+    double scale = 0.0;     // its share of the budget
+    double seconds = 0.0;   // since the rounds began, at its end
+    double estimate = -1.0; // the image's estimated relative L1 error after it
+};
+
+struct Rounds {
+    std::vector<Round> rounds;
+    double scale = 0.0;         // the budget used, in units of the options' budget
+    double estimate = -1.0;     // the final image's estimated relative L1 error
+    std::string stopped;        // why the rounds stopped
+    double seconds_solve = 0.0, seconds_render = 0.0;  // wall time of the chains' steps, and of the passes
+};
+
+// What the caller sees as the run goes: after every `record_every` steps of the solve
+// (the field of both chains so far; image empty), and after every round (the image so
+// far). Negative estimates: none yet.
+struct Snapshot {
+    long steps = 0;               // over both chains
+    double seconds = 0.0;         // since the rounds began
+    const solver::RadianceField* field = nullptr;  // the mean of both chains (gather runs)
+    double field_estimate = -1.0;  // its relative L1 error over patches, estimated likewise
+    const Image* image = nullptr;  // after a round
+    double image_estimate = -1.0;
+    long round = 0;                // 1, 2, ... after a round; 0 in the solve
+};
+using Observer = std::function<void(const Snapshot&)>;
+
+// The radiance-field pipeline: both chains (a = chain 0, b = chain 1, fresh), the
+// final gather (gather.gather_rays > 0) or the patch image (`shading`).
+struct FieldImageOptions {
+    long steps = 1000;       // per round of scale 1, over both chains
+    bool gather = true;      // the final gather, else the patch image
+    GatherOptions gather_options;  // gather_rays and spp per round of scale 1, over both halves
+    Shading shading = Shading::Smooth;
+    long record_every = 0;   // steps (over both chains) between solve snapshots (0: none)
+};
+
+struct FieldImage {
+    Image image;
+    solver::RadianceField field;  // the mean of both chains
+    long steps = 0;               // over both chains
+    double field_estimate = -1.0;
+    // The final gather's AOVs (the weighted mean of all passes; normal, depth and
+    // position from the first) and its rays and seconds summed over the passes.
+    std::optional<GatherResult> gather;
+    Rounds rounds;
+};
+
+// The steps each chain's first advance() gets (for SolverOptions::steps, which sizes
+// the burn-in).
+long chain_steps(long steps, const RoundOptions& rounds);
+
+FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                       FieldChain& a, FieldChain& b, const FieldImageOptions& options, const RoundOptions& rounds,
+                       const sampling::RunOptions& run, const Observer& observe = {});
+
+// The reference path tracer in rounds: options.spp paths per pixel per round of scale
+// 1, over both halves.
+struct TracedImage {
+    PathTraceResult traced;  // the image; paths, rays and seconds summed over the passes
+    Rounds rounds;
+};
+TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
+                         const PathTraceOptions& options, const RoundOptions& rounds, const sampling::RunOptions& run,
+                         const Observer& observe = {});
+
+// sum |a - b| / (2 sum |(a + b) / 2|) over pixels and channels: the estimated
+// relative L1 error of the mean of two independent halves (see above); 0 for images
+// that are 0 everywhere.
+double estimated_relative_l1(const Image& a, const Image& b);
+
+}  // namespace raybundle::render

@@ -1,0 +1,217 @@
+// The image in rounds (render/progressive.h): the error estimate against the true
+// error where the answer is exact, a target error reached, and runs that depend on the
+// seed alone.
+#include "render/metrics.h"
+#include "render/progressive.h"
+#include "scenes/builtin.h"
+#include "solver/solver.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+using namespace raybundle;
+
+namespace {
+
+// One chain of a solver, as the image needs it.
+struct Chain final : render::FieldChain {
+    std::unique_ptr<solver::Solver> solver;
+    Chain(const solver::Transport& t, solver::SolverOptions o, std::uint64_t seed, std::uint64_t chain, int threads) {
+        sampling::RunOptions run;
+        run.seed = seed;
+        run.chain = chain;
+        run.threads = threads;
+        solver = solver::make_solver(t, o, run);
+    }
+    void advance(long steps, const sampling::ProgressCallback&) override { solver->advance(steps); }
+    solver::RadianceField field() const override { return solver->field(); }
+    long averaged() const override { return solver->averaged(); }
+};
+
+struct Made {
+    render::FieldImage image;
+    double true_image_error, true_field_error;
+};
+
+// The homogeneous box (radiance 1 everywhere, so every pixel is 1) made in rounds.
+Made homogeneous(const solver::SolverOptions& so, const render::FieldImageOptions& io, const render::RoundOptions& ro,
+                 std::uint64_t seed, bool diffuse_shot = false, int threads = 2) {
+    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
+    scene.camera.width = scene.camera.height = 32;
+    const scenes::RayCaster caster(scene);
+    const solver::Transport transport(scene, solver::ShotOptions{diffuse_shot});
+    solver::SolverOptions per_chain = so;
+    per_chain.steps = render::chain_steps(io.steps, ro);
+    Chain a(transport, per_chain, seed, 0, threads), b(transport, per_chain, seed, 1, threads);
+    sampling::RunOptions run;
+    run.seed = seed;
+    run.threads = threads;
+    auto made = render::field_image(scene, caster, render::PinholeCamera(scene.camera), a, b, io, ro, run);
+    render::Image one(scene.camera.width, scene.camera.height);
+    one.rgb.assign(one.rgb.size(), 1.0f);
+    const double exact = *scene.exact_radiance * a.solver->converged_fraction(*scene.homogeneous_albedo);
+    Made m{std::move(made), 0.0, 0.0};
+    render::Image expected = one;
+    for (auto& v : expected.rgb) v = static_cast<float>(exact);
+    m.true_image_error = render::relative_l1(m.image.image, expected);
+    m.true_field_error = m.image.field.relative_l1_error(scene, exact);
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("estimated_relative_l1: half the halves' difference over the mean", "[render][progressive]") {
+    render::Image a(2, 1), b(2, 1);
+    a.rgb = {1, 1, 1, 2, 2, 2};
+    b.rgb = {3, 3, 3, 2, 2, 2};
+    // |a - b| sums to 6, the mean (2 everywhere) to 12: 6 / (2 * 12).
+    CHECK(render::estimated_relative_l1(a, b) == Approx(0.25));
+    CHECK(render::estimated_relative_l1(a, a) == 0.0);
+    render::Image zero(2, 1);
+    CHECK(render::estimated_relative_l1(zero, zero) == 0.0);
+}
+
+TEST_CASE("error estimate: within a factor 2 of the true error on the homogeneous box", "[render][progressive]") {
+    // Each configuration's true error (the image's and the field's relative L1 against
+    // the exact radiance the method converges to) and its estimate, both averaged over
+    // twenty seeds: on this box the final gather's error is mostly one number, the level
+    // of the whole field, so a single run's |error| and estimate are each as spread as
+    // |N(0, 1)|, and only their expectations can be compared.
+    struct Case {
+        const char* name;
+        const char* method;
+        bool unbiased, gather, diffuse_shot;
+        long steps;
+        int gather_rays, spp;
+    };
+    const Case cases[] = {
+        {"iteration, final gather", "iteration", false, true, false, 200, 8, 2},
+        {"iteration, final gather, more", "iteration", false, true, false, 1000, 32, 8},
+        {"iteration, diffuse shot, final gather", "iteration", false, true, true, 400, 16, 4},
+        {"iteration, patch image", "iteration", false, false, false, 100, 1, 1},
+        {"unbiased bidirectional walks, final gather", "bidirectional", true, true, false, 100, 16, 4},
+        {"truncated walks, patch image", "walk", false, false, false, 400, 1, 1},
+    };
+    constexpr int kSeeds = 20;
+    for (const auto& c : cases) {
+        solver::SolverOptions so;
+        so.method = c.method;
+        so.unbiased = c.unbiased;
+        if (std::string(c.method) != "iteration") so.depth = 4;
+        render::FieldImageOptions io;
+        io.steps = c.steps;
+        io.gather = c.gather;
+        io.gather_options.gather_rays = c.gather_rays;
+        io.gather_options.spp = c.spp;
+        io.gather_options.direct_samples = 4;
+        double image = 0.0, image_estimate = 0.0, field = 0.0, field_estimate = 0.0;
+        for (std::uint64_t seed = 1; seed <= kSeeds; ++seed) {
+            const auto m = homogeneous(so, io, {}, seed, c.diffuse_shot);
+            image += m.true_image_error;
+            image_estimate += m.image.rounds.estimate;
+            field += m.true_field_error;
+            field_estimate += m.image.field_estimate;
+        }
+        INFO(c.name << ", means of " << kSeeds << " seeds: image error " << image / kSeeds << ", estimated " << image_estimate / kSeeds
+                    << "; field error " << field / kSeeds << ", estimated " << field_estimate / kSeeds);
+        CHECK(image_estimate / image > 0.5);
+        CHECK(image_estimate / image < 2.0);
+        CHECK(field_estimate / field > 0.5);
+        CHECK(field_estimate / field < 2.0);
+    }
+}
+
+TEST_CASE("error estimate: the path tracer's halves on the homogeneous box", "[render][progressive][pathtrace]") {
+    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
+    scene.camera.width = scene.camera.height = 32;
+    const scenes::RayCaster caster(scene);
+    render::PathTraceOptions o;
+    for (int spp : {4, 64}) {
+        o.spp = spp;
+        sampling::RunOptions run;
+        run.threads = 2;
+        const auto traced = render::traced_image(scene, caster, render::PinholeCamera(scene.camera), o, {}, run);
+        render::Image one(32, 32);
+        one.rgb.assign(one.rgb.size(), 1.0f);
+        const double truth = render::relative_l1(traced.traced.image, one);
+        INFO(spp << " paths: error " << truth << ", estimated " << traced.rounds.estimate);
+        CHECK(traced.traced.paths == 32L * 32 * spp);
+        CHECK(traced.rounds.estimate / truth > 0.5);
+        CHECK(traced.rounds.estimate / truth < 2.0);
+    }
+}
+
+TEST_CASE("target error: rounds until the estimate is below it, and the truth follows", "[render][progressive]") {
+    solver::SolverOptions so;
+    render::FieldImageOptions io;
+    io.steps = 200;
+    io.gather_options.gather_rays = 16;
+    io.gather_options.spp = 4;
+    io.gather_options.direct_samples = 2;
+    render::RoundOptions ro;
+    ro.target_error = 0.0015;
+    const auto m = homogeneous(so, io, ro, 3);
+    const auto& r = m.image.rounds;
+    INFO("rounds " << r.rounds.size() << ", scale " << r.scale << ", estimate " << r.estimate << ", true error "
+                   << m.true_image_error << ", stopped: " << r.stopped);
+    CHECK(r.rounds.size() >= 2);
+    CHECK(r.rounds.front().scale == 0.25);
+    CHECK(r.estimate <= ro.target_error);
+    CHECK(r.stopped == "the estimate reached the target");
+    CHECK(m.true_image_error < 3.0 * ro.target_error);
+    // Each round's estimate is the estimate of all rounds so far: it falls.
+    CHECK(r.rounds.back().estimate < r.rounds.front().estimate);
+    // The rounds' scales add up to the budget used.
+    double total = 0.0;
+    for (const auto& k : r.rounds) total += k.scale;
+    CHECK(total == Approx(r.scale));
+}
+
+TEST_CASE("time budget: rounds until it is spent, at least one", "[render][progressive]") {
+    solver::SolverOptions so;
+    render::FieldImageOptions io;
+    io.steps = 40;
+    io.gather_options.gather_rays = 4;
+    io.gather_options.spp = 1;
+    io.gather_options.direct_samples = 1;
+    render::RoundOptions ro;
+    ro.time_budget = 1e-9;  // spent by the first round
+    auto m = homogeneous(so, io, ro, 4);
+    CHECK(m.image.rounds.rounds.size() == 1);
+    CHECK(m.image.rounds.stopped == "the time budget");
+    ro.time_budget = 0.5;
+    m = homogeneous(so, io, ro, 4);
+    INFO("rounds " << m.image.rounds.rounds.size() << ", last ended at " << m.image.rounds.rounds.back().seconds);
+    CHECK(m.image.rounds.rounds.size() >= 2);
+    CHECK(m.image.rounds.stopped == "the time budget");
+}
+
+TEST_CASE("rounds: the same seed gives the same image, for any thread count", "[render][progressive]") {
+    solver::SolverOptions so;
+    render::FieldImageOptions io;
+    io.steps = 100;
+    io.gather_options.gather_rays = 8;
+    io.gather_options.spp = 4;
+    render::RoundOptions ro;
+    ro.target_error = 0.01;
+    const auto a = homogeneous(so, io, ro, 5, false, 1);
+    const auto b = homogeneous(so, io, ro, 5, false, 3);
+    const auto c = homogeneous(so, io, ro, 6, false, 2);
+    CHECK(a.image.image.rgb == b.image.image.rgb);
+    CHECK(a.image.rounds.rounds.size() == b.image.rounds.rounds.size());
+    CHECK(a.image.image.rgb != c.image.image.rgb);
+}
+
+TEST_CASE("rounds: bad options are refused by name", "[render][progressive]") {
+    solver::SolverOptions so;
+    render::FieldImageOptions io;
+    render::RoundOptions ro;
+    ro.target_error = -1.0;
+    CHECK_THROWS_WITH(homogeneous(so, io, ro, 1), Catch::Contains("must be a finite number >= 0"));
+    ro.target_error = 0.0;
+    ro.time_budget = std::nan("");
+    CHECK_THROWS_WITH(homogeneous(so, io, ro, 1), Catch::Contains("must be a finite number >= 0"));
+}
