@@ -6,6 +6,7 @@
 // (OptionError), which flag_of() turns into flags.
 #include "render/final_gather.h"
 #include "render/path_tracer.h"
+#include "render/progressive.h"
 #include "sampling/run.h"
 #include "scenes/loader.h"
 #include "solver/solver.h"
@@ -39,6 +40,7 @@ struct Command {
     int gather_rays = 64;
     int diffuse_shot = -1;  // --diffuse-shot 1, --no-diffuse-shot 0, -1: decided per scene
     render::PathTraceOptions path;  // --method pathtrace
+    render::RoundOptions rounds;    // --target-error, --time-budget
     // Outputs: nothing is written that was not asked for.
     std::vector<std::string> images;  // -o, the format by the extension
     double exposure = 0.0;

@@ -57,6 +57,7 @@ const std::map<std::string, std::string> kFlags = {
     {"spp", "--spp"},             {"filter", "--filter"},
     {"direct", "--direct"},       {"glossy_rays", "--glossy-rays"},
     {"shading", "--shading"},     {"output", "-o"},
+    {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
 };
 
 void check_output(const std::string& path, const std::string& flag) {
@@ -160,8 +161,16 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                    "an EXR of the same size (e.g. from --method pathtrace): the image's relative L1 error and MSE "
                    "against it go into the summary line and the stats")
         ->check(CLI::ExistingFile);
+    cmd.add_option("--target-error", c.rounds.target_error,
+                   "render in rounds until the image's estimated relative L1 error is at most E (e.g. 0.01)")
+        ->check(kPositive & CLI::Range(0.0, 1.0));
+    cmd.add_option("--time-budget", c.rounds.time_budget,
+                   "render in rounds for about S seconds (the first round always runs)")
+        ->check(kPositive);
     cmd.add_option("--stats", c.stats, "run statistics (JSON)");
-    cmd.add_option("--csv", c.csv, "convergence: iteration,seconds,relative_l1_error,mean_radiance");
+    cmd.add_option("--csv", c.csv,
+                   "convergence: iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,"
+                   "image_estimated_error,image_relative_l1,image_mse");
     cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")
         ->check(CLI::Range(1L, 1000000000L));
     cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
@@ -195,7 +204,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
-                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--csv", "--csv-every", "--patches", "--ply", "--shading"})
+                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
         c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 namespace raybundle::apps {
 
@@ -32,6 +33,14 @@ std::string ProgressBar::line(const sampling::Progress& p, int width) {
                       p.seconds * (1.0 - frac) / frac);
     else
         std::snprintf(tail, sizeof tail, " %3d%%  %.1f s", static_cast<int>(100 * frac), p.seconds);
+    if (p.round > 0) {
+        char round[48];
+        if (p.estimate >= 0.0)
+            std::snprintf(round, sizeof round, ", round %ld, est. %.2g %%", p.round, 100.0 * p.estimate);
+        else
+            std::snprintf(round, sizeof round, ", round %ld", p.round);
+        std::strncat(tail, round, sizeof tail - std::strlen(tail) - 1);
+    }
     std::string label = p.phase;
     const int room = width - 1 - static_cast<int>(label.size()) - static_cast<int>(std::string(tail).size()) - 3;
     std::string out = label;

@@ -2,8 +2,10 @@
 // The progress bar: one line on stderr, redrawn in place, fitted to the terminal's
 // width, for every long phase of a run (diffuse shot, solve, final gather, filter):
 //
-//   solve [###########.........]  55%  4.1 s, 3.4 s left
+//   solve [###########.........]  55%  4.1 s, 3.4 s left, round 2, est. 1.4 %
 //
+// (the round and the image's estimated error so far for a run in rounds,
+// render/progressive.h).
 // Drawn only when stderr is a terminal and the run is not quiet; cleared at the end.
 // Callbacks may come from several threads.
 #include "sampling/run.h"

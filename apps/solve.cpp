@@ -8,6 +8,7 @@
 #include "render/image_io.h"
 #include "render/metrics.h"
 #include "render/patch_io.h"
+#include "render/progressive.h"
 #include "render/scene_check.h"
 #include "render/shade.h"
 #include "scenes/ray_caster.h"
@@ -42,22 +43,32 @@ void warn_about(const scenes::Scene& scene, const render::SceneSummary& summary)
         std::cerr << "raybundle: warning: " << scene.name << ": " << line << "\n";
 }
 
+// A row of the convergence CSV: a snapshot of the solve (field columns), or the end
+// of a round (the image columns too). Missing values stay empty.
 struct Row {
-    long step;
-    double seconds;
-    std::optional<double> error;
-    double mean;
+    long steps = 0;
+    double seconds = 0.0;
+    std::optional<double> error, mean, estimate, image_estimate, image_l1, image_mse;
+    long round = 0;
 };
 
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
     render::write_atomically(path, [&](const std::string& tmp) {
         std::ofstream out(tmp);
-        out << "iteration,seconds,relative_l1_error,mean_radiance\n";
+        out << "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,"
+               "image_relative_l1,image_mse\n";
         out.precision(9);
+        auto cell = [&](const std::optional<double>& v) {
+            out << ',';
+            if (v) out << *v;
+        };
         for (const auto& r : rows) {
-            out << r.step << ',' << r.seconds << ',';
-            if (r.error) out << *r.error;
-            out << ',' << r.mean << '\n';
+            out << r.steps << ',' << r.seconds;
+            for (const auto* v : {&r.error, &r.mean, &r.estimate}) cell(*v);
+            out << ',';
+            if (r.round > 0) out << r.round;
+            for (const auto* v : {&r.image_estimate, &r.image_l1, &r.image_mse}) cell(*v);
+            out << '\n';
         }
         out.close();
         if (!out) throw std::runtime_error(path + ": write failed");
@@ -67,6 +78,53 @@ void write_csv(const std::string& path, const std::vector<Row>& rows) {
 void make_parent(const std::string& path) {
     const auto parent = std::filesystem::path(path).parent_path();
     if (!parent.empty()) std::filesystem::create_directories(parent);
+}
+
+// One chain of the solver, as the image needs it (render/progressive.h): the solver
+// reports its progress to whichever callback the current advance() was given.
+class SolverChain final : public render::FieldChain {
+public:
+    SolverChain(const solver::Transport& transport, solver::SolverOptions options, sampling::RunOptions run,
+                std::uint64_t chain) {
+        run.chain = chain;
+        run.progress = [this](const sampling::Progress& p) {
+            if (forward_) forward_(p);
+        };
+        solver_ = solver::make_solver(transport, options, run);
+    }
+    void advance(long steps, const sampling::ProgressCallback& progress) override {
+        forward_ = progress;
+        solver_->advance(steps);
+        forward_ = nullptr;
+    }
+    solver::RadianceField field() const override { return solver_->field(); }
+    long averaged() const override { return solver_->averaged(); }
+    const solver::Solver& solver() const { return *solver_; }
+
+private:
+    std::unique_ptr<solver::Solver> solver_;
+    sampling::ProgressCallback forward_;
+};
+
+// Both chains' work in one report: counts and seconds added, the rest from chain 0.
+solver::SolverReport combined(const solver::SolverReport& a, const solver::SolverReport& b) {
+    solver::SolverReport r = a;
+    r.steps += b.steps;
+    r.directions += b.directions;
+    r.seconds_visibility += b.seconds_visibility;
+    r.seconds_transport += b.seconds_transport;
+    r.entries_total += b.entries_total;
+    return r;
+}
+
+json rounds_record(const render::Rounds& r, const render::RoundOptions& o) {
+    json rounds = json::array();
+    for (const auto& k : r.rounds)
+        rounds.push_back({{"scale", k.scale}, {"seconds", k.seconds}, {"estimated_error", k.estimate}});
+    json out = {{"image_estimated_error", r.estimate}, {"scale", r.scale}, {"stopped", r.stopped}, {"rounds", rounds}};
+    if (o.target_error > 0.0) out["target_error"] = o.target_error;
+    if (o.time_budget > 0.0) out["time_budget"] = o.time_budget;
+    return out;
 }
 
 // --reference: read before any work, so that a wrong size stops the run at once.
@@ -102,17 +160,51 @@ void print_against(const std::optional<Compared>& against) {
     if (against) std::printf(", against the reference: relative L1 %.4g, MSE %.4g", against->relative_l1, against->mse);
 }
 
+void print_estimate(const render::Rounds& r) {
+    if (r.estimate >= 0.0)
+        std::printf(", estimated error %.2g %% (%zu round%s)", 100.0 * r.estimate, r.rounds.size(),
+                    r.rounds.size() == 1 ? "" : "s");
+}
+
+void print_written(std::vector<std::string> written) {
+    std::string wrote;
+    for (const auto& path : written) wrote += (wrote.empty() ? "" : ", ") + path;
+    if (!wrote.empty()) std::printf("; wrote %s", wrote.c_str());
+    std::printf("\n");
+}
+
+// A CSV row at the end of a round: the image's estimate, and its true error where a
+// reference is given.
+void add_image_columns(Row& row, const render::Snapshot& s, const std::optional<render::Image>& reference) {
+    row.round = s.round;
+    row.image_estimate = s.image_estimate;
+    if (const auto against = compare(reference, *s.image)) {
+        row.image_l1 = against->relative_l1;
+        row.image_mse = against->mse;
+    }
+}
+
 // `--method pathtrace`: the reference image, no radiance field.
 int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCaster& caster,
                const sampling::RunOptions& run, ProgressBar& bar, Clock::time_point t_start,
                const std::optional<render::Image>& reference) {
     const render::PinholeCamera camera(scene.camera);
-    const render::PathTraceResult traced = render::path_trace(scene, caster, camera, c.path, run);
+    std::vector<Row> rows;
+    const auto traced = render::traced_image(scene, caster, camera, c.path, c.rounds, run, [&](const render::Snapshot& s) {
+        Row row;
+        row.seconds = s.seconds;
+        add_image_columns(row, s, reference);
+        rows.push_back(row);
+    });
     bar.clear();
-    const auto against = compare(reference, traced.image);
+    const auto against = compare(reference, traced.traced.image);
     for (const auto& path : c.images) {
         make_parent(path);
-        render::write_image(path, traced.image, c.exposure);
+        render::write_image(path, traced.traced.image, c.exposure);
+    }
+    if (!c.csv.empty()) {
+        make_parent(c.csv);
+        write_csv(c.csv, rows);
     }
     json stats = {{"scene", scene.name},
                   {"patches", scene.patch_count()},
@@ -120,26 +212,30 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
                   {"seed", c.run.seed},
                   {"threads_requested", c.run.threads},
                   {"image", {{"width", scene.camera.width}, {"height", scene.camera.height}}},
-                  {"path_trace", {{"spp", c.path.spp}, {"paths", traced.paths}, {"rays", traced.rays}}},
-                  {"seconds_render", traced.seconds},
+                  {"path_trace",
+                   {{"spp", c.path.spp}, {"paths", traced.traced.paths}, {"rays", traced.traced.rays}}},
+                  {"estimate", rounds_record(traced.rounds, c.rounds)},
+                  {"seconds_render", traced.traced.seconds},
                   {"seconds_total", since(t_start)},
                   {"decisions",
                    {{"image", "brute-force path tracing: next-event estimation and BRDF sampling with the balance "
-                              "heuristic, Russian roulette; unbiased (render/path_tracer.h)"}}}};
+                              "heuristic, Russian roulette; unbiased (render/path_tracer.h)"},
+                    {"rounds", traced.rounds.stopped}}}};
     record(stats, c, against);
     if (!c.stats.empty()) {
         make_parent(c.stats);
         write_json(c.stats, stats);
     }
     if (!c.quiet) {
-        std::printf("%s: %zu patches, path traced %d paths per pixel in %.2f s", scene.name.c_str(),
-                    scene.patch_count(), c.path.spp, traced.seconds);
+        std::printf("%s: %zu patches, path traced %ld paths per pixel in %.2f s", scene.name.c_str(),
+                    scene.patch_count(), traced.traced.paths / (static_cast<long>(scene.camera.width) * scene.camera.height),
+                    traced.traced.seconds);
+        print_estimate(traced.rounds);
         print_against(against);
-        std::string wrote;
-        for (const auto& path : c.images) wrote += (wrote.empty() ? "" : ", ") + path;
-        if (!c.stats.empty()) wrote += (wrote.empty() ? "" : ", ") + c.stats;
-        if (!wrote.empty()) std::printf("; wrote %s", wrote.c_str());
-        std::printf("\n");
+        std::vector<std::string> written = c.images;
+        for (const auto* path : {&c.csv, &c.stats})
+            if (!path->empty()) written.push_back(*path);
+        print_written(written);
     }
     return 0;
 }
@@ -149,23 +245,10 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
 int solve(const Command& c) {
     const auto t_start = Clock::now();
     ProgressBar bar(c.quiet);
-    const solver::Solver* solving = nullptr;
-    std::vector<Row> rows;
-    std::optional<double> exact;
-    const scenes::Scene* scene_ptr = nullptr;
     sampling::RunOptions run = c.run;
-    long burn_in = 0;  // steps the solver leaves out of its average: no rows for them
-    run.progress = [&](const sampling::Progress& p) {
-        bar(p);
-        if (c.csv.empty() || solving == nullptr || std::string(p.phase) != "solve" || p.done <= burn_in) return;
-        const auto field = solving->field();
-        std::optional<double> err;
-        if (exact) err = field.relative_l1_error(*scene_ptr, *exact);
-        rows.push_back({p.done, p.seconds, err, field.mean_radiance(*scene_ptr)});
-    };
+    run.progress = [&](const sampling::Progress& p) { bar(p); };
 
     const scenes::Scene scene = load_scene(c);
-    scene_ptr = &scene;
     const scenes::RayCaster caster(scene);
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
     const render::SceneSummary summary = render::summarize(scene, caster, run.threads, 128 * 128);
@@ -188,34 +271,42 @@ int solve(const Command& c) {
                                            : "off: the scene has no area lights";
     }
     const solver::Transport transport(scene, shots, run);
-    auto solver = solver::make_solver(transport, c.solver, run);
+    // Two independent chains, whose difference estimates the error (render/progressive.h).
+    solver::SolverOptions per_chain = c.solver;
+    per_chain.steps = render::chain_steps(c.solver.steps, c.rounds);
+    SolverChain chain_a(transport, per_chain, run, 0), chain_b(transport, per_chain, run, 1);
     // What the method converges to on a scene with a known answer (walks truncated at D
     // bounces: a known fraction of it on a homogeneous scene).
+    std::optional<double> exact;
     if (scene.exact_radiance) {
         exact = scene.exact_radiance;
-        if (scene.homogeneous_albedo) *exact *= solver->converged_fraction(*scene.homogeneous_albedo);
+        if (scene.homogeneous_albedo) *exact *= chain_a.solver().converged_fraction(*scene.homogeneous_albedo);
     }
-    const auto t_solve = Clock::now();
-    burn_in = solver->report().details.value("burn_in_steps", 0L);
-    solving = solver.get();
-    solver->run();
-    solving = nullptr;
-    const double seconds_solve = since(t_solve);
-    const solver::RadianceField field = solver->field();
 
-    const auto t_render = Clock::now();
+    render::FieldImageOptions image_options;
+    image_options.steps = c.solver.steps;
+    image_options.gather = c.gather_rays > 0;
+    image_options.gather_options = c.gather;
+    image_options.shading = render::parse_shading(c.shading);
+    std::vector<Row> rows;
+    if (!c.csv.empty()) image_options.record_every = c.csv_every > 0 ? c.csv_every : std::max(2L, c.solver.steps / 100);
+    const auto observe = [&](const render::Snapshot& s) {
+        if (c.csv.empty()) return;
+        Row row;
+        row.steps = s.steps;
+        row.seconds = s.seconds;
+        if (exact) row.error = s.field->relative_l1_error(scene, *exact);
+        row.mean = s.field->mean_radiance(scene);
+        if (s.field_estimate >= 0.0) row.estimate = s.field_estimate;
+        if (s.image) add_image_columns(row, s, reference);
+        rows.push_back(row);
+    };
     const render::PinholeCamera camera(scene.camera);
-    render::Image image;
-    std::optional<render::GatherResult> gathered;
-    if (c.gather_rays > 0) {
-        gathered = render::final_gather(scene, caster, field, camera, c.gather, run);
-        image = gathered->image;
-    } else {
-        image = render::shade(scene, field, render::make_gbuffer(scene, caster, camera, run.threads),
-                              render::parse_shading(c.shading));
-    }
-    const double seconds_render = since(t_render);
+    const render::FieldImage made =
+        render::field_image(scene, caster, camera, chain_a, chain_b, image_options, c.rounds, run, observe);
     bar.clear();
+    const render::Image& image = made.image;
+    const solver::RadianceField& field = made.field;
     const auto against = compare(reference, image);
 
     // The outputs asked for, their directories made when missing.
@@ -223,11 +314,12 @@ int solve(const Command& c) {
         make_parent(path);
         render::write_image(path, image, c.exposure);
     }
-    if (gathered && !c.aov.empty()) {
+    if (made.gather && !c.aov.empty()) {
         std::filesystem::create_directories(c.aov);
+        const auto& g = *made.gather;
         const std::pair<const char*, const render::Image*> aovs[] = {
-            {"direct", &gathered->direct}, {"indirect", &gathered->indirect},
-            {"indirect-filtered", &gathered->indirect_filtered}, {"normal", &gathered->normal}, {"depth", &gathered->depth}};
+            {"direct", &g.direct}, {"indirect", &g.indirect}, {"indirect-filtered", &g.indirect_filtered},
+            {"normal", &g.normal}, {"depth", &g.depth}};
         for (const auto& [name, img] : aovs) render::write_exr(c.aov + "/" + name + ".exr", *img);
     }
     for (const auto* path : {&c.patches_csv, &c.ply, &c.csv, &c.stats})
@@ -236,20 +328,26 @@ int solve(const Command& c) {
     if (!c.ply.empty()) render::write_patch_ply(c.ply, scene, field, c.exposure);
     if (!c.csv.empty()) write_csv(c.csv, rows);
 
-    const solver::SolverReport report = solver->report();
+    const solver::SolverReport report = combined(chain_a.solver().report(), chain_b.solver().report());
     const double mean = field.mean_radiance(scene);
     json stats = run_record(scene, c, report, transport, summary.overlaps.pairs);
+    const double seconds_solve = made.rounds.seconds_solve, seconds_render = made.rounds.seconds_render;
+    stats["chains"] = 2;
     stats["seconds_total"] = since(t_start);
     stats["seconds_solve"] = seconds_solve;
     stats["seconds_render"] = seconds_render;
     stats["seconds_per_iteration"] = report.steps > 0 ? seconds_solve / report.steps : 0.0;
     stats["seconds_per_direction"] = report.directions > 0 ? seconds_solve / report.directions : 0.0;
     stats["mean_radiance"] = mean;
-    if (gathered) stats["final_gather"] = gather_record(c, *gathered);
+    if (made.gather) stats["final_gather"] = gather_record(c, *made.gather);
+    json estimate = rounds_record(made.rounds, c.rounds);
+    estimate["field_estimated_error"] = made.field_estimate;
+    stats["estimate"] = estimate;
     stats["decisions"]["diffuse_shot_choice"] = shot_choice;
-    stats["decisions"]["image"] = gathered ? "final gather: direct light per sample, indirect at guide rays, " +
-                                                 std::string(render::filter_name(c.gather.filter.filter)) + " filter"
-                                           : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";
+    stats["decisions"]["image"] = made.gather ? "final gather: direct light per sample, indirect at guide rays, " +
+                                                    std::string(render::filter_name(c.gather.filter.filter)) + " filter"
+                                              : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";
+    stats["decisions"]["rounds"] = made.rounds.stopped;
     std::optional<double> error;
     if (exact) {
         error = field.relative_l1_error(scene, *exact);
@@ -262,18 +360,16 @@ int solve(const Command& c) {
     if (!c.quiet) {
         std::printf("%s: %zu patches, %s %ld steps in %.2f s", scene.name.c_str(), scene.patch_count(),
                     report.method.c_str(), report.steps, seconds_solve);
-        if (gathered) std::printf(", final gather %.2f s", seconds_render);
+        if (made.gather) std::printf(", final gather %.2f s", seconds_render);
         std::printf(", mean radiance %.6g", mean);
         if (error) std::printf(", relative L1 error %.3g", *error);
+        print_estimate(made.rounds);
         print_against(against);
         std::vector<std::string> written = c.images;
-        if (gathered && !c.aov.empty()) written.push_back(c.aov + "/");
+        if (made.gather && !c.aov.empty()) written.push_back(c.aov + "/");
         for (const auto* path : {&c.stats, &c.csv, &c.patches_csv, &c.ply})
             if (!path->empty()) written.push_back(*path);
-        std::string wrote;
-        for (const auto& path : written) wrote += (wrote.empty() ? "" : ", ") + path;
-        if (!wrote.empty()) std::printf("; wrote %s", wrote.c_str());
-        std::printf("\n");
+        print_written(written);
     }
     return 0;
 }

@@ -152,7 +152,7 @@ if "$bin" solve --builtin homogeneous-box --width 32 --height 32 --iterations 20
   ok=1
   for f in h.exr h.png h.json h.csv h-patches.csv h.ply; do [ -s "$f" ] || { fail "good run: $f missing"; ok=0; }; done
   [ "$(head -1 h-patches.csv)" = "id,cx,cy,cz,nx,ny,nz,area,r,g,b" ] || { fail "patch CSV header"; ok=0; }
-  [ "$(head -1 h.csv)" = "iteration,seconds,relative_l1_error,mean_radiance" ] || { fail "convergence CSV header"; ok=0; }
+  [ "$(head -1 h.csv)" = "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,image_relative_l1,image_mse" ] || { fail "convergence CSV header"; ok=0; }
   for key in patches iterations directions resolution visibility seconds_total seconds_per_iteration mean_radiance \
              exact_radiance relative_l1_error memory_per_patch_bytes decisions first_shot sky; do
     grep -q "\"$key\"" h.json || { fail "stats lack $key"; ok=0; }
@@ -387,6 +387,45 @@ done
 expect_bad "--direct without --gather" "--direct needs the final gather" solve --builtin cornell-box --gather 0 --direct sampled
 expect_bad "--glossy-rays without --gather" "--glossy-rays needs the final gather" solve --builtin cornell-box --gather 0 --glossy-rays 3
 expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 --direct exact
+
+# The error estimate on every run, and rounds for a target error or a time budget.
+json_number() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{print $2}'; }
+"$bin" solve --builtin homogeneous-box --width 16 --height 16 --iterations 100 --gather 8 --spp 4 --stats est.json \
+  --csv est.csv >est.txt 2>&1
+check $? "estimate run failed: $(cat est.txt)"
+grep -q "estimated error [0-9.]* % (1 round)" est.txt
+check $? "summary line lacks the estimated error: $(cat est.txt)"
+grep -q '"stopped": "one round: the budget as given"' est.json && grep -q '"field_estimated_error"' est.json
+check $? "stats lack the estimate: $(head -c 400 est.json)"
+awk -F, '$6 == 1 && $7 != "" { found = 1 } END { exit !found }' est.csv
+check $? "convergence CSV has no row for the round with the image's estimate: $(tail -2 est.csv)"
+awk -F, 'NR > 1 && $6 == "" && $5 != "" { found = 1 } END { exit !found }' est.csv
+check $? "convergence CSV has no solve rows with the field's estimate: $(head -3 est.csv)"
+"$bin" solve --builtin homogeneous-box --width 16 --height 16 --iterations 100 --gather 8 --spp 4 --target-error 0.003 \
+  --stats target.json >target.txt 2>&1
+check $? "--target-error failed: $(cat target.txt)"
+e=$(json_number image_estimated_error target.json)
+grep -q '"stopped": "the estimate reached the target"' target.json && awk -v e="${e:-1}" 'BEGIN { exit !(e <= 0.003) }' &&
+  [ "$(grep -c '"scale"' target.json)" -ge 3 ]
+check $? "--target-error 0.003: estimate ${e:-none}, or not reached in rounds: $(grep -A2 stopped target.json)"
+"$bin" solve --builtin homogeneous-box --width 8 --height 8 --iterations 20 --gather 4 --spp 1 --time-budget 1 \
+  --stats budget.json -q
+check $? "--time-budget failed"
+grep -q '"stopped": "the time budget"' budget.json && [ "$(grep -c '"scale"' budget.json)" -ge 3 ]
+check $? "--time-budget 1: not stopped by the budget after several rounds: $(grep -A2 stopped budget.json)"
+"$bin" solve --builtin homogeneous-box --method pathtrace --spp 8 --width 8 --height 8 --target-error 0.01 \
+  --stats pt-target.json --csv pt-target.csv -q
+check $? "pathtrace with --target-error failed"
+grep -q '"stopped": "the estimate reached the target"' pt-target.json && [ "$(wc -l <pt-target.csv)" -ge 3 ]
+check $? "pathtrace --target-error: not reached in rounds, or no CSV rows: $(grep stopped pt-target.json)"
+for v in 0 -0.1 1.5 nan inf abc; do
+  expect_bad "--target-error $v" "--target-error" solve --builtin homogeneous-box --target-error "$v"
+done
+for v in 0 -1 inf nan; do
+  expect_bad "--time-budget $v" "--time-budget" solve --builtin homogeneous-box --time-budget "$v"
+done
+expect_bad "--csv-every with pathtrace" "--csv-every does not apply to --method pathtrace" \
+  solve --builtin homogeneous-box --method pathtrace --csv-every 5
 
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]
