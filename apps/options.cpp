@@ -58,6 +58,7 @@ const std::map<std::string, std::string> kFlags = {
     {"direct", "--direct"},       {"glossy_rays", "--glossy-rays"},
     {"shading", "--shading"},     {"output", "-o"},
     {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
+    {"emission_samples", "--emission-samples"},
 };
 
 void check_output(const std::string& path, const std::string& flag) {
@@ -136,6 +137,12 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel (pathtrace: paths per pixel)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1 << 20));
+    g.emission_samples = 64;
+    cmd.add_option("--emission-samples", g.emission_samples,
+                   "final gather with --spp > 1: camera rays per pixel, besides the spp samples, for the emission and "
+                   "sky the camera sees (0: the spp samples see them)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 1 << 16));
     cmd.add_option_function<std::string>(
            "--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
            "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
@@ -201,7 +208,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         }
     }
     if (c.solver.method == "pathtrace") {
-        for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
+        for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--csv-every", "--patches", "--ply", "--shading"})
@@ -209,7 +216,7 @@ void check_command(const CLI::App& cmd, Command& c) {
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
         c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;
     } else if (c.gather_rays == 0) {
-        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter",
+        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " needs the final gather (--gather N, N > 0)");

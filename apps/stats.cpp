@@ -61,6 +61,7 @@ json gather_record(const Command& c, const render::GatherResult& g) {
             {"direct", render::direct_light_name(o.direct)},
             {"glossy_rays", o.glossy_rays},
             {"spp", o.spp},
+            {"emission_samples", o.emission_samples},
             {"filter", render::filter_name(o.filter.filter)},
             {"filter_radius", o.filter.radius},
             {"eps_normal", o.filter.eps_normal},

@@ -395,6 +395,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     if (o.direct_samples < 0)
         throw scenes::OptionError("direct_samples", "must be >= 0, got " + std::to_string(o.direct_samples));
     if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
+    if (o.emission_samples < 0)
+        throw scenes::OptionError("emission_samples", "must be >= 0, got " + std::to_string(o.emission_samples));
     if (o.glossy_rays < 0)
         throw scenes::OptionError("glossy_rays", "must be >= 0, got " + std::to_string(o.glossy_rays));
     const int W = camera.width(), H = camera.height();
@@ -459,9 +461,12 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
 
     // Pass 3: compose. With spp > 1 the pixel is the mean of spp camera samples (on a
     // jittered grid, sampling/strata.h) that compute their own direct light and look
-    // the indirect light up at the guides; their mean direct light is the direct AOV.
+    // the indirect light up at the guides, plus what the camera sees unlit (emission,
+    // the sky) from their own rays or from `emission_samples` rays of their own; the
+    // direct AOV is the pixel less its indirect light.
     rows_done = 0;
-    const sampling::Strata strata(o.spp);
+    const sampling::Strata strata(o.spp), emission_strata(std::max(1, o.emission_samples));
+    const bool emission_apart = o.emission_samples > 0;
     parallel_rows(H, run.threads, [&](int y) {
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
@@ -476,7 +481,19 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             } else {
                 // A stream of its own, so that the guide pass is the same with any spp.
                 sampling::Rng rng(run.seed, sampling::streams::kSamplePixels(o.pass, p, 32));
-                Rgb direct = Rgb::Zero();
+                Rgb direct = Rgb::Zero(), seen = Rgb::Zero();
+                for (int s = 0; s < o.emission_samples; ++s) {
+                    const double r1 = rng.uniform(), r2 = rng.uniform();
+                    const auto [fx, fy] = emission_strata.point(s, r1, r2);
+                    const Vec3 d = camera.direction(x + fx, y + fy);
+                    ++camera_rays[y];
+                    const auto hit = caster.intersect(camera.eye(), d);
+                    if (!hit.valid())
+                        seen += background(scene, d);
+                    else if (patches[hit.patch].normal.dot(d) < 0.0)
+                        seen += scene.material_of(hit.patch).emission;
+                }
+                if (emission_apart) seen /= o.emission_samples;
                 for (int s = 0; s < o.spp; ++s) {
                     const double r1 = rng.uniform(), r2 = rng.uniform();
                     auto [fx, fy] = strata.point(s, r1, r2);
@@ -485,15 +502,15 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     const Vec3 d = camera.direction(fx, fy);
                     ++camera_rays[y];
                     const auto hit = caster.intersect(camera.eye(), d);
-                    if (!hit.valid()) {
+                    if (!hit.valid() && !emission_apart) {
                         sum += background(scene, d);
                         direct += background(scene, d);
                     }
                     if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;
                     const Vec3 point = camera.eye() + hit.t * d;
                     const Vec3 n = g.shading_normal(hit.patch, hit.b1, hit.b2, -d);
-                    Rgb L = scene.material_of(hit.patch).emission +
-                            g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow_rays[y]);
+                    Rgb L = g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow_rays[y]);
+                    if (!emission_apart) L += scene.material_of(hit.patch).emission;
                     if (scene.material_of(hit.patch).glossy() && o.glossy_rays > 0)
                         L += g.glossy(hit.patch, point, n, -d, o.glossy_rays, rng, gather_rays[y]);
                     direct += L;
@@ -520,9 +537,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     }
                     sum += L;
                 }
-                put(r.direct, x, y, direct / o.spp);
+                put(r.direct, x, y, direct / o.spp + seen);
+                sum = sum / o.spp + seen;
             }
-            put(r.image, x, y, sum / o.spp);
+            put(r.image, x, y, sum);
         }
         if (o.spp > 1) row_done("final gather (samples)", t2);
     });

@@ -36,7 +36,9 @@
 //    with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2 and s_d = 1 - |D_a - D_i| /
 //    max_j |D_a - D_j| (eq. 3-5; no thresholds). The guide sample serves the indirect
 //    light and the normal and depth AOVs only. With spp = 1 the guide sample is the
-//    pixel.
+//    pixel. With emission_samples > 0 what the camera sees unlit (emission, the sky)
+//    comes from that many rays of their own instead, on a jittered grid: rays that
+//    compute no light, so a light's or a window's edge gets many more of them.
 //
 // The filtered indirect term uses the diffuse albedo; the glossy lobe reflects the
 // field per sample as above. Where a gather or glossy ray meets a glossy surface, the
@@ -76,6 +78,11 @@ struct GatherOptions {
     // one more bounce instead of reading the field there (the contact bias).
     bool near_hits = true;
     int spp = 1;              // camera samples per pixel (the first is the guide)
+    // With spp > 1: camera rays per pixel, besides the spp samples, for what the camera
+    // sees unlit, emission and the sky (one ray each, no light computed); 0: the spp
+    // samples see it. Cheap samples for the brightest edges of an image (a light, a
+    // window).
+    int emission_samples = 0;
     // Which pass of a progressive image this is (render/progressive.h): its own
     // random streams, below sampling::streams::kMaxPasses.
     std::uint64_t pass = 0;

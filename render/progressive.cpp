@@ -257,6 +257,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         GatherOptions g = o.gather_options;
         g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
         g.spp = static_cast<int>(half_of(g.spp, scale));
+        if (g.emission_samples > 0) g.emission_samples = static_cast<int>(half_of(g.emission_samples, scale));
         g.pass = pass;
         GatherResult result = final_gather(scene, caster, segment, camera, g, r);
         add_gather(gathered, result, scale);

@@ -20,8 +20,9 @@
 // (docs/final-image.md measures them against references). The edge-avoiding A-Trous
 // filter weighs by colour, is not linear, and makes the estimate approximate.
 //
-// Rounds. Round k has a scale r_k: its share of the budget (the steps, camera samples
-// and gather rays of the options), halved between the halves (each at least one).
+// Rounds. Round k has a scale r_k: its share of the budget (the steps, camera samples,
+// emission samples and gather rays of the options), halved between the halves (each
+// at least one).
 // It advances both chains by their steps, then renders one pass of each half. A pass
 // reads the field of its chain's steps since the chain's previous pass (the mean
 // between the two moments, from Solver::averaged), and the passes are averaged with

@@ -384,6 +384,12 @@ for d in analytic sampled; do
   grep -q "\"direct\": \"$d\"" d-$d.json
   check $? "--direct $d: not in the stats"
 done
+"$bin" solve --builtin cornell-box --iterations 50 --gather 4 --spp 4 --emission-samples 0 --width 16 --height 16 \
+  --stats em0.json -q && grep -q '"emission_samples": 0' em0.json
+check $? "--emission-samples 0: failed or not in the stats"
+expect_bad "--emission-samples without --gather" "--emission-samples needs the final gather" \
+  solve --builtin cornell-box --gather 0 --emission-samples 8
+expect_bad "--emission-samples -1" "--emission-samples" solve --builtin cornell-box --emission-samples -1
 expect_bad "--direct without --gather" "--direct needs the final gather" solve --builtin cornell-box --gather 0 --direct sampled
 expect_bad "--glossy-rays without --gather" "--glossy-rays needs the final gather" solve --builtin cornell-box --gather 0 --glossy-rays 3
 expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 --direct exact

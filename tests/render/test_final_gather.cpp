@@ -106,6 +106,49 @@ TEST_CASE("final gather: the Cornell box agrees with the smooth patch image away
     CHECK(diff / ref < 0.08);
 }
 
+TEST_CASE("final gather: emission samples of their own take the noise off a light's edges", "[render][gather]") {
+    auto scene = scenes::make_builtin("cornell-box", 80.0);
+    scene.camera.width = scene.camera.height = 48;
+    const auto field = solve(scene, 500, true);
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    render::GatherOptions o;
+    o.gather_rays = 4;
+    o.direct_samples = 2;
+    o.spp = 4;
+    auto image = [&](int emission_samples, int spp, std::uint64_t seed) {
+        o.emission_samples = emission_samples;
+        o.spp = spp;
+        sampling::RunOptions run;
+        run.seed = seed;
+        return render::final_gather(scene, caster, field, camera, o, run).image;
+    };
+    const auto reference = image(0, 1024, 9);
+    // The light panel and a pixel around it (its radiance is 17; the ceiling's 0.1).
+    double without = 0.0, with = 0.0, sum = 0.0;
+    for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+        const auto a = image(0, 4, seed), b = image(64, 4, seed);
+        for (int y = 1; y < 47; ++y)
+            for (int x = 1; x < 47; ++x) {
+                bool near_light = false;
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) near_light |= reference.at(x + dx, y + dy)[0] > 5.0f;
+                if (!near_light) continue;
+                for (int k = 0; k < 3; ++k) {
+                    without += std::abs(a.at(x, y)[k] - reference.at(x, y)[k]);
+                    with += std::abs(b.at(x, y)[k] - reference.at(x, y)[k]);
+                    sum += reference.at(x, y)[k];
+                }
+            }
+    }
+    INFO("around the light, relative L1: 4 camera samples " << without / sum << ", with 64 emission samples "
+                                                           << with / sum);
+    CHECK(sum > 0.0);
+    CHECK(with < 0.5 * without);
+    o.emission_samples = -1;
+    CHECK_THROWS_WITH(render::final_gather(scene, caster, field, camera, o, {}), Catch::Contains(">= 0"));
+}
+
 TEST_CASE("geometry-aware lookup: the most similar guide by normal and depth", "[render][gather]") {
     const Vec3 wall(0, 0, -1), pole(1, 0, 0);
     // A sample on the wall (depth 10) among two pole guides (depth 2) and two wall guides.
