@@ -1,5 +1,6 @@
 // `raybundle check SCENE`: validate a scene and print what it holds, without solving.
 #include "cli.h"
+#include "stats.h"
 
 #include "render/scene_check.h"
 #include "scenes/ray_caster.h"
@@ -30,6 +31,7 @@ int check_scene(const Command& c) {
     std::printf("scene       %s\n", scene.name.c_str());
     std::printf("patches     %zu after refinement (%zu vertices), area %.6g\n", s.patches, s.vertices, s.area);
     if (scene.dropped_degenerate > 0) std::printf("            %zu zero-area triangles dropped\n", scene.dropped_degenerate);
+    std::printf("contacts    %s\n", contacts_line(scene).c_str());
     std::printf("bounds      %s .. %s\n", vec(s.lo).c_str(), vec(s.hi).c_str());
     std::printf("materials   %zu:", scene.materials.size());
     for (const auto& m : scene.materials)

@@ -18,6 +18,7 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
               " sky: map pixels that no patch covers upstream carry the sky radiance";
     json decisions = transport.decisions();
     decisions["sky"] = sky;
+    decisions["contacts"] = contacts_line(scene);
     decisions["threads"] = "visibility: " + std::to_string(v.threads) +
                            (v.threads < c.run.threads ? " (this backend runs one at a time)" : "") +
                            " (one backend each; the light moves in order, so any count gives the same result)" +
@@ -27,6 +28,8 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
         {"scene", scene.name},
         {"patches", scene.patch_count()},
         {"dropped_degenerate_triangles", scene.dropped_degenerate},
+        {"contacts", {{"lines", scene.contact_lines}, {"edges_split", scene.contact_splits},
+                      {"contact_edges", scene.contact_edges}}},
         {"coplanar_overlaps", coplanar_overlaps},
         {"method", report.method},
         {"basis", c.solver.basis},
@@ -52,6 +55,14 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
     if (report.method != "iteration") stats["walks"] = report.steps;
     for (const auto& [key, value] : report.details.items()) stats[key] = value;
     return stats;
+}
+
+std::string contacts_line(const scenes::Scene& scene) {
+    if (scene.contact_edges == 0) return "none: no surface touches another inside its patches";
+    return std::to_string(scene.contact_lines) + " lines where surfaces touch inside others cut their patches (" +
+           std::to_string(scene.contact_splits) + " edges split); " + std::to_string(scene.contact_edges) +
+           " contact edges keep the light on their sides (scenes/contacts.h; \"cut_contacts\": false keeps the "
+           "patches as modelled)";
 }
 
 json gather_record(const Command& c, const render::GatherResult& g) {

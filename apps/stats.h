@@ -12,6 +12,8 @@ namespace raybundle::apps {
 // The scene, the solver's report and the shots' decisions (no timings of the CLI's own).
 nlohmann::json run_record(const scenes::Scene& scene, const Command& c, const solver::SolverReport& report,
                           const solver::Transport& transport, std::size_t coplanar_overlaps);
+// What the contacts between surfaces did to the scene (scenes/contacts.h), in a line.
+std::string contacts_line(const scenes::Scene& scene);
 // The final gather's settings and figures.
 nlohmann::json gather_record(const Command& c, const render::GatherResult& gathered);
 

@@ -1,6 +1,7 @@
 #include "scenes/builtin.h"
 
 #include "scenes/errors.h"
+#include "scenes/contacts.h"
 #include "scenes/subdivide.h"
 
 #include <algorithm>
@@ -370,6 +371,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
     }
     s.finalize();
+    cut_at_contacts(s);
     check_refinement(s, size, name);
     subdivide(s, size);
     return s;

@@ -3,6 +3,7 @@
 #include "scenes/builtin.h"
 #include "scenes/mesh_file.h"
 #include "scenes/errors.h"
+#include "scenes/contacts.h"
 #include "scenes/subdivide.h"
 
 #include <nlohmann/json.hpp>
@@ -293,7 +294,8 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     for (const Override& o : overrides) apply_override(doc, o, shown);
     Node root(doc, shown, "");
     root.require_object();
-    root.check_keys({"camera", "crease_angle", "materials", "objects", "patch_size", "point_lights", "sky"});
+    root.check_keys(
+        {"camera", "crease_angle", "cut_contacts", "materials", "objects", "patch_size", "point_lights", "sky"});
     const double crease = root.has("crease_angle") ? crease_angle(root) : Scene::default_crease_angle;
 
     Scene scene;
@@ -383,6 +385,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize();
+    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene);
     if (root.has("patch_size")) {
         const double ps = root.number("patch_size");
         check_refinement(scene, ps, shown);

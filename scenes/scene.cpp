@@ -12,6 +12,7 @@ Scene::Scene() {
     mesh.add_property(material_handle, "material");
     mesh.add_property(object_handle, "object");
     mesh.add_property(corner_normal_handle, "corner normal");
+    mesh.add_property(contact_edge_handle, "contact edge");
 }
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
@@ -152,9 +153,42 @@ void Scene::finalize() {
     dropped_degenerate += dropped;
     compute_missing_normals();
 
+    // The flat vertices: one per mesh vertex, or, around a vertex on a contact edge, one
+    // per set of patch corners that meet across edges that are not contact edges.
+    std::vector<int> flat(mesh.n_halfedges(), -1);  // per halfedge: the flat vertex it ends at
     positions.clear();
     positions.reserve(mesh.n_vertices());
-    for (auto v : mesh.vertices()) positions.push_back(to_eigen(mesh.point(v)));
+    const bool contacts = std::any_of(mesh.edges_begin(), mesh.edges_end(),
+                                      [&](TriMesh::EdgeHandle e) { return mesh.property(contact_edge_handle, e); });
+    if (!contacts) {
+        for (auto v : mesh.vertices()) positions.push_back(to_eigen(mesh.point(v)));
+        for (auto h : mesh.halfedges()) flat[h.idx()] = mesh.to_vertex_handle(h).idx();
+    } else {
+        // Union-find over the corners (the halfedges inside faces, by the vertex they end at).
+        std::vector<int> parent(mesh.n_halfedges());
+        for (std::size_t k = 0; k < parent.size(); ++k) parent[k] = static_cast<int>(k);
+        auto find = [&](int x) {
+            while (parent[x] != x) x = parent[x] = parent[parent[x]];
+            return x;
+        };
+        auto unite = [&](TriMesh::HalfedgeHandle a, TriMesh::HalfedgeHandle b) { parent[find(a.idx())] = find(b.idx()); };
+        for (auto e : mesh.edges()) {
+            if (mesh.property(contact_edge_handle, e) || mesh.is_boundary(e)) continue;
+            const auto h = mesh.halfedge_handle(e, 0), o = mesh.halfedge_handle(e, 1);
+            unite(h, mesh.prev_halfedge_handle(o));  // both end at h's head
+            unite(mesh.prev_halfedge_handle(h), o);  // both end at h's tail
+        }
+        std::vector<int> index(mesh.n_halfedges(), -1);
+        for (auto f : mesh.faces())
+            for (auto h : mesh.fh_range(f)) {
+                int& i = index[find(h.idx())];
+                if (i < 0) {
+                    i = static_cast<int>(positions.size());
+                    positions.push_back(to_eigen(mesh.point(mesh.to_vertex_handle(h))));
+                }
+                flat[h.idx()] = i;
+            }
+    }
 
     patches.clear();
     patches.reserve(mesh.n_faces());
@@ -164,7 +198,7 @@ void Scene::finalize() {
     for (auto f : mesh.faces()) {
         Patch p{};
         int k = 0;
-        for (auto v : mesh.fv_range(f)) p.v[k++] = v.idx();
+        for (auto h : mesh.fh_range(f)) p.v[k++] = flat[h.idx()];  // the order of fv_range: each halfedge's head
         const Vec3& a = positions[p.v[0]];
         const Vec3& b = positions[p.v[1]];
         const Vec3& c = positions[p.v[2]];
@@ -180,7 +214,7 @@ void Scene::finalize() {
         // normal (cos > 1 - 1e-12) is the patch normal.
         std::array<Vec3, 3> corner;
         for (auto h : mesh.fh_range(f)) {
-            const int v = mesh.to_vertex_handle(h).idx();
+            const int v = flat[h.idx()];
             const int slot = v == p.v[0] ? 0 : v == p.v[1] ? 1 : 2;
             const Vec3 n = to_eigen(mesh.property(corner_normal_handle, h));
             corner[slot] = n.dot(p.normal) > 1.0 - 1e-12 ? p.normal : n;

@@ -98,6 +98,9 @@ public:
     // exact answer of a solver truncated after D bounces is exact (1 - a^(D+1)).
     std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
+    // Patches cut along the lines where other surfaces touch them (scenes/contacts.h):
+    // the lines, the edges split, and the contact edges marked.
+    std::size_t contact_lines = 0, contact_splits = 0, contact_edges = 0;
 
     // The objects the patches came from (a mesh file, a quad, a built-in part), for
     // messages; every patch knows its object.
@@ -117,6 +120,12 @@ public:
     // each face). A zero vector (the value a new halfedge gets) marks a corner without
     // one: finalize() computes it.
     OpenMesh::HPropHandleT<std::array<double, 3>> corner_normal_handle;
+    // Edges on a line where another surface touches (scenes/contacts.h): the radiance
+    // may jump across them, so the flat arrays give the patches on either side
+    // vertices of their own there (finalize()), and nothing that averages over a
+    // vertex's patches (smooth shading, the linear basis's nodes) mixes the two sides.
+    // Subdivision keeps the mark on both halves of a split edge.
+    OpenMesh::EPropHandleT<bool> contact_edge_handle;
 
     Scene();
 
@@ -144,6 +153,7 @@ public:
 
     std::size_t patch_count() const { return patches.size(); }
     const std::vector<Patch>& patch_list() const { return patches; }
+    // The patches' vertices: the mesh's, with one copy per side of a contact edge.
     const std::vector<Vec3>& vertex_positions() const { return positions; }
     // Per patch, the unit shading normals at its corners v[0], v[1], v[2]: the file's,
     // or the angle-weighted mean of the normals of the patches around the corner's

@@ -14,16 +14,18 @@ namespace raybundle::scenes {
 namespace {
 
 // The corner normals of the face on one side of an edge a-b before its split: at a,
-// at b, at the opposite vertex w, and the new vertex's (the normalised mean of a's and
-// b's; a zero mean, possible only with file normals, leaves it to finalize()).
+// at b, at the opposite vertex w, and the new vertex's (the normalised blend of a's and
+// b's at the split; a zero blend, possible only with file normals, leaves it to
+// finalize()).
 struct Side {
     TriMesh::VertexHandle a, b, w;
     std::array<double, 3> at_a, at_b, at_w, mid;
     bool valid = false;
 };
 
-// h runs from a to b inside the face.
-Side side_of(const TriMesh& mesh, OpenMesh::HPropHandleT<std::array<double, 3>> normal, TriMesh::HalfedgeHandle h) {
+// h runs from a to b inside the face; the new vertex lies at a + t (b - a).
+Side side_of(const TriMesh& mesh, OpenMesh::HPropHandleT<std::array<double, 3>> normal, TriMesh::HalfedgeHandle h,
+             double t) {
     Side s;
     if (!mesh.face_handle(h).is_valid()) return s;
     const auto next = mesh.next_halfedge_handle(h), prev = mesh.prev_halfedge_handle(h);
@@ -33,7 +35,7 @@ Side side_of(const TriMesh& mesh, OpenMesh::HPropHandleT<std::array<double, 3>> 
     s.at_a = mesh.property(normal, prev);
     s.at_b = mesh.property(normal, h);
     s.at_w = mesh.property(normal, next);
-    const Vec3 sum = to_eigen(s.at_a) + to_eigen(s.at_b);
+    const Vec3 sum = (1.0 - t) * to_eigen(s.at_a) + t * to_eigen(s.at_b);
     s.mid = to_array(sum.norm() > 0.0 ? Vec3(sum.normalized()) : Vec3::Zero());
     s.valid = true;
     return s;
@@ -41,9 +43,36 @@ Side side_of(const TriMesh& mesh, OpenMesh::HPropHandleT<std::array<double, 3>> 
 
 }  // namespace
 
-std::size_t subdivide(Scene& scene, double max_edge) {
+TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double t) {
     TriMesh& mesh = scene.mesh;
     const auto normal = scene.corner_normal_handle;
+    const auto at = (1.0 - t) * mesh.point(mesh.from_vertex_handle(h)) + t * mesh.point(mesh.to_vertex_handle(h));
+    const Side sides[2] = {side_of(mesh, normal, h, t), side_of(mesh, normal, mesh.opposite_halfedge_handle(h), 1.0 - t)};
+    const auto ends = std::make_pair(mesh.from_vertex_handle(h), mesh.to_vertex_handle(h));
+    const auto m = mesh.split_copy(mesh.edge_handle(h), at);
+    // Every face around the new vertex m is part of an old face: of the one on side s
+    // when it holds m -> s.b or s.a -> m (s.a -> s.b was its halfedge). The edges from
+    // m to the opposite vertices are new: no contact edges (split_copy copied the split
+    // edge's mark to them).
+    for (auto out : mesh.voh_range(m)) {
+        const auto to = mesh.to_vertex_handle(out);
+        if (to != ends.first && to != ends.second) mesh.property(scene.contact_edge_handle, mesh.edge_handle(out)) = false;
+        if (!mesh.face_handle(out).is_valid()) continue;
+        const auto next = mesh.next_halfedge_handle(out), in = mesh.next_halfedge_handle(next);
+        const auto x = mesh.to_vertex_handle(out), y = mesh.to_vertex_handle(next);
+        for (const Side& s : sides)
+            if (s.valid && (x == s.b || y == s.a)) {
+                auto corner = [&s](TriMesh::VertexHandle v) { return v == s.a ? s.at_a : v == s.b ? s.at_b : s.at_w; };
+                mesh.property(normal, out) = corner(x);
+                mesh.property(normal, next) = corner(y);
+                mesh.property(normal, in) = s.mid;
+            }
+    }
+    return m;
+}
+
+std::size_t subdivide(Scene& scene, double max_edge) {
+    TriMesh& mesh = scene.mesh;
     const double limit2 = max_edge * max_edge;
     std::size_t splits = 0;
     std::vector<std::pair<double, TriMesh::EdgeHandle>> long_edges;
@@ -60,26 +89,7 @@ std::size_t subdivide(Scene& scene, double max_edge) {
         for (const auto& [len2, e] : long_edges) {
             // An earlier split in this pass may have shortened this edge (it keeps one half).
             if (mesh.calc_edge_sqr_length(e) <= limit2) continue;
-            const auto h = mesh.halfedge_handle(e, 0);
-            const auto mid = 0.5 * (mesh.point(mesh.from_vertex_handle(h)) + mesh.point(mesh.to_vertex_handle(h)));
-            const Side sides[2] = {side_of(mesh, normal, h), side_of(mesh, normal, mesh.opposite_halfedge_handle(h))};
-            const auto m = mesh.split_copy(e, mid);
-            // Every face around the new vertex m is half of an old face: of the one on
-            // side s when it holds m -> s.b or s.a -> m (s.a -> s.b was its halfedge).
-            for (auto out : mesh.voh_range(m)) {
-                if (!mesh.face_handle(out).is_valid()) continue;
-                const auto next = mesh.next_halfedge_handle(out), in = mesh.next_halfedge_handle(next);
-                const auto x = mesh.to_vertex_handle(out), y = mesh.to_vertex_handle(next);
-                for (const Side& s : sides)
-                    if (s.valid && (x == s.b || y == s.a)) {
-                        auto at = [&s](TriMesh::VertexHandle v) {
-                            return v == s.a ? s.at_a : v == s.b ? s.at_b : s.at_w;
-                        };
-                        mesh.property(normal, out) = at(x);
-                        mesh.property(normal, next) = at(y);
-                        mesh.property(normal, in) = s.mid;
-                    }
-            }
+            split_edge(scene, mesh.halfedge_handle(e, 0), 0.5);
             ++splits;
         }
     }

@@ -15,6 +15,13 @@ namespace raybundle::scenes {
 // Returns the number of splits.
 std::size_t subdivide(Scene& scene, double max_edge);
 
+// Splits the edge of halfedge h at from + t (to - from), 0 < t < 1, and the faces on
+// both sides of it (conforming), carrying the corner normals as subdivide() does (the
+// new vertex's: the normalised blend at t) and the contact mark of the edge to both of
+// its halves. Returns the new vertex. The flat arrays
+// are stale until scene.finalize().
+TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double t);
+
 // Refinement to max_edge leaves triangles of at least about max_edge^2 / 4 area:
 // throws SceneError (naming `shown`) when that would make more than 20 million patches,
 // more than any run can hold, or when max_edge is not a positive number.

@@ -1,0 +1,49 @@
+#pragma once
+// Surfaces that touch inside one another's patches, cut apart.
+//
+// A patch carries one radiance. Where another surface touches it inside (a partition
+// standing on a floor that runs on under it into the next room, a block on a full
+// floor, a light panel a hair under a full ceiling), one patch lies on both sides of
+// the contact: it gathers light on the lit side and shows it on the dark one (light
+// leaks through the partition), or averages the hidden floor under a block into the
+// visible floor beside it (too dark). Modelling avoids this by cutting the floor at
+// every wall; people do not model that way. So before refinement every patch is cut
+// along its contact lines:
+//
+//   - transversal contacts: the segment where another triangle crosses or touches the
+//     patch's plane (within `contact` of it: vertices that near count as on it), clipped
+//     to the patch;
+//   - parallel contacts: another triangle that lies within `contact` of the patch's
+//     plane (a panel under a ceiling, a block's bottom on the floor, a decal, a rug):
+//     the edges where its planar region ends (no coplanar neighbour across them),
+//     projected onto the patch and clipped to it.
+//
+// A contact that crosses the patch's inside (not only its edges or corners) cuts it
+// along the whole line through it; the edges the line crosses are split with the
+// patches on their other side, so the mesh stays conforming, and refinement
+// (subdivide.h) only splits further. Neighbouring patches of one mesh (their contact
+// is a shared edge) and the twin faces of two-sided materials are not cut. The edges
+// that then lie on a contact segment (those of the cuts, and edges a contact already
+// ran along) become contact edges: the patches on either side get vertices of their
+// own there (Scene::contact_edge_handle), so that smooth shading and the linear basis
+// do not carry light across (the floor's lit side into the next room).
+//
+// contact = 1e-3 of the scene's bounding radius: surfaces nearer than that touch.
+#include "scenes/scene.h"
+
+#include <cstddef>
+
+namespace raybundle::scenes {
+
+struct ContactCuts {
+    std::size_t lines = 0;   // contact lines that cut a patch
+    std::size_t splits = 0;  // edges split along them
+    std::size_t edges = 0;   // mesh edges marked as contact edges (Scene::contact_edge_handle)
+};
+
+// Cuts the scene's patches along their contact lines and marks the contact edges;
+// calls scene.finalize() when it changed anything. The scene must be finalized
+// before (bounds).
+ContactCuts cut_at_contacts(Scene& scene);
+
+}  // namespace raybundle::scenes

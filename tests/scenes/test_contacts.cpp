@@ -1,0 +1,169 @@
+// Surfaces that touch inside one another's patches are cut apart (scenes/contacts.h):
+// no patch lies on both sides of a contact, and nothing else is cut.
+#include "scenes/builtin.h"
+#include "scenes/contacts.h"
+#include "scenes/loader.h"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <functional>
+#include <string>
+
+using namespace raybundle;
+using scenes::Vec3;
+
+namespace {
+
+// Patches of `object` whose inside the contact segment a-b runs through: a point of
+// it (of 199 along it, ends excluded) strictly inside the patch (every barycentric
+// coordinate above 1e-6), on its plane.
+int crossed(const scenes::Scene& scene, const std::string& object, const Vec3& a, const Vec3& b) {
+    int count = 0;
+    const auto& pos = scene.vertex_positions();
+    for (const auto& p : scene.patch_list()) {
+        if (scene.object_names[p.object] != object) continue;
+        const Vec3 &p0 = pos[p.v[0]], &p1 = pos[p.v[1]], &p2 = pos[p.v[2]];
+        const Vec3 n = (p1 - p0).cross(p2 - p0);
+        bool inside = false;
+        for (int k = 1; k < 200 && !inside; ++k) {
+            const Vec3 x = a + (b - a) * (k / 200.0);
+            if (std::abs(p.normal.dot(x - p0)) > 1e-6) continue;
+            const double w0 = n.dot((p2 - p1).cross(x - p1)) / n.squaredNorm();
+            const double w1 = n.dot((p0 - p2).cross(x - p2)) / n.squaredNorm();
+            inside = w0 > 1e-6 && w1 > 1e-6 && 1.0 - w0 - w1 > 1e-6;
+        }
+        count += inside;
+    }
+    return count;
+}
+
+double area_of(const scenes::Scene& scene, const std::string& object) {
+    double a = 0.0;
+    for (const auto& p : scene.patch_list())
+        if (scene.object_names[p.object] == object) a += p.area;
+    return a;
+}
+
+const char* kRooms = R"({
+  "camera": {"eye": [1, 1.5, 1], "target": [6, 1, 2]},
+  "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}, "p": {"albedo": [0.5, 0.5, 0.5], "two_sided": true},
+                "lamp": {"albedo": [0, 0, 0], "emission": [5, 5, 5]}},
+  "objects": [
+    {"quad": [[0, 0, 0], [0, 0, 4], [8, 0, 4], [8, 0, 0]], "material": "w", "name": "floor"},
+    {"quad": [[0, 3, 0], [8, 3, 0], [8, 3, 4], [0, 3, 4]], "material": "w", "name": "ceiling"},
+    {"quad": [[0, 0, 0], [8, 0, 0], [8, 3, 0], [0, 3, 0]], "material": "w", "name": "wall"},
+    {"quad": [[4, 0, 0], [4, 0, 1.5], [4, 3, 1.5], [4, 3, 0]], "material": "p", "name": "partition"},
+    {"quad": [[5.5, 2.999, 1.5], [6.5, 2.999, 1.5], [6.5, 2.999, 2.5], [5.5, 2.999, 2.5]], "material": "lamp", "name": "lamp"}
+  ]%s
+})";
+
+scenes::Scene rooms(const std::string& extra = "") {
+    char text[2048];
+    std::snprintf(text, sizeof text, kRooms, extra.c_str());
+    return scenes::parse_scene(text, "rooms.json", ".");
+}
+
+}  // namespace
+
+TEST_CASE("contacts: a partition on a floor, against a wall and a ceiling cuts them along its edges",
+          "[scenes][contacts]") {
+    for (const std::string extra : {"", ", \"patch_size\": 0.7"}) {
+        const auto scene = rooms(extra);
+        INFO("patch size: " << (extra.empty() ? "none" : extra));
+        CHECK(scene.contact_lines > 0);
+        // The partition's edges on the floor, the ceiling and the wall run along patch
+        // edges, through no patch.
+        CHECK(crossed(scene, "floor", {4, 0, 0}, {4, 0, 1.5}) == 0);
+        CHECK(crossed(scene, "ceiling", {4, 3, 0}, {4, 3, 1.5}) == 0);
+        CHECK(crossed(scene, "wall", {4, 0, 0}, {4, 3, 0}) == 0);
+        // The lamp's outline on the ceiling (0.001 under it: a contact).
+        const Vec3 lamp[4] = {{5.5, 3, 1.5}, {6.5, 3, 1.5}, {6.5, 3, 2.5}, {5.5, 3, 2.5}};
+        for (int k = 0; k < 4; ++k) CHECK(crossed(scene, "ceiling", lamp[k], lamp[(k + 1) % 4]) == 0);
+        // Cuts keep every surface whole: same areas, the partition and the lamp not cut.
+        CHECK(area_of(scene, "floor") == Approx(32.0));
+        CHECK(area_of(scene, "ceiling") == Approx(32.0));
+        CHECK(area_of(scene, "wall") == Approx(24.0));
+        if (extra.empty()) {
+            CHECK(area_of(scene, "partition") == Approx(2 * 4.5));  // both sides
+            int partition = 0, lamp = 0;
+            for (const auto& p : scene.patch_list()) {
+                partition += scene.object_names[p.object] == "partition";
+                lamp += scene.object_names[p.object] == "lamp";
+            }
+            CHECK(partition == 4);  // two triangles, and their twins
+            CHECK(lamp == 2);
+        }
+    }
+    // Without the cut, a floor patch runs on under the partition.
+    const auto kept = rooms(", \"cut_contacts\": false");
+    CHECK(kept.contact_lines == 0);
+    CHECK(crossed(kept, "floor", {4, 0, 0}, {4, 0, 1.5}) > 0);
+}
+
+TEST_CASE("contacts: the Cornell box as modelled is cut around its blocks and its light", "[scenes][contacts]") {
+    const auto box = scenes::make_builtin("cornell-box");
+    CHECK(box.contact_lines > 0);
+    // The light panel's outline on the ceiling.
+    const auto& pos = box.vertex_positions();
+    double x0 = 1e300, x1 = -1e300, z0 = 1e300, z1 = -1e300;
+    for (const auto& p : box.patch_list())
+        if (box.object_names[p.object] == "light")
+            for (int v : p.v) {
+                x0 = std::min(x0, pos[v].x()), x1 = std::max(x1, pos[v].x());
+                z0 = std::min(z0, pos[v].z()), z1 = std::max(z1, pos[v].z());
+            }
+    const double y = 548.8;  // the ceiling's height
+    const Vec3 outline[4] = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
+    for (int k = 0; k < 4; ++k) CHECK(crossed(box, "ceiling", outline[k], outline[(k + 1) % 4]) == 0);
+    // The walls meet at the box's edges only: they are not cut.
+    const auto cut_box = scenes::make_builtin("homogeneous-box");
+    CHECK(cut_box.contact_lines == 0);
+}
+
+TEST_CASE("contacts: a block through a floor, a decal on a wall", "[scenes][contacts]") {
+    scenes::Scene s;
+    scenes::Material m;
+    m.name = "w";
+    m.albedo = scenes::Rgb::Constant(0.5);
+    const int w = s.add_material(m);
+    s.add_object({{0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "floor");
+    // A vertical square crossing the floor (from y = -1 to 1) along z = 3, x 2..8.
+    s.add_object({{2, -1, 3}, {8, -1, 3}, {8, 1, 3}, {2, 1, 3}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "fin");
+    // A decal 1e-6 above the floor, x 6..7, z 6..7.
+    s.add_object({{6, 1e-6, 6}, {6, 1e-6, 7}, {7, 1e-6, 7}, {7, 1e-6, 6}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "decal");
+    s.finalize();
+    const auto cuts = scenes::cut_at_contacts(s);
+    CHECK(cuts.lines > 0);
+    CHECK(crossed(s, "floor", {2, 0, 3}, {8, 0, 3}) == 0);
+    CHECK(crossed(s, "fin", {2, 0, 3}, {8, 0, 3}) == 0);  // the fin is cut by the floor too
+    const Vec3 decal[4] = {{6, 0, 6}, {6, 0, 7}, {7, 0, 7}, {7, 0, 6}};
+    for (int k = 0; k < 4; ++k) CHECK(crossed(s, "floor", decal[k], decal[(k + 1) % 4]) == 0);
+    CHECK(area_of(s, "floor") == Approx(100.0));
+    CHECK(area_of(s, "fin") == Approx(12.0));
+    // A second pass finds nothing left to cut.
+    CHECK(scenes::cut_at_contacts(s).lines == 0);
+}
+
+TEST_CASE("contacts: patches on either side of a contact share no vertex", "[scenes][contacts]") {
+    const auto scene = rooms(", \"patch_size\": 0.5");
+    // The floor's corners at the partition's foot (x = 4, 0 < z < 1.5): every flat
+    // vertex there belongs to patches on one side only.
+    const auto corners = scenes::vertex_corners(scene);
+    const auto& pos = scene.vertex_positions();
+    int on_contact = 0;
+    for (std::size_t v = 0; v < pos.size(); ++v) {
+        if (std::abs(pos[v].x() - 4.0) > 1e-9 || std::abs(pos[v].y()) > 1e-9 || pos[v].z() <= 1e-9 ||
+            pos[v].z() >= 1.5 - 1e-9)
+            continue;
+        bool left = false, right = false;
+        for (std::size_t c = corners.start[v]; c < corners.start[v + 1]; ++c) {
+            const auto& p = scene.patch_list()[corners.corners[c] / 3];
+            if (scene.object_names[p.object] != "floor") continue;
+            (p.centroid.x() < 4.0 ? left : right) = true;
+        }
+        ++on_contact;
+        CHECK_FALSE((left && right));
+    }
+    CHECK(on_contact >= 6);  // both sides' copies of the three vertices along it, at least
+}
