@@ -120,8 +120,13 @@ solver::SolverReport combined(const solver::SolverReport& a, const solver::Solve
 json rounds_record(const render::Rounds& r, const render::RoundOptions& o) {
     json rounds = json::array();
     for (const auto& k : r.rounds)
-        rounds.push_back({{"scale", k.scale}, {"seconds", k.seconds}, {"estimated_error", k.estimate}});
+        rounds.push_back(
+            {{"scale", k.scale}, {"steps", k.steps}, {"seconds", k.seconds}, {"estimated_error", k.estimate}});
     json out = {{"image_estimated_error", r.estimate}, {"scale", r.scale}, {"stopped", r.stopped}, {"rounds", rounds}};
+    if (r.field_share >= 0.0) {
+        out["field_share"] = r.field_share;
+        out["steps_share"] = r.steps_share;
+    }
     if (o.target_error > 0.0) out["target_error"] = o.target_error;
     if (o.time_budget > 0.0) out["time_budget"] = o.time_budget;
     return out;

@@ -57,11 +57,32 @@ sampling::RunOptions half_run(const sampling::RunOptions& run, int h) {
     return r;
 }
 
-// The rounds (see the header): `advance(scale, run)` moves the solver on, `render(h,
-// scale, pass, run)` makes half h's pass, `after(round, image, estimate)` sees each
-// round's result. The runs passed on report progress with the round and the estimate.
-template <class Advance, class Render, class After>
-Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advance advance, Render render, After after) {
+// The share of the steps: in the first two rounds of a run with a target or a time
+// budget, a probe renders half A's pass again, the same samples, from chain B's
+// field; the two differ by the field's noise alone (its part of the round's
+// estimate, e_f), the rest (e_r) is the camera, light and gather samples'. A pass of
+// steps scale s and scale r has the squared error F / s + G / r, F = e_f^2 s and
+// G = e_r^2 r from the probed round, and the passes' weighted mean (weights r_k)
+//
+//   F sum_k r_k^2 / s_k / (sum_k r_k)^2 + G / sum_k r_k.
+//
+// With t_s and t_g the seconds per unit of steps and of scale, the error of a given
+// time is least with steps / scale = sqrt(F t_g / (G t_s)) (clamped to 1/8 .. 8):
+// later rounds take that share. The model, scaled to the last estimate, sizes the
+// rounds for a target.
+struct Shape {
+    double steps = 1.0;   // steps per unit of scale, relative to the options'
+    double field = -1.0;  // e_field / e_total after the first round (negative: not probed)
+};
+
+// The rounds (see the header): `advance(steps_scale, run)` moves the solver on,
+// `render(h, scale, pass, run)` makes half h's pass, `probe(scale, pass, run)` half
+// A's pass from chain B's field (or nothing), `after(round, image, estimate)` sees
+// each round's result. The runs passed on report progress with the round and the
+// estimate.
+template <class Advance, class Render, class Probe, class After>
+Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advance advance, Render render, Probe probe,
+                  After after) {
     check(o);
     Rounds out;
     Image sum[2];  // per half: sum over rounds of scale * pass
@@ -75,30 +96,51 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             q.estimate = estimate;
             run.progress(q);
         };
+    const bool target = o.target_error > 0.0, timed = o.time_budget > 0.0;
+    Shape shape;
+    double F = 0.0, G = 0.0, field_sum = 0.0;  // field_sum: sum_k r_k^2 / s_k
+    double steps_total = 0.0;
     const auto start = Clock::now();
     for (double scale = first_scale(o);;) {
         ++round;
+        const double steps = scale * shape.steps;
         const auto t0 = Clock::now();
-        advance(scale, inner);
+        advance(steps, inner);
         const auto t1 = Clock::now();
+        Image pass_image[2];
         for (int h = 0; h < 2; ++h) {
             const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
-            add_scaled(sum[h], render(h, scale, pass, half_run(inner, h)), scale);
+            pass_image[h] = render(h, scale, pass, half_run(inner, h));
+            add_scaled(sum[h], pass_image[h], scale);
+        }
+        bool probed = false;
+        if (round <= 2 && (target || timed)) {
+            const Image p = probe(scale, static_cast<std::uint64_t>(2 * (round - 1)), half_run(inner, 0));
+            if (!p.rgb.empty()) {
+                const double total = estimated_relative_l1(pass_image[0], pass_image[1]);
+                const double e_f = estimated_relative_l1(p, pass_image[0]);
+                const double e_r2 = std::max(total * total - e_f * e_f, 0.01 * total * total);
+                F = e_f * e_f * steps;
+                G = e_r2 * scale;
+                shape.field = total > 0.0 ? e_f / total : 0.0;
+                probed = true;
+            }
         }
         out.seconds_solve += std::chrono::duration<double>(t1 - t0).count();
         out.seconds_render += since(t1);
         out.scale += scale;
+        steps_total += steps;
+        field_sum += scale * scale / steps;
         const Image a = scaled(sum[0], 1.0 / out.scale), b = scaled(sum[1], 1.0 / out.scale);
         estimate = estimated_relative_l1(a, b);
         Image mean = a;
         for (std::size_t k = 0; k < mean.rgb.size(); ++k) mean.rgb[k] = 0.5f * (a.rgb[k] + b.rgb[k]);
         const double spent = since(start);
-        out.rounds.push_back({scale, spent, estimate});
+        out.rounds.push_back({scale, steps, spent, estimate});
         out.estimate = estimate;
         after(round, mean, estimate, spent);
 
         // The next round, or why there is none.
-        const bool target = o.target_error > 0.0, timed = o.time_budget > 0.0;
         if (!target && !timed) {
             out.stopped = "one round: the budget as given";
             break;
@@ -115,13 +157,38 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             out.stopped = "the most rounds a run has streams for";
             break;
         }
+        const double t_s = out.seconds_solve / steps_total, t_g = out.seconds_render / out.scale;
+        if (probed && G > 0.0 && t_s > 0.0 && t_g > 0.0)
+            shape.steps = std::clamp(std::sqrt(F * t_g / (G * t_s)), 0.125, 8.0);
+        // The squared error after a further round of scale x, by the model, calibrated
+        // to the estimate now.
+        auto model = [&](double x) {
+            return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
+        };
+        const double calibrate = shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
         double next = 8.0 * out.scale;
         if (target) {
-            const double ratio = estimate / o.target_error;
-            next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
+            const double want = std::pow(o.target_error / 1.05, 2);
+            if (calibrate > 0.0) {
+                double lo = out.scale / 8.0, hi = next;  // bisection on the model
+                if (calibrate * model(lo) <= want)
+                    next = lo;
+                else if (calibrate * model(hi) > want)
+                    next = hi;
+                else {
+                    for (int i = 0; i < 40; ++i) {
+                        const double mid = 0.5 * (lo + hi);
+                        (calibrate * model(mid) <= want ? hi : lo) = mid;
+                    }
+                    next = hi;
+                }
+            } else {
+                const double ratio = estimate / o.target_error;
+                next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
+            }
         }
         if (timed) {
-            const double fits = (o.time_budget - spent) / (spent / out.scale);
+            const double fits = (o.time_budget - spent) / (t_s * shape.steps + t_g);
             if (fits < out.scale / 8.0) {
                 out.stopped = target ? "the time budget, before the target" : "the time budget";
                 break;
@@ -130,6 +197,8 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         }
         scale = next;
     }
+    out.steps_share = shape.steps;
+    out.field_share = shape.field;
     return out;
 }
 
@@ -218,8 +287,10 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     if (!o.gather) gbuffer = make_gbuffer(scene, caster, camera, run.threads);
     const auto start = Clock::now();
 
-    auto advance = [&](double scale, const sampling::RunOptions& r) {
-        const long per_chain = half_of(o.steps, scale);
+    solver::RadianceField segment[2];  // each chain's field of the round's steps
+    GatherOptions last;                // half A's gather options of the last pass
+    auto advance = [&](double steps_scale, const sampling::RunOptions& r) {
+        const long per_chain = half_of(o.steps, steps_scale);
         const long chunk = o.record_every > 0 ? std::max(1L, o.record_every / 2) : per_chain;
         for (long done = 0; done < per_chain;) {
             const long count = std::min(chunk, per_chain - done);
@@ -247,21 +318,29 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             observe(s);
         }
     };
-    auto render = [&](int h, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
-        FieldChain& chain = *chains[h];
-        solver::RadianceField now = chain.field();
-        const long n = chain.averaged();
-        const solver::RadianceField segment = between(seen[h].field, seen[h].n, now, n);
-        seen[h] = {std::move(now), n};
-        if (!o.gather) return shade(scene, segment, *gbuffer, o.shading);
+    auto pass_options = [&](double scale, std::uint64_t pass) {
         GatherOptions g = o.gather_options;
         g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
         g.spp = static_cast<int>(half_of(g.spp, scale));
         if (g.emission_samples > 0) g.emission_samples = static_cast<int>(half_of(g.emission_samples, scale));
         g.pass = pass;
-        GatherResult result = final_gather(scene, caster, segment, camera, g, r);
+        return g;
+    };
+    auto render = [&](int h, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+        FieldChain& chain = *chains[h];
+        solver::RadianceField now = chain.field();
+        const long n = chain.averaged();
+        segment[h] = between(seen[h].field, seen[h].n, now, n);
+        seen[h] = {std::move(now), n};
+        if (!o.gather) return shade(scene, segment[h], *gbuffer, o.shading);
+        GatherResult result = final_gather(scene, caster, segment[h], camera, pass_options(scale, pass), r);
         add_gather(gathered, result, scale);
         return std::move(result.image);
+    };
+    // Half A's pass again, its samples, chain B's field (see Shape).
+    auto probe = [&](double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+        if (!o.gather) return shade(scene, segment[1], *gbuffer, o.shading);
+        return final_gather(scene, caster, segment[1], camera, pass_options(scale, pass), r).image;
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.image = image;
@@ -277,7 +356,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         s.round = round;
         observe(s);
     };
-    out.rounds = run_rounds(rounds, run, advance, render, after);
+    out.rounds = run_rounds(rounds, run, advance, render, probe, after);
     if (o.gather) {
         // Both halves of every pass were added with their round's scale.
         const double w = 1.0 / (2.0 * out.rounds.scale);
@@ -316,7 +395,8 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
         s.round = round;
         observe(s);
     };
-    out.rounds = run_rounds(rounds, run, advance, render, after);
+    auto probe = [](double, std::uint64_t, const sampling::RunOptions&) { return Image(); };  // no field
+    out.rounds = run_rounds(rounds, run, advance, render, probe, after);
     return out;
 }
 

@@ -20,23 +20,31 @@
 // (docs/final-image.md measures them against references). The edge-avoiding A-Trous
 // filter weighs by colour, is not linear, and makes the estimate approximate.
 //
-// Rounds. Round k has a scale r_k: its share of the budget (the steps, camera samples,
-// emission samples and gather rays of the options), halved between the halves (each
-// at least one).
-// It advances both chains by their steps, then renders one pass of each half. A pass
-// reads the field of its chain's steps since the chain's previous pass (the mean
-// between the two moments, from Solver::averaged), and the passes are averaged with
-// weights r_k, so the field part of the image is the gather of each chain's mean over
-// all its steps: no step counts less for having come early. Pass p = 2k + h draws from
+// Rounds. Round k has a scale r_k: its share of the budget (the camera samples,
+// emission samples and gather rays of the options, and as many steps times the
+// shape's share, below), halved between the halves (each at least one). It advances
+// both chains by their steps, then renders one pass of each half. A pass reads the
+// field of its chain's steps since the chain's previous pass (the mean between the
+// two moments, from Solver::averaged), and the passes are averaged with weights r_k,
+// so that with steps in proportion to r_k the field part of the image is the gather
+// of each chain's mean over all its steps: no step counts less for having come early
+// (the first round's steps, whose share differs, weigh a little off: unbiased all the
+// same). Pass p = 2k + h draws from
 // its own streams. The rounds:
 //   - no target and no time budget: one round of scale 1, the budget as given;
-//   - target_error E: a first round of scale 1/4, then each round sized by the
-//     estimate, which falls like 1/sqrt(scale): the scale that reaches E with 10 % to
-//     spare, at most 8 times the scale so far; until the estimate is at most E;
+//   - target_error E: a first round of scale 1/4, then each round sized by an error
+//     model (below) calibrated to the estimate: the scale that reaches E with 5 % to
+//     spare, from an eighth to 8 times the scale so far; until the estimate is at
+//     most E;
 //   - time_budget S: rounds sized by the seconds per unit of scale so far to fill S,
 //     until a round worth at least an eighth of the scale so far no longer fits; the
 //     first round always runs;
 //   - both: whichever stops first.
+// With a target or a time budget the first round also measures how much of the
+// estimate is the field's noise (a probe: half A's samples again, on chain B's field)
+// and sets the share of the steps for the rounds after it: the solve gets more where
+// the field's noise dominates (light through a door), less where the samples' does
+// (render/progressive.cpp, Shape).
 #include "render/camera.h"
 #include "render/final_gather.h"
 #include "render/image.h"
@@ -71,7 +79,8 @@ struct RoundOptions {
 
 // One round's record.
 struct Round {
-    double scale = 0.0;     // its share of the budget
+    double scale = 0.0;     // its share of the budget (camera samples, gather rays)
+    double steps = 0.0;     // its share of the options' steps
     double seconds = 0.0;   // since the rounds began, at its end
     double estimate = -1.0; // the image's estimated relative L1 error after it
 };
@@ -82,6 +91,8 @@ struct Rounds {
     double estimate = -1.0;     // the final image's estimated relative L1 error
     std::string stopped;        // why the rounds stopped
     double seconds_solve = 0.0, seconds_render = 0.0;  // wall time of the chains' steps, and of the passes
+    double steps_share = 1.0;   // steps per unit of scale after the first round, relative to the options'
+    double field_share = -1.0;  // the field's part of the first round's estimate (negative: not probed)
 };
 
 // What the caller sees as the run goes: after every `record_every` steps of the solve

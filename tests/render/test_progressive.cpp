@@ -215,3 +215,34 @@ TEST_CASE("rounds: bad options are refused by name", "[render][progressive]") {
     ro.time_budget = std::nan("");
     CHECK_THROWS_WITH(homogeneous(so, io, ro, 1), Catch::Contains("must be a finite number >= 0"));
 }
+
+TEST_CASE("rounds: the steps' share follows where the noise is", "[render][progressive]") {
+    // The probe of the first rounds splits the estimate into the field's part and the
+    // samples': few steps and many samples give the solve more of the later rounds;
+    // many steps and few samples give it less.
+    solver::SolverOptions so;
+    render::RoundOptions ro;
+    ro.target_error = 0.002;
+    ro.time_budget = 3.0;
+    render::FieldImageOptions io;
+    io.steps = 20;
+    io.gather_options.gather_rays = 64;
+    io.gather_options.spp = 16;
+    auto m = homogeneous(so, io, ro, 7);
+    INFO("few steps: field share " << m.image.rounds.field_share << ", steps share " << m.image.rounds.steps_share);
+    CHECK(m.image.rounds.field_share > 0.7);
+    CHECK(m.image.rounds.steps_share > 1.5);
+    io.steps = 4000;
+    io.gather_options.gather_rays = 1;
+    io.gather_options.spp = 2;
+    io.gather_options.direct_samples = 1;
+    io.gather_options.filter.filter = render::Filter::none;
+    m = homogeneous(so, io, ro, 7);
+    INFO("many steps: field share " << m.image.rounds.field_share << ", steps share " << m.image.rounds.steps_share);
+    CHECK(m.image.rounds.field_share < 0.5);
+    CHECK(m.image.rounds.steps_share < 0.7);
+    // A run without a target or a time budget does not probe.
+    m = homogeneous(so, io, {}, 7);
+    CHECK(m.image.rounds.field_share < 0.0);
+    CHECK(m.image.rounds.steps_share == 1.0);
+}
