@@ -84,6 +84,8 @@ void make_parent(const std::string& path) {
 // reports its progress to whichever callback the current advance() was given.
 class SolverChain final : public render::FieldChain {
 public:
+    SolverChain(const SolverChain&) = delete;  // the solver's callback holds `this`
+    SolverChain& operator=(const SolverChain&) = delete;
     SolverChain(const solver::Transport& transport, solver::SolverOptions options, sampling::RunOptions run,
                 std::uint64_t chain) {
         run.chain = chain;

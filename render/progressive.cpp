@@ -8,6 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <tuple>
 
 namespace raybundle::render {
 
@@ -30,10 +33,15 @@ Image scaled(const Image& a, double s) {
     return out;
 }
 
-// A round of scale r gives each half r * total / 2 units, rounded, at least one.
-long half_of(long total, double scale) {
-    return std::max(1L, static_cast<long>(std::llround(scale * static_cast<double>(total) / 2.0)));
+// A round of scale r gives each half r * total / 2 units, rounded, at least `least`,
+// at most 2^30.
+long half_of(long total, double scale, long least = 1) {
+    const double half = std::min(scale * static_cast<double>(total) / 2.0, 1073741824.0);
+    return std::max(least, static_cast<long>(std::llround(half)));
 }
+
+// A target alone stops at this many times the options' budget.
+constexpr double kMostScale = 1024.0;
 
 double first_scale(const RoundOptions& o) { return o.target_error > 0.0 || o.time_budget > 0.0 ? 0.25 : 1.0; }
 
@@ -62,17 +70,23 @@ sampling::RunOptions half_run(const sampling::RunOptions& run, int h) {
 // field; the two differ by the field's noise alone (its part of the round's
 // estimate, e_f), the rest (e_r) is the camera, light and gather samples'. A pass of
 // steps scale s and scale r has the squared error F / s + G / r, F = e_f^2 s and
-// G = e_r^2 r from the probed round, and the passes' weighted mean (weights r_k)
+// G = e_r^2 r from the latest probed round, and the passes' weighted mean (weights
+// r_k)
 //
 //   F sum_k r_k^2 / s_k / (sum_k r_k)^2 + G / sum_k r_k.
 //
 // With t_s and t_g the seconds per unit of steps and of scale, the error of a given
 // time is least with steps / scale = sqrt(F t_g / (G t_s)) (clamped to 1/8 .. 8):
-// later rounds take that share. The model, scaled to the last estimate, sizes the
-// rounds for a target.
+// later rounds take that share. That needs the seconds, which vary from run to run; a
+// run with a target and no time budget takes t_g = t_s instead (the options' budget
+// splits its time about evenly between the two on the example scenes), so that its
+// rounds, and its image, depend on the seed alone. The model, scaled to the last
+// estimate, sizes the rounds for a target (the smallest round that reaches it, found
+// on a geometric grid: the model need not fall monotonically when the share changes).
+// The probe is timed apart. The patch image has no probe: its noise is the field's.
 struct Shape {
     double steps = 1.0;   // steps per unit of scale, relative to the options'
-    double field = -1.0;  // e_field / e_total after the first round (negative: not probed)
+    double field = -1.0;  // e_f / e_total of the latest probed round (negative: not probed)
 };
 
 // The rounds (see the header): `advance(steps_scale, run)` moves the solver on,
@@ -114,8 +128,11 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             add_scaled(sum[h], pass_image[h], scale);
         }
         bool probed = false;
+        const auto t2 = Clock::now();
         if (round <= 2 && (target || timed)) {
-            const Image p = probe(scale, static_cast<std::uint64_t>(2 * (round - 1)), half_run(inner, 0));
+            sampling::RunOptions quiet = inner;
+            quiet.progress = nullptr;
+            const Image p = probe(scale, static_cast<std::uint64_t>(2 * (round - 1)), quiet);
             if (!p.rgb.empty()) {
                 const double total = estimated_relative_l1(pass_image[0], pass_image[1]);
                 const double e_f = estimated_relative_l1(p, pass_image[0]);
@@ -127,7 +144,8 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             }
         }
         out.seconds_solve += std::chrono::duration<double>(t1 - t0).count();
-        out.seconds_render += since(t1);
+        out.seconds_render += std::chrono::duration<double>(t2 - t1).count();
+        out.seconds_probe += since(t2);
         out.scale += scale;
         steps_total += steps;
         field_sum += scale * scale / steps;
@@ -159,7 +177,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         }
         const double t_s = out.seconds_solve / steps_total, t_g = out.seconds_render / out.scale;
         if (probed && G > 0.0 && t_s > 0.0 && t_g > 0.0)
-            shape.steps = std::clamp(std::sqrt(F * t_g / (G * t_s)), 0.125, 8.0);
+            shape.steps = std::clamp(std::sqrt(F / G * (timed ? t_g / t_s : 1.0)), 0.125, 8.0);
         // The squared error after a further round of scale x, by the model, calibrated
         // to the estimate now.
         auto model = [&](double x) {
@@ -170,22 +188,24 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         if (target) {
             const double want = std::pow(o.target_error / 1.05, 2);
             if (calibrate > 0.0) {
-                double lo = out.scale / 8.0, hi = next;  // bisection on the model
-                if (calibrate * model(lo) <= want)
-                    next = lo;
-                else if (calibrate * model(hi) > want)
-                    next = hi;
-                else {
-                    for (int i = 0; i < 40; ++i) {
-                        const double mid = 0.5 * (lo + hi);
-                        (calibrate * model(mid) <= want ? hi : lo) = mid;
+                // The smallest of 64 round sizes from an eighth to 8 times the scale so far
+                // whose model reaches the target, else the largest.
+                for (int i = 0; i <= 64; ++i) {
+                    const double x = out.scale / 8.0 * std::pow(64.0, i / 64.0);
+                    if (calibrate * model(x) <= want || i == 64) {
+                        next = x;
+                        break;
                     }
-                    next = hi;
                 }
             } else {
                 const double ratio = estimate / o.target_error;
                 next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
             }
+            if (!timed && out.scale >= kMostScale) {
+                out.stopped = "the most a target may take (1024 times the options' budget), before the target";
+                break;
+            }
+            if (!timed) next = std::min(next, std::max(kMostScale - out.scale, out.scale / 8.0));
         }
         if (timed) {
             const double fits = (o.time_budget - spent) / (t_s * shape.steps + t_g);
@@ -288,7 +308,6 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     const auto start = Clock::now();
 
     solver::RadianceField segment[2];  // each chain's field of the round's steps
-    GatherOptions last;                // half A's gather options of the last pass
     auto advance = [&](double steps_scale, const sampling::RunOptions& r) {
         const long per_chain = half_of(o.steps, steps_scale);
         const long chunk = o.record_every > 0 ? std::max(1L, o.record_every / 2) : per_chain;
@@ -321,7 +340,8 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     auto pass_options = [&](double scale, std::uint64_t pass) {
         GatherOptions g = o.gather_options;
         g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
-        g.spp = static_cast<int>(half_of(g.spp, scale));
+        // A pixel of one sample is its centre (spp = 1): passes of a pixel's area keep two.
+        g.spp = static_cast<int>(half_of(g.spp, scale, g.spp > 1 ? 2 : 1));
         if (g.emission_samples > 0) g.emission_samples = static_cast<int>(half_of(g.emission_samples, scale));
         g.pass = pass;
         return g;
@@ -330,6 +350,9 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         FieldChain& chain = *chains[h];
         solver::RadianceField now = chain.field();
         const long n = chain.averaged();
+        if (n <= seen[h].n)
+            throw std::logic_error("field_image: chain " + std::to_string(h) + " averaged no new steps (" +
+                                   std::to_string(n) + "): give it SolverOptions::steps = chain_steps()");
         segment[h] = between(seen[h].field, seen[h].n, now, n);
         seen[h] = {std::move(now), n};
         if (!o.gather) return shade(scene, segment[h], *gbuffer, o.shading);
@@ -337,9 +360,9 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         add_gather(gathered, result, scale);
         return std::move(result.image);
     };
-    // Half A's pass again, its samples, chain B's field (see Shape).
+    // Half A's pass again, its samples, chain B's field (see Shape); none for the patch image.
     auto probe = [&](double scale, std::uint64_t pass, const sampling::RunOptions& r) {
-        if (!o.gather) return shade(scene, segment[1], *gbuffer, o.shading);
+        if (!o.gather) return Image();
         return final_gather(scene, caster, segment[1], camera, pass_options(scale, pass), r).image;
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {

@@ -28,23 +28,25 @@
 // two moments, from Solver::averaged), and the passes are averaged with weights r_k,
 // so that with steps in proportion to r_k the field part of the image is the gather
 // of each chain's mean over all its steps: no step counts less for having come early
-// (the first round's steps, whose share differs, weigh a little off: unbiased all the
-// same). Pass p = 2k + h draws from
+// (rounds before the share changes weigh their steps off, by up to 8 times: unbiased
+// all the same). A pass with camera samples over the pixel keeps two at least. Pass
+// p = 2k + h draws from
 // its own streams. The rounds:
 //   - no target and no time budget: one round of scale 1, the budget as given;
 //   - target_error E: a first round of scale 1/4, then each round sized by an error
 //     model (below) calibrated to the estimate: the scale that reaches E with 5 % to
 //     spare, from an eighth to 8 times the scale so far; until the estimate is at
-//     most E;
+//     most E, or 1024 times the options' budget is spent;
 //   - time_budget S: rounds sized by the seconds per unit of scale so far to fill S,
 //     until a round worth at least an eighth of the scale so far no longer fits; the
 //     first round always runs;
 //   - both: whichever stops first.
-// With a target or a time budget the first round also measures how much of the
+// With a target or a time budget the first two rounds also measure how much of the
 // estimate is the field's noise (a probe: half A's samples again, on chain B's field)
-// and sets the share of the steps for the rounds after it: the solve gets more where
+// and set the share of the steps for the rounds after them: the solve gets more where
 // the field's noise dominates (light through a door), less where the samples' does
-// (render/progressive.cpp, Shape).
+// (render/progressive.cpp, Shape). The same seed gives the same image, for any thread
+// count, except with a time budget: how far its rounds go depends on the machine.
 #include "render/camera.h"
 #include "render/final_gather.h"
 #include "render/image.h"
@@ -90,9 +92,10 @@ struct Rounds {
     double scale = 0.0;         // the budget used, in units of the options' budget
     double estimate = -1.0;     // the final image's estimated relative L1 error
     std::string stopped;        // why the rounds stopped
-    double seconds_solve = 0.0, seconds_render = 0.0;  // wall time of the chains' steps, and of the passes
-    double steps_share = 1.0;   // steps per unit of scale after the first round, relative to the options'
-    double field_share = -1.0;  // the field's part of the first round's estimate (negative: not probed)
+    // Wall time of the chains' steps, of the passes, and of the probes.
+    double seconds_solve = 0.0, seconds_render = 0.0, seconds_probe = 0.0;
+    double steps_share = 1.0;   // steps per unit of scale of the last rounds, relative to the options'
+    double field_share = -1.0;  // the field's part of the latest probed round's estimate (negative: not probed)
 };
 
 // What the caller sees as the run goes: after every `record_every` steps of the solve

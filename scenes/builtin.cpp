@@ -371,9 +371,9 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
     }
     s.finalize();
-    cut_at_contacts(s);
     check_refinement(s, size, name);
     subdivide(s, size);
+    cut_at_contacts(s);
     return s;
 }
 

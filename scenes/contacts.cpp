@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
-#include <unordered_set>
+#include <unordered_map>
 #include <vector>
 
 namespace raybundle::scenes {
@@ -18,14 +18,13 @@ struct Tri {
     std::array<Vec3, 3> p;
     Vec3 n;          // unit
     double offset;   // plane: n . x = offset
-    int object;
-    std::array<int, 3> vertex;
+    double size;     // longest edge
     std::array<bool, 3> region_edge;  // edge p[k] -> p[k+1] ends its planar region
 };
 
 // A contact in a patch's plane: the segment from `at` along `along` (unit) for
-// `length`; `cut`: it runs through the patch's inside (cut the patch along its whole
-// line), else along an edge the patch shares with a coplanar neighbour (mark it only).
+// `length`; `cut`: it runs through the patch's inside (cut the patch along it), else
+// along an edge the patch shares with a coplanar neighbour (mark it only).
 struct Line {
     Vec3 at, along;
     double length;
@@ -56,8 +55,8 @@ std::optional<Line> contact_in(const Tri& u, const Vec3& a, const Vec3& b, doubl
     }
     const double length = (hi - lo) * d.norm();
     if (!(length > tol)) return std::nullopt;
-    const Vec3 from = a + lo * d, mid = a + 0.5 * (lo + hi) * d;
-    Line line{from, d.normalized(), length, true};
+    const Vec3 mid = a + 0.5 * (lo + hi) * d;
+    Line line{a + lo * d, d.normalized(), length, true};
     for (int k = 0; k < 3; ++k)
         if (inward[k].dot(mid - u.p[k]) <= tol) {  // along edge k
             if (u.region_edge[k]) return std::nullopt;
@@ -66,7 +65,8 @@ std::optional<Line> contact_in(const Tri& u, const Vec3& a, const Vec3& b, doubl
     return line;
 }
 
-// The contact lines that triangle t makes in triangle u (see the header).
+// The contact lines that triangle t makes in triangle u (see the header), surfaces
+// nearer than `contact` touching.
 void contacts(const Tri& u, const Tri& t, double contact, double tol, std::vector<Line>& out) {
     std::array<double, 3> d;
     for (int k = 0; k < 3; ++k) d[k] = u.n.dot(t.p[k]) - u.offset;
@@ -98,39 +98,40 @@ void contacts(const Tri& u, const Tri& t, double contact, double tol, std::vecto
     add(points[a], points[b]);
 }
 
-// Candidate pairs: triangles whose boxes, grown by `contact`, share a cell of a grid.
-std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double contact) {
-    Eigen::AlignedBox3d all;
+// Candidate pairs: triangles whose boxes, grown by `grow`, share a cell of a hashed
+// grid whose cells are the median triangle's size (at least `grow`, at most 1/256 of
+// the scene, so that a large triangle spans a bounded number of them).
+std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
+                                                                     double radius) {
+    std::vector<double> sizes;
+    sizes.reserve(tris.size());
+    for (const auto& t : tris) sizes.push_back(t.size);
+    std::nth_element(sizes.begin(), sizes.begin() + static_cast<long>(sizes.size() / 2), sizes.end());
+    const double cell = std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 128.0);
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+    auto key = [](long x, long y, long z) {
+        return (static_cast<std::uint64_t>(x & 0x1fffff) << 42) | (static_cast<std::uint64_t>(y & 0x1fffff) << 21) |
+               static_cast<std::uint64_t>(z & 0x1fffff);
+    };
     std::vector<Eigen::AlignedBox3d> boxes(tris.size());
     for (std::size_t i = 0; i < tris.size(); ++i) {
         for (const auto& p : tris[i].p) boxes[i].extend(p);
-        boxes[i].min().array() -= contact;
-        boxes[i].max().array() += contact;
-        all.extend(boxes[i]);
+        boxes[i].min().array() -= grow;
+        boxes[i].max().array() += grow;
+        const Eigen::Array3d lo = (boxes[i].min().array() / cell).floor(), hi = (boxes[i].max().array() / cell).floor();
+        for (long x = static_cast<long>(lo.x()); x <= static_cast<long>(hi.x()); ++x)
+            for (long y = static_cast<long>(lo.y()); y <= static_cast<long>(hi.y()); ++y)
+                for (long z = static_cast<long>(lo.z()); z <= static_cast<long>(hi.z()); ++z)
+                    cells[key(x, y, z)].push_back(static_cast<std::uint32_t>(i));
     }
-    const int k = std::clamp(static_cast<int>(std::lround(2.0 * std::cbrt(static_cast<double>(tris.size())))), 1, 48);
-    const Vec3 cell = (all.sizes() / k).cwiseMax(1e-300);
-    auto index = [&](const Vec3& x, int axis) {
-        return std::clamp(static_cast<int>((x[axis] - all.min()[axis]) / cell[axis]), 0, k - 1);
-    };
-    std::vector<std::vector<std::uint32_t>> cells(static_cast<std::size_t>(k) * k * k);
-    for (std::size_t i = 0; i < tris.size(); ++i) {
-        const auto& b = boxes[i];
-        for (int x = index(b.min(), 0); x <= index(b.max(), 0); ++x)
-            for (int y = index(b.min(), 1); y <= index(b.max(), 1); ++y)
-                for (int z = index(b.min(), 2); z <= index(b.max(), 2); ++z)
-                    cells[(static_cast<std::size_t>(x) * k + y) * k + z].push_back(static_cast<std::uint32_t>(i));
-    }
-    std::unordered_set<std::uint64_t> seen;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    for (const auto& c : cells)
+    for (const auto& [k, c] : cells)
         for (std::size_t a = 0; a < c.size(); ++a)
-            for (std::size_t b = a + 1; b < c.size(); ++b) {
-                const std::uint32_t i = std::min(c[a], c[b]), j = std::max(c[a], c[b]);
-                if (!boxes[i].intersects(boxes[j])) continue;
-                if (seen.insert((static_cast<std::uint64_t>(i) << 32) | j).second) pairs.emplace_back(i, j);
-            }
-    std::sort(pairs.begin(), pairs.end());  // a fixed order, whatever the hash set's
+            for (std::size_t b = a + 1; b < c.size(); ++b)
+                if (boxes[c[a]].intersects(boxes[c[b]])) pairs.emplace_back(std::min(c[a], c[b]), std::max(c[a], c[b]));
+    // A fixed order whatever the hash map's, each pair once.
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
     return pairs;
 }
 
@@ -139,7 +140,7 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
 ContactCuts cut_at_contacts(Scene& scene) {
     TriMesh& mesh = scene.mesh;
     const double radius = scene.bounds_radius();
-    const double contact = 1e-3 * radius, tol = 1e-7 * radius;
+    const double tol = 1e-7 * radius;
 
     // The triangles, and which of their edges end a planar region.
     std::vector<Tri> tris;
@@ -150,13 +151,11 @@ ContactCuts cut_at_contacts(Scene& scene) {
         std::array<TriMesh::HalfedgeHandle, 3> hs;
         for (auto h : mesh.fh_range(f)) {
             hs[k] = h;
-            t.p[k] = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
-            t.vertex[k] = mesh.from_vertex_handle(h).idx();
-            ++k;
+            t.p[k++] = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
         }
         t.n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalized();
         t.offset = t.n.dot(t.p[0]);
-        t.object = mesh.property(scene.object_handle, f);
+        t.size = std::max({(t.p[1] - t.p[0]).norm(), (t.p[2] - t.p[1]).norm(), (t.p[0] - t.p[2]).norm()});
         for (int e = 0; e < 3; ++e) {
             const auto g = mesh.opposite_face_handle(hs[e]);
             bool coplanar = false;
@@ -164,82 +163,125 @@ ContactCuts cut_at_contacts(Scene& scene) {
                 auto it = mesh.cfv_iter(g);
                 const Vec3 a = to_eigen(mesh.point(*it++)), b = to_eigen(mesh.point(*it++)), c = to_eigen(mesh.point(*it));
                 const Vec3 n = (b - a).cross(c - a).normalized();
-                coplanar = n.dot(t.n) > 1.0 - 1e-9 && std::abs(n.dot(a) - t.offset) <= tol;
+                // Within 1.4e-4 rad and 1e-6 of the scene: float meshes' flat floors stay one region.
+                coplanar = n.dot(t.n) > 1.0 - 1e-8 && std::abs(n.dot(a) - t.offset) <= 10.0 * tol;
             }
             t.region_edge[e] = !coplanar;
         }
         tris.push_back(t);
     }
 
-    // The contact lines of every triangle.
+    // The contact lines of every triangle. Surfaces touch when nearer than 1e-3 of the
+    // scene's radius and 1e-2 of the smaller triangle's size: a table top 0.75 above a
+    // large ground plane does not, a light panel 1e-4 under a ceiling does.
     std::vector<std::vector<Line>> lines(tris.size());
-    for (const auto& [i, j] : candidate_pairs(tris, contact)) {
+    const double widest = 1e-3 * radius;
+    for (const auto& [i, j] : candidate_pairs(tris, widest, radius)) {
         const Tri &a = tris[i], &b = tris[j];
+        const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
         contacts(a, b, contact, tol, lines[i]);
         contacts(b, a, contact, tol, lines[j]);
     }
 
-    // Cut: each line through every face that came from its triangle.
+    // Cut each triangle along its lines, then split the cut edges where the contacts
+    // end and mark the edges on the contacts. A vertex nearer a line than 1e-3 of its
+    // face's size (or the tolerance) lies on it: no slivers thinner than that.
     ContactCuts cuts;
     OpenMesh::FPropHandleT<int> origin;
     mesh.add_property(origin, "contact origin");
-    std::vector<std::vector<TriMesh::FaceHandle>> by_origin(tris.size());
-    for (auto f : mesh.faces()) {
-        mesh.property(origin, f) = f.idx();
-        by_origin[static_cast<std::size_t>(f.idx())].push_back(f);
-    }
-    auto split = [&](TriMesh::HalfedgeHandle h, double t) {
-        const auto v = split_edge(scene, h, t);
-        for (auto f : mesh.vf_range(v)) by_origin[static_cast<std::size_t>(mesh.property(origin, f))].push_back(f);
-        ++cuts.splits;
+    for (auto f : mesh.faces()) mesh.property(origin, f) = f.idx();
+    std::vector<TriMesh::FaceHandle> faces, work;
+    auto faces_of = [&](std::size_t u, TriMesh::VertexHandle v) {  // the faces of origin u around v
+        for (auto f : mesh.vf_range(v))
+            if (mesh.property(origin, f) == static_cast<int>(u)) work.push_back(f);
     };
     for (std::size_t u = 0; u < tris.size(); ++u) {
+        if (lines[u].empty()) continue;
+        const double near = std::max(tol, 1e-3 * tris[u].size);
+        faces.assign(1, TriMesh::FaceHandle(static_cast<int>(u)));
         for (const Line& line : lines[u]) {
             if (!line.cut) continue;
             const Vec3 across = tris[u].n.cross(line.along);
             bool cut = false;
-            auto& faces = by_origin[u];
-            std::sort(faces.begin(), faces.end());
-            faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-            const std::vector<TriMesh::FaceHandle> current = faces;
-            for (const auto f : current) {
+            work = faces;
+            while (!work.empty()) {
+                const auto f = work.back();
+                work.pop_back();
                 std::array<TriMesh::HalfedgeHandle, 3> hs;
                 std::array<double, 3> s;
                 int k = 0, on = 0;
                 for (auto h : mesh.fh_range(f)) {
                     hs[k] = h;
                     s[k] = across.dot(to_eigen(mesh.point(mesh.from_vertex_handle(h))) - line.at);
-                    if (std::abs(s[k]) <= tol) ++on;
+                    if (std::abs(s[k]) <= near) ++on;
                     ++k;
                 }
                 // The halfedges from a vertex on one side to one strictly on the other.
                 std::vector<std::pair<TriMesh::HalfedgeHandle, double>> crossings;
                 for (int e = 0; e < 3; ++e) {
                     const double a = s[e], b = s[(e + 1) % 3];
-                    if (std::abs(a) > tol && std::abs(b) > tol && a * b < 0.0) crossings.emplace_back(hs[e], a / (a - b));
+                    if (std::abs(a) > near && std::abs(b) > near && a * b < 0.0) crossings.emplace_back(hs[e], a / (a - b));
                 }
                 if (on >= 2 || crossings.empty() || (on == 0 && crossings.size() != 2)) continue;
-                for (const auto& [h, t] : crossings) split(h, t);
+                for (const auto& [h, t] : crossings) {
+                    const auto v = split_edge(scene, h, t);
+                    ++cuts.splits;
+                    faces_of(u, v);  // its pieces: cut again if the line crosses them
+                }
                 cut = true;
             }
             if (cut) ++cuts.lines;
+            // The faces of origin u now: the connected pieces of the original triangle.
+            faces.clear();
+            std::vector<TriMesh::FaceHandle> stack(1, TriMesh::FaceHandle(static_cast<int>(u)));
+            std::vector<char> seen;
+            while (!stack.empty()) {
+                const auto f = stack.back();
+                stack.pop_back();
+                if (static_cast<std::size_t>(f.idx()) >= seen.size()) seen.resize(static_cast<std::size_t>(f.idx()) + 1, 0);
+                if (seen[f.idx()]) continue;
+                seen[f.idx()] = 1;
+                faces.push_back(f);
+                for (auto g : mesh.ff_range(f))
+                    if (mesh.property(origin, g) == static_cast<int>(u)) stack.push_back(g);
+            }
         }
-    }
-    // Mark the edges that lie on a contact segment.
-    for (std::size_t u = 0; u < tris.size(); ++u) {
-        if (lines[u].empty()) continue;
-        auto& faces = by_origin[u];
-        std::sort(faces.begin(), faces.end());
-        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+        // Where a contact ends inside an edge on its line, split the edge there; then
+        // mark the edges on the contact.
         for (const Line& line : lines[u]) {
             const Vec3 across = tris[u].n.cross(line.along);
+            auto on_line = [&](const Vec3& p) { return std::abs(across.dot(p - line.at)) <= near; };
+            for (const double end : {0.0, line.length}) {
+                for (const auto f : faces) {
+                    bool split = false;
+                    for (auto h : mesh.fh_range(f)) {
+                        const Vec3 p = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
+                        const Vec3 q = to_eigen(mesh.point(mesh.to_vertex_handle(h)));
+                        if (!on_line(p) || !on_line(q)) continue;
+                        const double a = line.along.dot(p - line.at), b = line.along.dot(q - line.at);
+                        if (std::min(a, b) + near < end && end < std::max(a, b) - near) {
+                            split_edge(scene, h, (end - a) / (b - a));
+                            ++cuts.splits;
+                            split = true;
+                            break;
+                        }
+                    }
+                    if (split) break;  // one edge holds the point
+                }
+                // The faces again (a split made new ones).
+                work.clear();
+                for (const auto f : faces)
+                    for (auto v : mesh.fv_range(f)) faces_of(u, v);
+                std::sort(work.begin(), work.end());
+                work.erase(std::unique(work.begin(), work.end()), work.end());
+                faces = work;
+            }
             for (const auto f : faces)
                 for (auto h : mesh.fh_range(f)) {
                     const Vec3 p = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
                     const Vec3 q = to_eigen(mesh.point(mesh.to_vertex_handle(h)));
-                    const double along = line.along.dot(0.5 * (p + q) - line.at);
-                    if (std::abs(across.dot(p - line.at)) > tol || std::abs(across.dot(q - line.at)) > tol ||
-                        along < -tol || along > line.length + tol)
+                    const double a = line.along.dot(p - line.at), b = line.along.dot(q - line.at);
+                    if (!on_line(p) || !on_line(q) || std::min(a, b) < -near || std::max(a, b) > line.length + near)
                         continue;
                     const auto e = mesh.edge_handle(h);
                     if (mesh.property(scene.contact_edge_handle, e)) continue;

@@ -7,28 +7,32 @@
 // the contact: it gathers light on the lit side and shows it on the dark one (light
 // leaks through the partition), or averages the hidden floor under a block into the
 // visible floor beside it (too dark). Modelling avoids this by cutting the floor at
-// every wall; people do not model that way. So before refinement every patch is cut
+// every wall; people do not model that way. So after refinement every patch is cut
 // along its contact lines:
 //
 //   - transversal contacts: the segment where another triangle crosses or touches the
-//     patch's plane (within `contact` of it: vertices that near count as on it), clipped
-//     to the patch;
-//   - parallel contacts: another triangle that lies within `contact` of the patch's
-//     plane (a panel under a ceiling, a block's bottom on the floor, a decal, a rug):
-//     the edges where its planar region ends (no coplanar neighbour across them),
-//     projected onto the patch and clipped to it.
+//     patch's plane (vertices that near it count as on it), clipped to the patch;
+//   - parallel contacts: another triangle that lies that near the patch's plane (a
+//     panel under a ceiling, a block's bottom on the floor, a decal, a rug): the edges
+//     where its planar region ends (no coplanar neighbour across them), projected
+//     onto the patch and clipped to it.
+//
+// Near: within 1e-3 of the scene's bounding radius and 1e-2 of the smaller triangle's
+// size (a table top above a large ground plane does not touch it).
 //
 // A contact that crosses the patch's inside (not only its edges or corners) cuts it
-// along the whole line through it; the edges the line crosses are split with the
-// patches on their other side, so the mesh stays conforming, and refinement
-// (subdivide.h) only splits further. Neighbouring patches of one mesh (their contact
-// is a shared edge) and the twin faces of two-sided materials are not cut. The edges
-// that then lie on a contact segment (those of the cuts, and edges a contact already
-// ran along) become contact edges: the patches on either side get vertices of their
-// own there (Scene::contact_edge_handle), so that smooth shading and the linear basis
-// do not carry light across (the floor's lit side into the next room).
-//
-// contact = 1e-3 of the scene's bounding radius: surfaces nearer than that touch.
+// along the line through it; the edges the line crosses are split with the patches
+// on their other side, so the mesh stays conforming; an edge on the line is split
+// where the contact ends inside it. Vertices nearer a line than 1e-3 of the patch's
+// size count as on it, so no sliver is thinner than that. The edges on a contact
+// segment (those of the cuts, and edges a contact already ran along) become contact
+// edges: the patches on either side get vertices of their own there
+// (Scene::contact_edge_handle), so that smooth shading, the final gather's
+// interpolation and the linear basis do not carry light across. Neighbouring patches
+// of one mesh (their contact is a shared edge) and the twin faces of two-sided
+// materials are not cut: their contacts lie on patch edges. Cuts are local (only the
+// patches a contact crosses), so the patch count grows with the contacts' length over
+// the patch size.
 #include "scenes/scene.h"
 
 #include <cstddef>
@@ -43,7 +47,7 @@ struct ContactCuts {
 
 // Cuts the scene's patches along their contact lines and marks the contact edges;
 // calls scene.finalize() when it changed anything. The scene must be finalized
-// before (bounds).
+// before (bounds), and refined if it is to be (the loaders cut after subdivide()).
 ContactCuts cut_at_contacts(Scene& scene);
 
 }  // namespace raybundle::scenes

@@ -385,12 +385,12 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize();
-    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene);
     if (root.has("patch_size")) {
         const double ps = root.number("patch_size");
         check_refinement(scene, ps, shown);
         subdivide(scene, ps);
     }
+    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene);
     return scene;
 }
 

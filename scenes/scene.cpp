@@ -178,6 +178,21 @@ void Scene::finalize() {
             unite(h, mesh.prev_halfedge_handle(o));  // both end at h's head
             unite(mesh.prev_halfedge_handle(h), o);  // both end at h's tail
         }
+        // A vertex on no contact edge stays one vertex, as without contacts (also where
+        // its patches meet only at it).
+        for (auto v : mesh.vertices()) {
+            bool on_contact = false;
+            for (auto e : mesh.ve_range(v)) on_contact = on_contact || mesh.property(contact_edge_handle, e);
+            if (on_contact) continue;
+            TriMesh::HalfedgeHandle first;
+            for (auto h : mesh.vih_range(v)) {
+                if (!mesh.face_handle(h).is_valid()) continue;
+                if (first.is_valid())
+                    unite(h, first);
+                else
+                    first = h;
+            }
+        }
         std::vector<int> index(mesh.n_halfedges(), -1);
         for (auto f : mesh.faces())
             for (auto h : mesh.fh_range(f)) {

@@ -71,7 +71,7 @@ TEST_CASE("contacts: a partition on a floor, against a wall and a ceiling cuts t
     for (const std::string extra : {"", ", \"patch_size\": 0.7"}) {
         const auto scene = rooms(extra);
         INFO("patch size: " << (extra.empty() ? "none" : extra));
-        CHECK(scene.contact_lines > 0);
+        CHECK(scene.contact_edges > 0);  // refined, the floor may already have edges at x = 4: marked, not cut
         // The partition's edges on the floor, the ceiling and the wall run along patch
         // edges, through no patch.
         CHECK(crossed(scene, "floor", {4, 0, 0}, {4, 0, 1.5}) == 0);
@@ -166,4 +166,36 @@ TEST_CASE("contacts: patches on either side of a contact share no vertex", "[sce
         CHECK_FALSE((left && right));
     }
     CHECK(on_contact >= 6);  // both sides' copies of the three vertices along it, at least
+}
+
+TEST_CASE("contacts: the sides part only along the contact, not along the rest of the cut", "[scenes][contacts]") {
+    // A partition standing on the floor from z = 0 to 0.9 only: beyond it the floor is
+    // open, and its vertices on the line x = 4 stay shared by both sides.
+    std::string text = kRooms;
+    text.replace(text.find("[4, 0, 1.5], [4, 3, 1.5]"), std::string("[4, 0, 1.5], [4, 3, 1.5]").size(),
+                 "[4, 0, 0.9], [4, 3, 0.9]");
+    char buf[2048];
+    std::snprintf(buf, sizeof buf, text.c_str(), ", \"patch_size\": 0.25");
+    const auto scene = scenes::parse_scene(buf, "rooms.json", ".");
+    CHECK(crossed(scene, "floor", {4, 0, 0}, {4, 0, 0.9}) == 0);
+    const auto corners = scenes::vertex_corners(scene);
+    const auto& pos = scene.vertex_positions();
+    int parted = 0, shared = 0;
+    for (std::size_t v = 0; v < pos.size(); ++v) {
+        if (std::abs(pos[v].x() - 4.0) > 1e-9 || std::abs(pos[v].y()) > 1e-9) continue;
+        bool left = false, right = false;
+        for (std::size_t c = corners.start[v]; c < corners.start[v + 1]; ++c) {
+            const auto& p = scene.patch_list()[corners.corners[c] / 3];
+            if (scene.object_names[p.object] == "floor") (p.centroid.x() < 4.0 ? left : right) = true;
+        }
+        const double z = pos[v].z();
+        if (z > 0.05 && z < 0.85) {
+            INFO("z = " << z << " on the contact");
+            CHECK_FALSE((left && right));
+            ++parted;
+        }
+        if (z > 0.95 && z < 3.9 && left && right) ++shared;
+    }
+    CHECK(parted >= 4);  // both sides' copies of the vertices at z = 0.25, 0.5, 0.75
+    CHECK(shared >= 5);  // the open floor's vertices at z = 1, 1.25, ...
 }
