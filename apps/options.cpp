@@ -154,9 +154,11 @@ void add_solve_options(CLI::App& cmd, Command& c) {
            "--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
            "final gather: guided | bilateral | atrous | none")
         ->check(CLI::IsMember({"guided", "bilateral", "atrous", "none"}));
-    cmd.add_option("--filter-radius", g.filter.radius, "guided and bilateral filters: window radius in pixels")
+    cmd.add_option("--filter-radius", g.filter.radius,
+                   "guided and bilateral filters: window radius in pixels (0: 3 at 256^2, in proportion to the image "
+                   "size, less with more gather rays per pass)")
         ->capture_default_str()
-        ->check(CLI::Range(1, 1024));
+        ->check(CLI::Range(0, 1024));
     cmd.add_option("--eps-normal", g.filter.eps_normal, "guided filter: regularisation of the normals")
         ->capture_default_str()
         ->check(kPositive);

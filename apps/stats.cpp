@@ -74,7 +74,7 @@ json gather_record(const Command& c, const render::GatherResult& g) {
             {"spp", o.spp},
             {"emission_samples", o.emission_samples},
             {"filter", render::filter_name(o.filter.filter)},
-            {"filter_radius", o.filter.radius},
+            {"filter_radius", g.filter_radius},
             {"eps_normal", o.filter.eps_normal},
             {"eps_depth", o.filter.eps_depth},
             {"threads", c.run.threads},

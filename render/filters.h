@@ -113,8 +113,11 @@ struct FilterOptions {
     // Guided filter. 003 section 4 uses radius 24-32, eps 0.01 (normals) and 0.01-0.03
     // (depth) on path-traced noise at 1024 x 768; our gathered noise is finer and a
     // sweep on the 512^2 Cornell box (bench/gather_study, docs/benchmarks.md) puts the
-    // least error at radius 8, eps 0.001-0.01 (normals, insensitive) and 1e-4 (depth).
-    int radius = 8;  // also the cross bilateral filter's window
+    // least MSE of the indirect light at radius 8, eps 0.001-0.01 (normals, insensitive)
+    // and 1e-4 (depth). Against Cycles references the whole image's relative L1 is least
+    // at about half that radius (its blur brightens corners and contact lines): see
+    // auto_filter_radius().
+    int radius = 0;  // also the cross bilateral filter's window; 0: auto_filter_radius()
     double eps_normal = 0.01;
     double eps_depth = 1e-4;
     // Cross bilateral (normal, depth) and A-Trous (colour, normal, position) parameters.
@@ -122,6 +125,13 @@ struct FilterOptions {
     int atrous_iterations = 5;
     double sigma_colour = 1.0;  // A-Trous; its position term uses sigma_depth (scaled positions)
 };
+
+// The radius the final gather filters with when FilterOptions::radius is 0: the image's
+// size over 256 times 3, times (32 / gather rays)^(1/4), at least 1: 3 at 256^2 with 32
+// rays, 6 at 512^2. Measured against the Cycles references of the three benchmark
+// scenes at 256^2 (docs/final-image.md): radius 2-4 gives the least relative L1 at
+// 32-128 gather rays per pass, radius 8 0.1-0.3 % more, no filter 0.6-2.8 % more at 32.
+int auto_filter_radius(int width, int height, int gather_rays);
 
 // Filters an incident indirect image with the guide: normal and depth (scaled to
 // [0, 1] by depth_scale) for the guided and bilateral filters; normal and position

@@ -454,8 +454,11 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     const double depth_scale = 1.0 / ((camera.eye() - scene.bounds_center()).norm() + scene.bounds_radius());
     // Positions (for A-Trous) relative to the scene's centre, over the same scale as depth.
     if (run.progress) run.progress({"filter", 0, 1, 0.0});
+    FilterOptions filter = o.filter;
+    if (filter.radius == 0) filter.radius = auto_filter_radius(W, H, o.gather_rays);
+    r.filter_radius = filter.radius;
     r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, r.position, scene.bounds_center(),
-                                          depth_scale, depth_scale, o.filter, run.threads);
+                                          depth_scale, depth_scale, filter, run.threads);
     if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 

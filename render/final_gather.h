@@ -98,6 +98,7 @@ struct GatherResult {
     Image depth;              // guide depth (distance from the eye; zero for background)
     Image position;           // guide hit point (world space; zero for background)
     long camera_rays = 0, shadow_rays = 0, gather_rays = 0;
+    int filter_radius = 0;  // the radius the filter used (of the last pass: rounds may vary)
     // Extra samples that took their indirect light from a guide (spp > 1), and those
     // of them whose guide's depth differs from theirs by more than 10 % (a lookup
     // across a depth discontinuity: the case 003 Fig. 3b warns of, where no guide lies

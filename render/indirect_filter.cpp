@@ -1,5 +1,8 @@
 // The choice of filter for the final gather's indirect light, and the guide it gets.
 #include "render/filters.h"
+
+#include <algorithm>
+#include <cmath>
 #include "scenes/errors.h"
 
 namespace raybundle::render {
@@ -22,6 +25,12 @@ const char* filter_name(Filter f) {
         case Filter::none: return "none";
     }
     return "?";
+}
+
+int auto_filter_radius(int width, int height, int gather_rays) {
+    const double size = std::max(width, height) / 256.0;
+    const double r = 3.0 * size * std::pow(32.0 / std::max(gather_rays, 1), 0.25);
+    return std::clamp(static_cast<int>(std::lround(r)), 1, kMaxGuidedRadius);
 }
 
 Image filter_indirect(const Image& indirect, const Image& normal, const Image& depth, const Image& position,

@@ -266,6 +266,7 @@ void add_gather(GatherResult& sum, const GatherResult& pass, double w) {
     add_scaled(sum.direct, pass.direct, w);
     add_scaled(sum.indirect, pass.indirect, w);
     add_scaled(sum.indirect_filtered, pass.indirect_filtered, w);
+    sum.filter_radius = pass.filter_radius;
     sum.camera_rays += pass.camera_rays;
     sum.shadow_rays += pass.shadow_rays;
     sum.gather_rays += pass.gather_rays;
