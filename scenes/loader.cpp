@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -26,6 +27,69 @@ std::string format_number(double x) {
 }
 
 const char* type_name(const json& j) { return j.type_name(); }
+
+// Text for an error message, cut to at most `n` characters ("..." at the end if cut).
+std::string cut(std::string text, std::size_t n) {
+    if (text.size() > n) text = text.substr(0, n - 3) + "...";
+    return text;
+}
+
+// A value as an error message shows it: its JSON, cut after 60 characters.
+std::string shown_value(const json& j) { return cut(j.dump(), 60); }
+
+// JSON as the scene format takes it: at most kMaxJsonDepth containers deep (a deeper
+// document is refused while it is read, before it is built) and no key twice in one
+// object (JSON allows it, and the last one would silently win).
+constexpr std::size_t kMaxJsonDepth = 64;
+
+json parse_json(const std::string& text, const std::string& shown) {
+    struct Open {
+        bool object;
+        std::size_t index = 0;          // arrays: the element being read
+        std::string key;                // objects: the key being read
+        std::vector<std::string> keys;  // objects: the keys seen
+    };
+    std::vector<Open> open;
+    auto path = [&open] {
+        std::string p;
+        for (std::size_t i = 0; i + 1 < open.size(); ++i)
+            p += open[i].object ? (p.empty() ? "" : ".") + open[i].key : "[" + std::to_string(open[i].index) + "]";
+        return p;
+    };
+    auto value_done = [&open] {
+        if (!open.empty() && !open.back().object) ++open.back().index;
+    };
+    const json::parser_callback_t callback = [&](int, json::parse_event_t event, json& parsed) {
+        switch (event) {
+            case json::parse_event_t::object_start:
+            case json::parse_event_t::array_start:
+                if (open.size() >= kMaxJsonDepth)
+                    throw SceneError(shown, path(), "nested more than " + std::to_string(kMaxJsonDepth) + " deep");
+                open.push_back({event == json::parse_event_t::object_start, 0, {}, {}});
+                break;
+            case json::parse_event_t::key: {
+                Open& top = open.back();
+                top.key = parsed.get<std::string>();
+                if (std::find(top.keys.begin(), top.keys.end(), top.key) != top.keys.end()) {
+                    const std::string where = path();
+                    throw SceneError(shown, where.empty() ? top.key : where + "." + top.key, "key given twice");
+                }
+                top.keys.push_back(top.key);
+                break;
+            }
+            case json::parse_event_t::object_end:
+            case json::parse_event_t::array_end:
+                open.pop_back();
+                value_done();
+                break;
+            case json::parse_event_t::value:
+                value_done();
+                break;
+        }
+        return true;
+    };
+    return json::parse(text, callback);
+}
 
 // A JSON object with its path in the file: typed getters that throw SceneError, and
 // a check that every key present is one we know (a typo is an error, not a default).
@@ -71,17 +135,18 @@ public:
 
     int integer(const std::string& key) const {
         const json& v = raw(key);
-        if (!v.is_number_integer()) fail(key, std::string("expected an integer, got ") + v.dump());
+        if (!v.is_number_integer()) fail(key, std::string("expected an integer, got ") + shown_value(v));
         // Range-check before narrowing: a large value must not wrap into a valid one.
         const bool in_range = v.is_number_unsigned() ? v.get<unsigned long long>() <= 1000000000ull
-                                                      : std::abs(v.get<long long>()) <= 1000000000ll;
-        if (!in_range) fail(key, "value " + v.dump() + " is out of range");
+                                                      : v.get<long long>() >= -1000000000ll &&
+                                                            v.get<long long>() <= 1000000000ll;
+        if (!in_range) fail(key, "value " + shown_value(v) + " is out of range");
         return static_cast<int>(v.get<long long>());
     }
 
     bool boolean(const std::string& key) const {
         const json& v = raw(key);
-        if (!v.is_boolean()) fail(key, std::string("expected true or false, got ") + v.dump());
+        if (!v.is_boolean()) fail(key, std::string("expected true or false, got ") + shown_value(v));
         return v.get<bool>();
     }
 
@@ -92,10 +157,10 @@ public:
     }
 
     Vec3 vec3(const json& v, const std::string& where) const {
-        if (!v.is_array() || v.size() != 3) throw SceneError(file_, where, "expected [x, y, z], got " + v.dump());
+        if (!v.is_array() || v.size() != 3) throw SceneError(file_, where, "expected [x, y, z], got " + shown_value(v));
         Vec3 r;
         for (int k = 0; k < 3; ++k) {
-            if (!v[k].is_number()) throw SceneError(file_, where, "expected [x, y, z], got " + v.dump());
+            if (!v[k].is_number()) throw SceneError(file_, where, "expected [x, y, z], got " + shown_value(v));
             r[k] = v[k].get<double>();
             if (!std::isfinite(r[k]))
                 throw SceneError(file_, where, "coordinate " + format_number(r[k]) + " is not finite");
@@ -222,7 +287,7 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     if (o.key.empty()) throw SceneError(shown, "", "an override needs a key (-D key=value)");
     json value;
     try {
-        value = json::parse(o.value);
+        value = parse_json(o.value, shown);
     } catch (const json::exception&) {
         value = o.value;  // a bare word: a string
     }
@@ -267,7 +332,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                   const Overrides& overrides) {
     json doc;
     try {
-        doc = json::parse(text);
+        doc = parse_json(text, shown);
     } catch (const json::parse_error& e) {
         // Turn the byte offset into line and column.
         std::size_t line = 1, col = 1;
@@ -282,13 +347,14 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
         std::string msg = e.what();
         const auto colon = msg.find(": ", msg.find("parse error"));
         if (colon != std::string::npos) msg = msg.substr(colon + 2);
-        throw SceneError(shown + ":" + std::to_string(line) + ":" + std::to_string(col), "", "malformed JSON: " + msg);
+        throw SceneError(shown + ":" + std::to_string(line) + ":" + std::to_string(col), "",
+                         "malformed JSON: " + cut(msg, 200));
     } catch (const json::exception& e) {
         // Not a syntax error but a value JSON cannot hold (e.g. 1e999 overflows a double).
         std::string msg = e.what();
         const auto bracket = msg.find("] ");
         if (bracket != std::string::npos) msg = msg.substr(bracket + 2);
-        throw SceneError(shown, "", "invalid number: " + msg + " (not finite)");
+        throw SceneError(shown, "", "invalid number: " + cut(msg, 200) + " (not finite)");
     }
 
     for (const Override& o : overrides) apply_override(doc, o, shown);
@@ -361,7 +427,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             const json& pts = obj.raw(key);
             const std::size_t want = quad ? 4 : 3;
             if (!pts.is_array() || pts.size() != want)
-                obj.fail(key, "expected " + std::to_string(want) + " points [x, y, z], got " + pts.dump());
+                obj.fail(key, "expected " + std::to_string(want) + " points [x, y, z], got " + shown_value(pts));
             std::vector<Vec3> v;
             for (std::size_t k = 0; k < want; ++k)
                 v.push_back(obj.vec3(pts[k], obj.at(key) + "[" + std::to_string(k) + "]"));
@@ -395,11 +461,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 }
 
 Scene load_scene(const std::string& path, const Overrides& overrides) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, "", "cannot open scene file");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return parse_scene(ss.str(), path, dir_of(path), overrides);
+    return parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
 }
 
 Scene load_builtin(const std::string& name, const Overrides& overrides) {

@@ -2,16 +2,19 @@
 
 #include "scenes/errors.h"
 
-#include <OpenMesh/Core/IO/MeshIO.hh>
-#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
-#include <OpenMesh/Core/System/omstream.hh>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <string_view>
 
 namespace raybundle::scenes {
 namespace {
@@ -52,8 +55,44 @@ std::string lower_extension(const std::string& path) {
     return ext;
 }
 
-// OBJ, read here rather than through OpenMesh, which keeps one normal per vertex:
-// `v` and `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
+// A count from a header: a whole number in [0, 2^31). "-3", "inf", "1e9" and
+// "2147483648" are refused here rather than trusted until an allocation fails.
+long parse_count(const std::string& text, const std::string& shown, const std::string& where,
+                 const std::string& what) {
+    bool digits = !text.empty() && text.size() <= 10 &&
+                  std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
+    const long long n = digits ? std::strtoll(text.c_str(), nullptr, 10) : -1;
+    if (!digits || n > std::numeric_limits<int>::max())
+        throw SceneError(shown, where, what + " '" + text + "' is not a count (a whole number below 2^31)");
+    return static_cast<long>(n);
+}
+
+// Refuses `count` elements of at least `each` bytes in `bytes` bytes (with one byte of
+// slack: the last line of a text file may lack its newline). Only a bound, so that no
+// count is trusted beyond what the file can hold before allocating for it; the
+// readers find the exact end.
+void check_room(long count, long each, std::size_t bytes, const std::string& shown, const std::string& where,
+                const std::string& what) {
+    if (each > 0 && static_cast<unsigned long long>(count) * static_cast<unsigned long long>(each) > bytes + 1)
+        throw SceneError(shown, where,
+                         "file is truncated: header promises " + std::to_string(count) + " " + what + ", the " +
+                             std::to_string(bytes) + " bytes after it hold at most " +
+                             std::to_string(bytes / static_cast<std::size_t>(each)));
+}
+
+void check_triangle_fan(long corners, const std::string& shown, const std::string& where) {
+    if (corners < 3)
+        throw SceneError(shown, where, "face has " + std::to_string(corners) + " corners (at least 3 needed)");
+}
+
+void add_fan(MeshData& data, const std::vector<int>& corners) {
+    for (std::size_t k = 1; k + 1 < corners.size(); ++k)
+        data.triangles.push_back({corners[0], corners[k], corners[k + 1]});
+}
+
+// ---------------------------------------------------------------------------- OBJ
+// Read here rather than through OpenMesh, which keeps one normal per vertex: `v` and
+// `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
 // negative = relative), polygons split into a fan from their first corner; other
 // lines are ignored. Every index must name an element defined before it.
 MeshData read_obj(std::istream& in, const std::string& shown) {
@@ -107,195 +146,518 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 if (slash2 != std::string::npos && slash2 + 1 < corner.size())
                     ns.push_back(normals[index(corner.substr(slash2 + 1), nn, "normal", "normals")]);
             }
-            if (vs.size() < 3)
-                throw SceneError(shown, where,
-                                 "face has " + std::to_string(vs.size()) + " corners (at least 3 needed)");
+            check_triangle_fan(static_cast<long>(vs.size()), shown, where);
             if (!ns.empty() && ns.size() != vs.size())
                 throw SceneError(shown, where,
                                  "face gives normals at " + std::to_string(ns.size()) + " of its " +
                                      std::to_string(vs.size()) + " corners");
             any_normals = any_normals || !ns.empty();
-            for (std::size_t k = 1; k + 1 < vs.size(); ++k) {
-                data.triangles.push_back({vs[0], vs[k], vs[k + 1]});
+            add_fan(data, vs);
+            for (std::size_t k = 1; k + 1 < vs.size(); ++k)
                 corner_normals.push_back(ns.empty() ? std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}
                                                     : std::array<Vec3, 3>{ns[0], ns[k], ns[k + 1]});
-            }
         }
     }
     if (any_normals) data.normals = std::move(corner_normals);
     return data;
 }
 
-// OFF: the header's counts must be met and every face index be in range.
-void check_off(std::istream& in, const std::string& shown) {
-    auto next_line = [&](std::string& out) {
-        while (std::getline(in, out)) {
+// ---------------------------------------------------------------------------- OFF
+// ASCII OFF and its variants with per-vertex extras (NOFF, COFF, STOFF: the first
+// three numbers of a vertex line are its position, the rest is ignored), and binary
+// OFF (big-endian int32 counts and indices, float32 coordinates). 4OFF (homogeneous)
+// and nOFF (other dimensions) are refused.
+
+// The lines of a text with '#' comments and blank lines left out, and where the
+// text after them begins.
+class TextLines {
+public:
+    explicit TextLines(std::string_view text) : text_(text) {}
+    bool next(std::string& out) {
+        while (pos_ < text_.size()) {
+            auto end = text_.find('\n', pos_);
+            if (end == std::string_view::npos) end = text_.size();
+            out.assign(text_.substr(pos_, end - pos_));
+            pos_ = end + 1;
             const auto hash = out.find('#');
             if (hash != std::string::npos) out.erase(hash);
             if (out.find_first_not_of(" \t\r") != std::string::npos) return true;
         }
         return false;
-    };
+    }
+    std::size_t remaining() const { return pos_ < text_.size() ? text_.size() - pos_ : 0; }
+    std::size_t position() const { return std::min(pos_, text_.size()); }
+
+private:
+    std::string_view text_;
+    std::size_t pos_ = 0;
+};
+
+// Big-endian values of binary OFF, from `pos` on; throws when the file ends first.
+class BigEndianReader {
+public:
+    BigEndianReader(std::string_view data, std::size_t pos, const std::string& shown)
+        : data_(data), pos_(pos), shown_(shown) {}
+    std::uint32_t word(const std::string& where) {
+        if (data_.size() - pos_ < 4) throw SceneError(shown_, where, "file is truncated");
+        std::uint32_t w = 0;
+        for (int k = 0; k < 4; ++k) w = (w << 8) | static_cast<unsigned char>(data_[pos_ + k]);
+        pos_ += 4;
+        return w;
+    }
+    std::int32_t integer(const std::string& where) { return static_cast<std::int32_t>(word(where)); }
+    float real(const std::string& where) {
+        const std::uint32_t w = word(where);
+        float f;
+        std::memcpy(&f, &w, 4);
+        return f;
+    }
+    std::size_t remaining() const { return data_.size() - pos_; }
+
+private:
+    std::string_view data_;
+    std::size_t pos_;
+    const std::string& shown_;
+};
+
+MeshData read_off(const std::string& content, const std::string& shown) {
+    TextLines lines(content);
     std::string line;
-    if (!next_line(line)) throw SceneError(shown, "header", "empty file");
+    if (!lines.next(line)) throw SceneError(shown, "header", "empty file");
     std::istringstream hs(line);
     std::string magic;
     hs >> magic;
-    if (magic.find("OFF") == std::string::npos) throw SceneError(shown, "header", "not an OFF file ('" + magic + "')");
-    long nv = -1, nf = -1;
-    if (!(hs >> nv)) {
-        if (!next_line(line)) throw SceneError(shown, "header", "missing vertex and face counts");
-        hs = std::istringstream(line);
-        hs >> nv;
+    const auto off = magic.rfind("OFF");
+    if (off == std::string::npos || off + 3 != magic.size() ||
+        magic.substr(0, off).find_first_not_of("STCN") != std::string::npos)
+        throw SceneError(shown, "header", "not an OFF file ('" + magic + "'; known: OFF, NOFF, COFF, STOFF)");
+    // "OFF BINARY", or the counts after the magic on its line or on the next.
+    std::string rest = line.substr(line.find(magic) + magic.size());
+    std::string first;
+    std::istringstream(rest) >> first;
+    const bool binary = first == "BINARY";
+    MeshData data;
+    if (binary) {
+        BigEndianReader in(content, lines.position(), shown);
+        const std::int32_t nv = in.integer("header"), nf = in.integer("header");
+        in.integer("header");  // edges
+        if (nv < 0 || nf < 0)
+            throw SceneError(shown, "header", "negative vertex or face count (" + std::to_string(nv) + ", " +
+                                                  std::to_string(nf) + ")");
+        check_room(nv, 12, in.remaining(), shown, "vertices", "vertices");
+        data.vertices.reserve(static_cast<std::size_t>(nv));
+        for (std::int32_t i = 0; i < nv; ++i) {
+            const std::string where = "vertex " + std::to_string(i);
+            Vec3 p;
+            for (int k = 0; k < 3; ++k) p[k] = in.real(where);
+            if (!p.allFinite()) throw SceneError(shown, where, "coordinate " + vector_text(p) + " is not finite");
+            data.vertices.push_back(p);
+        }
+        check_room(nf, 16, in.remaining(), shown, "faces", "faces");
+        std::vector<int> corners;
+        for (std::int32_t i = 0; i < nf; ++i) {
+            const std::string where = "face " + std::to_string(i);
+            const std::int32_t k = in.integer(where);
+            check_triangle_fan(k, shown, where);
+            check_room(k, 4, in.remaining(), shown, where, "corners");
+            corners.clear();
+            for (std::int32_t c = 0; c < k; ++c) {
+                const std::int32_t idx = in.integer(where);
+                if (idx < 0 || idx >= nv)
+                    throw SceneError(shown, where, "references vertex " + std::to_string(idx) + ", but the file has " +
+                                                       std::to_string(nv) + " vertices");
+                corners.push_back(idx);
+            }
+            const std::int32_t colours = in.integer(where);
+            if (colours < 0 || colours > 4)
+                throw SceneError(shown, where, "colour count " + std::to_string(colours) + " is not 0 to 4");
+            for (std::int32_t c = 0; c < colours; ++c) in.real(where);
+            add_fan(data, corners);
+        }
+        return data;
     }
-    if (!(hs >> nf) || nv < 0 || nf < 0) throw SceneError(shown, "header", "malformed vertex and face counts");
-    if (magic.find("BINARY") != std::string::npos) return;  // binary OFF: OpenMesh's own checks
+
+    if (first.empty() && !lines.next(rest)) throw SceneError(shown, "header", "missing vertex and face counts");
+    std::istringstream cs(rest);
+    std::string nv_text, nf_text;
+    if (!(cs >> nv_text >> nf_text)) throw SceneError(shown, "header", "missing vertex and face counts");
+    const long nv = parse_count(nv_text, shown, "header", "vertex count");
+    const long nf = parse_count(nf_text, shown, "header", "face count");
+    // A vertex line is at least "0 0 0\n", a face line (a malformed one) "3\n".
+    check_room(nv, 6, lines.remaining(), shown, "vertices", "vertices");
+    data.vertices.reserve(static_cast<std::size_t>(nv));
     for (long i = 0; i < nv; ++i) {
-        if (!next_line(line))
+        if (!lines.next(line))
             throw SceneError(shown, "vertices",
                              "file is truncated: header promises " + std::to_string(nv) + " vertices, found " +
                                  std::to_string(i));
-        read_coordinates(line, shown, "vertex " + std::to_string(i));
+        data.vertices.push_back(read_coordinates(line, shown, "vertex " + std::to_string(i)));
     }
+    check_room(nf, 2, lines.remaining(), shown, "faces", "faces");
+    std::vector<int> corners;
     for (long i = 0; i < nf; ++i) {
-        if (!next_line(line))
+        const std::string where = "face " + std::to_string(i);
+        if (!lines.next(line))
             throw SceneError(shown, "faces",
                              "file is truncated: header promises " + std::to_string(nf) + " faces, found " +
                                  std::to_string(i));
         std::istringstream fs(line);
-        long k = 0;
-        fs >> k;
+        std::string k_text;
+        fs >> k_text;
+        const long k = parse_count(k_text, shown, where, "corner count");
+        check_triangle_fan(k, shown, where);
+        check_room(k, 2, line.size() + 1, shown, where, "corners");  // "i " each, the last without the space
+        corners.clear();
         for (long c = 0; c < k; ++c) {
             long idx = -1;
             if (!(fs >> idx))
-                throw SceneError(shown, "face " + std::to_string(i),
-                                 "has fewer than the " + std::to_string(k) + " indices it announces");
+                throw SceneError(shown, where, "has fewer than the " + std::to_string(k) + " indices it announces");
             if (idx < 0 || idx >= nv)
-                throw SceneError(shown, "face " + std::to_string(i),
-                                 "references vertex " + std::to_string(idx) + ", but the file has " +
-                                     std::to_string(nv) + " vertices");
+                throw SceneError(shown, where, "references vertex " + std::to_string(idx) + ", but the file has " +
+                                                   std::to_string(nv) + " vertices");
+            corners.push_back(static_cast<int>(idx));
         }
+        add_fan(data, corners);
     }
+    return data;
 }
 
-// PLY: the header's counts and which of the vertex properties nx, ny, nz it has; for
-// ASCII files also the number of data lines, which must cover the counts (a truncated
-// file has fewer).
-struct PlyHeader {
-    long nv = -1, nf = -1, data_lines = 0;
-    bool ascii = false;
-    std::vector<std::string> normal_properties;  // those of nx, ny, nz on the vertex element
+// ---------------------------------------------------------------------------- PLY
+// ASCII, binary little- and big-endian. The vertex element gives x, y, z and,
+// optionally, all of nx, ny, nz; the face element a list named vertex_indices (or
+// vertex_index); other elements and properties are read past. Every count is checked
+// against the bytes left before anything is allocated for it.
+
+enum class PlyFormat { ascii, binary_le, binary_be };
+
+struct PlyType {
+    int bytes = 0;  // 0: unknown
+    bool real = false, is_signed = false;
 };
 
-PlyHeader read_ply_header(std::istream& in) {
-    PlyHeader h;
-    std::string line, current;
-    while (std::getline(in, line)) {
-        if (line.rfind("format ascii", 0) == 0) h.ascii = true;
-        std::istringstream ls(line);
-        std::string word, element;
-        ls >> word;
-        if (word == "element") {
-            long n = 0;
-            ls >> element >> n;
-            current = element;
-            if (element == "vertex") h.nv = n;
-            if (element == "face") h.nf = n;
-        }
-        if (word == "property" && current == "vertex") {
-            std::string type, name;
-            ls >> type >> name;
-            if (name == "nx" || name == "ny" || name == "nz") h.normal_properties.push_back(name);
-        }
-        if (word == "end_header") break;
+PlyType ply_type(const std::string& name) {
+    if (name == "char" || name == "int8") return {1, false, true};
+    if (name == "uchar" || name == "uint8") return {1, false, false};
+    if (name == "short" || name == "int16") return {2, false, true};
+    if (name == "ushort" || name == "uint16") return {2, false, false};
+    if (name == "int" || name == "int32") return {4, false, true};
+    if (name == "uint" || name == "uint32") return {4, false, false};
+    if (name == "float" || name == "float32") return {4, true, true};
+    if (name == "double" || name == "float64") return {8, true, true};
+    return {};
+}
+
+struct PlyProperty {
+    std::string name;
+    PlyType type;        // the value's type (a list's items)
+    PlyType count_type;  // a list's count; bytes == 0 for a scalar
+    bool list() const { return count_type.bytes != 0; }
+};
+
+struct PlyElement {
+    std::string name;
+    long count = 0;
+    std::vector<PlyProperty> properties;
+    // The fewest bytes one instance takes: its scalars, its lists' counts (binary); a
+    // value and a separator per property (ASCII).
+    long min_bytes(PlyFormat f) const {
+        long n = 0;
+        for (const auto& p : properties)
+            n += f == PlyFormat::ascii ? 2 : (p.list() ? p.count_type.bytes : p.type.bytes);
+        return n;
     }
-    if (h.ascii)
-        while (std::getline(in, line))
-            if (line.find_first_not_of(" \t\r") != std::string::npos) ++h.data_lines;
-    return h;
+};
+
+// The values of a PLY body, one at a time, as doubles (every PLY type fits exactly
+// but 64-bit integers, which PLY does not have).
+class PlyValues {
+public:
+    PlyValues(std::string_view body, PlyFormat format, const std::string& shown)
+        : body_(body), format_(format), shown_(shown) {}
+
+    // `where()` names the element in an error (built only then).
+    template <class Where>
+    double next(const PlyType& type, const Where& where) {
+        if (format_ == PlyFormat::ascii) {
+            while (pos_ < body_.size() && std::isspace(static_cast<unsigned char>(body_[pos_]))) ++pos_;
+            if (pos_ == body_.size()) throw truncated(where());
+            std::size_t end = pos_;
+            while (end < body_.size() && !std::isspace(static_cast<unsigned char>(body_[end]))) ++end;
+            // The body is a view of a std::string, so strtod stops at its end at the latest.
+            char* stop = nullptr;
+            const double v = std::strtod(body_.data() + pos_, &stop);
+            const std::string_view token = body_.substr(pos_, end - pos_);
+            const bool whole = stop == body_.data() + end;
+            pos_ = end;
+            if (!whole) throw SceneError(shown_, where(), "malformed value '" + std::string(token) + "'");
+            if (!std::isfinite(v)) throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not finite");
+            if (!type.real && v != std::floor(v))
+                throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not a whole number");
+            return v;
+        }
+        if (body_.size() - pos_ < static_cast<std::size_t>(type.bytes)) throw truncated(where());
+        unsigned char b[8];
+        std::memcpy(b, body_.data() + pos_, static_cast<std::size_t>(type.bytes));
+        pos_ += static_cast<std::size_t>(type.bytes);
+        if ((format_ == PlyFormat::binary_be) == host_little_endian()) std::reverse(b, b + type.bytes);
+        switch (type.bytes) {
+            case 1: return type.is_signed ? static_cast<double>(static_cast<std::int8_t>(b[0])) : b[0];
+            case 2: return scalar<std::int16_t, std::uint16_t>(b, type);
+            case 4:
+                if (type.real) {
+                    float f;
+                    std::memcpy(&f, b, 4);
+                    return f;
+                }
+                return scalar<std::int32_t, std::uint32_t>(b, type);
+            default: {
+                double d;
+                std::memcpy(&d, b, 8);
+                return d;
+            }
+        }
+    }
+    std::size_t remaining() const { return body_.size() - pos_; }
+
+private:
+    static bool host_little_endian() {
+        const std::uint16_t one = 1;
+        unsigned char first;
+        std::memcpy(&first, &one, 1);
+        return first == 1;
+    }
+    template <class S, class U>
+    static double scalar(const unsigned char* b, const PlyType& type) {
+        if (type.is_signed) {
+            S s;
+            std::memcpy(&s, b, sizeof s);
+            return s;
+        }
+        U u;
+        std::memcpy(&u, b, sizeof u);
+        return u;
+    }
+    SceneError truncated(const std::string& where) const {
+        return SceneError(shown_, where, "file is truncated (the data ends inside it)");
+    }
+
+    std::string_view body_;
+    PlyFormat format_;
+    const std::string& shown_;
+    std::size_t pos_ = 0;
+};
+
+MeshData read_ply(const std::string& content, const std::string& shown) {
+    // The header: lines up to end_header.
+    std::size_t pos = 0;
+    long line_no = 0;
+    auto header_line = [&](std::string& out) {
+        if (pos >= content.size()) return false;
+        auto end = content.find('\n', pos);
+        if (end == std::string::npos) end = content.size();
+        out = content.substr(pos, end - pos);
+        if (!out.empty() && out.back() == '\r') out.pop_back();
+        pos = end + 1;
+        ++line_no;
+        return true;
+    };
+    std::string line;
+    if (!header_line(line) || line != "ply") throw SceneError(shown, "header", "not a PLY file (no 'ply' line first)");
+    PlyFormat format = PlyFormat::ascii;
+    bool have_format = false, ended = false;
+    std::vector<PlyElement> elements;
+    while (header_line(line)) {
+        const std::string where = "header line " + std::to_string(line_no);
+        std::istringstream ls(line);
+        std::string word;
+        ls >> word;
+        if (word == "end_header") {
+            ended = true;
+            break;
+        }
+        if (word.empty() || word == "comment" || word == "obj_info") continue;
+        if (word == "format") {
+            std::string name, version;
+            ls >> name >> version;
+            if (name == "ascii") format = PlyFormat::ascii;
+            else if (name == "binary_little_endian") format = PlyFormat::binary_le;
+            else if (name == "binary_big_endian") format = PlyFormat::binary_be;
+            else
+                throw SceneError(shown, where, "unknown format '" + name +
+                                                   "' (known: ascii, binary_little_endian, binary_big_endian)");
+            if (version != "1.0") throw SceneError(shown, where, "unknown version '" + version + "' (known: 1.0)");
+            have_format = true;
+        } else if (word == "element") {
+            std::string name, count;
+            if (!(ls >> name >> count)) throw SceneError(shown, where, "element needs a name and a count");
+            elements.push_back({name, parse_count(count, shown, where, "element count"), {}});
+        } else if (word == "property") {
+            if (elements.empty()) throw SceneError(shown, where, "property before any element");
+            std::string type, name;
+            ls >> type;
+            PlyProperty p;
+            if (type == "list") {
+                std::string count_type;
+                ls >> count_type >> type;
+                p.count_type = ply_type(count_type);
+                if (p.count_type.bytes == 0 || p.count_type.real)
+                    throw SceneError(shown, where, "list count type '" + count_type + "' is not an integer type");
+            }
+            p.type = ply_type(type);
+            if (p.type.bytes == 0) throw SceneError(shown, where, "unknown property type '" + type + "'");
+            if (!(ls >> name)) throw SceneError(shown, where, "property has no name");
+            p.name = name;
+            elements.back().properties.push_back(p);
+        } else {
+            throw SceneError(shown, where, "unknown header keyword '" + word + "'");
+        }
+    }
+    if (!ended) throw SceneError(shown, "header", "no end_header line");
+    if (!have_format) throw SceneError(shown, "header", "no format line");
+
+    // What we need of the vertex and face elements.
+    const PlyElement* vertex = nullptr;
+    const PlyElement* face = nullptr;
+    for (const auto& e : elements) {
+        if (e.name == "vertex" && !vertex) vertex = &e;
+        if (e.name == "face" && !face) face = &e;
+    }
+    if (!vertex) throw SceneError(shown, "header", "no vertex element");
+    auto find = [](const PlyElement& e, const std::string& name) {
+        for (std::size_t i = 0; i < e.properties.size(); ++i)
+            if (e.properties[i].name == name) return static_cast<int>(i);
+        return -1;
+    };
+    int xyz[3], nxyz[3];
+    std::string found_normals;
+    for (int k = 0; k < 3; ++k) {
+        const std::string axis(1, "xyz"[k]);
+        xyz[k] = find(*vertex, axis);
+        if (xyz[k] < 0 || vertex->properties[xyz[k]].list())
+            throw SceneError(shown, "header", "the vertex element has no property " + axis);
+        nxyz[k] = find(*vertex, "n" + axis);
+        if (nxyz[k] >= 0) found_normals += (found_normals.empty() ? "n" : ", n") + axis;
+    }
+    const bool has_normals = nxyz[0] >= 0 && nxyz[1] >= 0 && nxyz[2] >= 0;
+    if (!found_normals.empty() && !has_normals)
+        throw SceneError(shown, "header", "vertex normals need all of nx, ny, nz (found " + found_normals + ")");
+    int indices = -1;
+    if (face) {
+        indices = find(*face, "vertex_indices");
+        if (indices < 0) indices = find(*face, "vertex_index");
+        if (indices < 0 || !face->properties[indices].list() || face->properties[indices].type.real)
+            throw SceneError(shown, "header", "the face element has no integer list vertex_indices");
+    }
+    if (!face || face->count == 0) throw SceneError(shown, "", "the mesh has no faces");
+
+    // The body.
+    PlyValues values(std::string_view(content).substr(std::min(pos, content.size())), format, shown);
+    MeshData data;
+    std::vector<Vec3> normals;
+    std::vector<std::vector<int>> faces;
+    std::vector<double> row;
+    for (const auto& e : elements) {
+        check_room(e.count, e.min_bytes(format), values.remaining(), shown, e.name,
+                   e.name == "vertex" ? "vertices" : e.name == "face" ? "faces" : e.name + " elements");
+        const bool is_vertex = &e == vertex, is_face = &e == face;
+        if (is_vertex) {
+            data.vertices.reserve(static_cast<std::size_t>(e.count));
+            if (has_normals) normals.reserve(static_cast<std::size_t>(e.count));
+        }
+        if (is_face) faces.reserve(static_cast<std::size_t>(e.count));
+        if (e.properties.empty()) continue;
+        for (long i = 0; i < e.count; ++i) {
+            const auto where = [&e, i] { return e.name + " " + std::to_string(i); };
+            row.assign(e.properties.size(), 0.0);
+            for (std::size_t p = 0; p < e.properties.size(); ++p) {
+                const PlyProperty& prop = e.properties[p];
+                if (!prop.list()) {
+                    row[p] = values.next(prop.type, where);
+                    continue;
+                }
+                const double n = values.next(prop.count_type, where);
+                if (n < 0) throw SceneError(shown, where(), "negative list length " + std::to_string(static_cast<long long>(n)));
+                const long count = static_cast<long>(n);
+                check_room(count, format == PlyFormat::ascii ? 2 : prop.type.bytes, values.remaining(), shown, where(),
+                           "list items");
+                if (is_face && static_cast<int>(p) == indices) {
+                    check_triangle_fan(count, shown, where());
+                    std::vector<int> corners;
+                    corners.reserve(static_cast<std::size_t>(count));
+                    for (long c = 0; c < count; ++c) {
+                        const double idx = values.next(prop.type, where);
+                        if (idx < 0 || idx >= static_cast<double>(vertex->count))
+                            throw SceneError(shown, where(),
+                                             "references vertex " + std::to_string(static_cast<long long>(idx)) +
+                                                 ", but the file has " + std::to_string(vertex->count) + " vertices");
+                        corners.push_back(static_cast<int>(idx));
+                    }
+                    faces.push_back(std::move(corners));
+                } else {
+                    for (long c = 0; c < count; ++c) values.next(prop.type, where);
+                }
+            }
+            if (is_vertex) {
+                const Vec3 p(row[xyz[0]], row[xyz[1]], row[xyz[2]]);
+                if (!p.allFinite()) throw SceneError(shown, where(), "coordinate " + vector_text(p) + " is not finite");
+                data.vertices.push_back(p);
+                if (has_normals) {
+                    const Vec3 n(row[nxyz[0]], row[nxyz[1]], row[nxyz[2]]);
+                    if (!n.allFinite()) throw SceneError(shown, where(), "normal " + vector_text(n) + " is not finite");
+                    if (!(n.norm() > 0.0)) throw SceneError(shown, where(), "normal " + vector_text(n) + " has zero length");
+                    normals.push_back(n.normalized());
+                }
+            }
+        }
+    }
+    for (const auto& corners : faces) {
+        add_fan(data, corners);
+        if (has_normals)
+            for (std::size_t k = 1; k + 1 < corners.size(); ++k)
+                data.normals.push_back({normals[corners[0]], normals[corners[k]], normals[corners[k + 1]]});
+    }
+    return data;
 }
 
 }  // namespace
 
+std::string read_input_file(const std::string& path, const std::string& shown, const std::string& kind,
+                            std::uintmax_t max_bytes) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0)
+        throw SceneError(shown, "", "cannot open " + kind + " (" + std::strerror(errno) + ")");
+    if (S_ISDIR(st.st_mode)) throw SceneError(shown, "", "is a directory, not a " + kind);
+    if (!S_ISREG(st.st_mode))
+        throw SceneError(shown, "", "is not a regular file (a FIFO, a socket or a device), not a " + kind);
+    const auto size = static_cast<std::uintmax_t>(st.st_size);
+    if (size > max_bytes)
+        throw SceneError(shown, "", "is " + std::to_string(size) + " bytes, more than a " + kind + " may have (" +
+                                        std::to_string(max_bytes) + ")");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(shown, "", "cannot open " + kind);
+    std::string content(static_cast<std::size_t>(size), '\0');
+    in.read(content.data(), static_cast<std::streamsize>(content.size()));
+    content.resize(static_cast<std::size_t>(in.gcount()));
+    return content;
+}
+
 MeshData read_mesh_file(const std::string& path, const std::string& shown) {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) throw SceneError(shown, "", "cannot open mesh file");
     const std::string ext = lower_extension(path);
-    PlyHeader ply;
-    if (ext == "obj") {
-        MeshData data = read_obj(probe, shown);
-        if (data.triangles.empty()) throw SceneError(shown, "", "the mesh has no faces");
-        return data;
-    } else if (ext == "off") {
-        check_off(probe, shown);
-    } else if (ext == "ply") {
-        ply = read_ply_header(probe);
-        if (ply.ascii && ply.nv >= 0 && ply.nf >= 0 && ply.data_lines < ply.nv + ply.nf)
-            throw SceneError(shown, "", "file is truncated: header promises " + std::to_string(ply.nv) +
-                                            " vertices and " + std::to_string(ply.nf) + " faces, found " +
-                                            std::to_string(ply.data_lines) + " data lines");
-        if (!ply.normal_properties.empty() && ply.normal_properties.size() != 3) {
-            std::string found;
-            for (const auto& name : ply.normal_properties) found += (found.empty() ? "" : ", ") + name;
-            throw SceneError(shown, "header", "vertex normals need all of nx, ny, nz (found " + found + ")");
-        }
-    } else {
+    if (ext != "obj" && ext != "off" && ext != "ply")
         throw SceneError(shown, "", "unknown mesh format '." + ext + "' (known: .obj, .ply, .off)");
-    }
-    const bool ply_normals = ply.normal_properties.size() == 3;
-
-    // OpenMesh prints its complaints itself; we report ours as one line instead.
-    omerr().disable();
-    omlog().disable();
-    omout().disable();
-    OpenMesh::PolyMesh_ArrayKernelT<OpenMesh::DefaultTraits> poly;
-    OpenMesh::IO::Options options;
-    if (ply_normals) {
-        poly.request_vertex_normals();
-        options += OpenMesh::IO::Options::VertexNormal;
-    }
-    const bool ok = OpenMesh::IO::read_mesh(poly, path, options);
-    if (!ok) throw SceneError(shown, "", "OpenMesh could not read the mesh (malformed or truncated file)");
-    // OpenMesh may add vertices (it duplicates them for non-manifold faces), never lose them.
-    if (ply.nv >= 0 && static_cast<long>(poly.n_vertices()) < ply.nv)
-        throw SceneError(shown, "", "file is truncated: header promises " + std::to_string(ply.nv) +
-                                        " vertices, read " + std::to_string(poly.n_vertices()));
-
+    const std::string content = read_input_file(path, shown, "mesh file", kMaxMeshFileBytes);
     MeshData data;
-    data.vertices.reserve(poly.n_vertices());
-    for (auto v : poly.vertices()) {
-        const auto p = poly.point(v);
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-            std::ostringstream os;
-            os << "coordinate (" << p[0] << ", " << p[1] << ", " << p[2] << ") is not finite";
-            throw SceneError(shown, "vertex " + std::to_string(v.idx()), os.str());
-        }
-        data.vertices.emplace_back(p[0], p[1], p[2]);
-    }
-    // The file's vertex normals; the copies OpenMesh makes of vertices for non-manifold
-    // faces (indices from nv on) have none, so finalize() computes theirs.
-    std::vector<Vec3> normals;
-    if (ply_normals) {
-        normals.assign(poly.n_vertices(), Vec3::Zero());
-        for (auto v : poly.vertices()) {
-            if (v.idx() >= ply.nv) continue;
-            const auto n = poly.normal(v);
-            const Vec3 e(n[0], n[1], n[2]);
-            const std::string where = "vertex " + std::to_string(v.idx());
-            if (!e.allFinite()) throw SceneError(shown, where, "normal " + vector_text(e) + " is not finite");
-            if (!(e.norm() > 0.0)) throw SceneError(shown, where, "normal " + vector_text(e) + " has zero length");
-            normals[v.idx()] = e.normalized();
-        }
-    }
-    for (auto f : poly.faces()) {
-        std::vector<int> idx;
-        for (auto v : poly.fv_range(f)) idx.push_back(v.idx());
-        for (std::size_t k = 1; k + 1 < idx.size(); ++k) {
-            data.triangles.push_back({idx[0], idx[k], idx[k + 1]});
-            if (ply_normals) data.normals.push_back({normals[idx[0]], normals[idx[k]], normals[idx[k + 1]]});
-        }
+    if (ext == "obj") {
+        std::istringstream in(content);
+        data = read_obj(in, shown);
+    } else if (ext == "off") {
+        data = read_off(content, shown);
+    } else {
+        data = read_ply(content, shown);
     }
     if (data.triangles.empty()) throw SceneError(shown, "", "the mesh has no faces");
+    if (data.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+        throw SceneError(shown, "", "more than 2^31 vertices");
     return data;
 }
 

@@ -1,9 +1,13 @@
 #pragma once
-// Reading OBJ/PLY/OFF meshes through OpenMesh IO, with the structural checks that
-// OpenMesh leaves out (it skips bad faces and short files quietly).
+// Reading OBJ, PLY (ASCII and binary) and OFF (ASCII and binary) meshes. The readers
+// are the project's own, not OpenMesh IO's: those keep one normal per vertex, skip bad
+// faces and short files quietly, trust a header's counts until an allocation fails and
+// crash or never return on some malformed headers. Here every count is checked against
+// the bytes left before anything is allocated for it, and any fault is one line.
 #include "scenes/scene.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -18,11 +22,25 @@ struct MeshData {
 };
 
 // Reads `path` (shown as `shown` in errors). Throws SceneError naming the file and
-// the offending line or count: missing or unreadable file, unknown extension, a face
-// index out of range, a file shorter than its header promises, non-finite coordinates,
-// a bad normal (non-finite, zero length, an OBJ normal index out of range, an OBJ face
-// with normals at some corners only, a PLY vertex with some of nx, ny, nz).
+// the offending line or count: missing or unreadable file, not a regular file (a
+// directory, FIFO or device), unknown extension, a malformed header or count, a face
+// with fewer than 3 corners, a face index out of range, a file shorter than its header
+// promises, non-finite coordinates, a bad normal (non-finite, zero length, an OBJ
+// normal index out of range, an OBJ face with normals at some corners only, a PLY
+// vertex with some of nx, ny, nz).
 // Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
+
+// The largest mesh file read (4 GiB: some 100 million triangles, five times what the
+// patch limit lets through) and the largest scene file (64 MiB).
+inline constexpr std::uintmax_t kMaxMeshFileBytes = std::uintmax_t{4} << 30;
+inline constexpr std::uintmax_t kMaxSceneFileBytes = std::uintmax_t{64} << 20;
+
+// The whole of `path` as bytes, refused (SceneError naming `shown`, the file as the
+// user wrote it) unless it is a regular file of at most `max_bytes`: a directory, a
+// FIFO or a device (/dev/zero) would block, never end or eat memory. `kind` names the
+// file in messages ("mesh file", "scene file").
+std::string read_input_file(const std::string& path, const std::string& shown, const std::string& kind,
+                            std::uintmax_t max_bytes);
 
 }  // namespace raybundle::scenes

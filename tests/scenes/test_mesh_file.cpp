@@ -1,0 +1,268 @@
+// The mesh readers (OBJ, PLY ASCII and binary, OFF ASCII and binary) and the scene
+// file's JSON: good files in every encoding give the same mesh; malformed ones, among
+// them the inputs a mutation fuzzer found crashing or hanging OpenMesh's readers, give
+// one clear SceneError line naming the file and the place, without allocating for
+// counts the file cannot hold.
+#include "scenes/errors.h"
+#include "scenes/loader.h"
+#include "scenes/mesh_file.h"
+
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using namespace raybundle::scenes;
+using Catch::Matchers::Contains;
+
+namespace {
+
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        path = fs::temp_directory_path() / ("raybundle-mesh-test-" + std::to_string(std::rand()) + "-" +
+                                            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    std::string write(const std::string& name, const std::string& bytes) const {
+        std::ofstream(path / name, std::ios::binary) << bytes;
+        return (path / name).string();
+    }
+};
+
+// Bytes of a value in little- or big-endian order.
+template <class T>
+std::string bytes(T value, bool big_endian) {
+    std::string b(sizeof(T), '\0');
+    std::memcpy(b.data(), &value, sizeof(T));
+    const std::uint16_t one = 1;
+    const bool host_little = *reinterpret_cast<const unsigned char*>(&one) == 1;
+    if (big_endian == host_little) std::reverse(b.begin(), b.end());
+    return b;
+}
+
+// The unit square as two triangles (a quad face split into a fan), with +z normals.
+const std::vector<std::array<double, 3>> kSquare = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+
+std::string ply_header(const std::string& format, bool normals, const std::string& extra_element = "") {
+    return "ply\nformat " + format + " 1.0\ncomment a square\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\n" +
+           (normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "") +
+           "property uchar red\n" + extra_element + "element face 1\nproperty list uchar int vertex_indices\n"
+           "property int flags\nend_header\n";
+}
+
+std::string binary_ply(bool big_endian) {
+    std::string s = ply_header(big_endian ? "binary_big_endian" : "binary_little_endian", true,
+                               "element edge 1\nproperty list uchar short ends\n");
+    for (const auto& v : kSquare) {
+        for (double c : v) s += bytes(static_cast<float>(c), big_endian);
+        for (float n : {0.0f, 0.0f, 2.0f}) s += bytes(n, big_endian);
+        s += bytes(std::uint8_t{200}, big_endian);
+    }
+    s += bytes(std::uint8_t{2}, big_endian) + bytes(std::int16_t{0}, big_endian) + bytes(std::int16_t{1}, big_endian);
+    s += bytes(std::uint8_t{4}, big_endian);
+    for (int i : {0, 1, 2, 3}) s += bytes(std::int32_t{i}, big_endian);
+    s += bytes(std::int32_t{7}, big_endian);
+    return s;
+}
+
+void check_square(const MeshData& m, bool normals) {
+    REQUIRE(m.vertices.size() == 4);
+    for (std::size_t i = 0; i < 4; ++i)
+        for (int k = 0; k < 3; ++k) CHECK(m.vertices[i][k] == kSquare[i][k]);
+    REQUIRE(m.triangles.size() == 2);
+    CHECK(m.triangles[0] == std::array<int, 3>{0, 1, 2});
+    CHECK(m.triangles[1] == std::array<int, 3>{0, 2, 3});
+    REQUIRE(m.normals.size() == (normals ? 2u : 0u));
+    for (const auto& corner : m.normals)
+        for (const auto& n : corner) CHECK(n.z() == Approx(1.0));  // normalised
+}
+
+}  // namespace
+
+TEST_CASE("every mesh encoding reads the same square", "[scenes][mesh]") {
+    TempDir dir;
+    check_square(read_mesh_file(dir.write("a.ply", ply_header("ascii", true) +
+                                                       "0 0 0 0 0 1 9\n1 0 0 0 0 1 9\n1 1 0 0 0 1 9\n0 1 0 0 0 1 9\n"
+                                                       "4 0 1 2 3 5\n"),
+                                "a.ply"),
+                 true);
+    check_square(read_mesh_file(dir.write("le.ply", binary_ply(false)), "le.ply"), true);
+    check_square(read_mesh_file(dir.write("be.ply", binary_ply(true)), "be.ply"), true);
+    check_square(read_mesh_file(dir.write("a.off", "OFF\n# a comment\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n"),
+                                "a.off"),
+                 false);
+    // Counts on the magic's line, CRLF line ends, per-vertex extras (COFF colours).
+    check_square(read_mesh_file(dir.write("c.off", "COFF 4 1 0\r\n0 0 0 255 0 0 255\r\n1 0 0 255 0 0 255\r\n"
+                                                   "1 1 0 1 1 1 1\r\n0 1 0 1 1 1 1\r\n4 0 1 2 3 0 0 0\r\n"),
+                                "c.off"),
+                 false);
+    std::string off = "OFF BINARY\n";
+    for (std::int32_t n : {4, 1, 0}) off += bytes(n, true);
+    for (const auto& v : kSquare)
+        for (double c : v) off += bytes(static_cast<float>(c), true);
+    for (std::int32_t n : {4, 0, 1, 2, 3, 0}) off += bytes(n, true);
+    check_square(read_mesh_file(dir.write("b.off", off), "b.off"), false);
+    check_square(read_mesh_file(dir.write("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"), "q.obj"), false);
+}
+
+TEST_CASE("malformed meshes: one line naming the file and the place, bounded work", "[scenes][mesh][errors]") {
+    TempDir dir;
+    auto fails_with = [&](const std::string& name, const std::string& content, const std::string& needle) {
+        const std::string path = dir.write(name, content);
+        INFO(name << ": " << needle);
+        try {
+            read_mesh_file(path, name);
+            FAIL("no error");
+        } catch (const SceneError& e) {
+            const std::string what = e.what();
+            CHECK_THAT(what, Contains(name + ": ") && Contains(needle));
+            CHECK(what.find('\n') == std::string::npos);
+        }
+    };
+    const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+    const std::string faces = "element face 1\nproperty list uchar int vertex_indices\n";
+    const std::string tri = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+
+    SECTION("PLY headers") {
+        // The fuzzer's crash in OpenMesh: a property before any element.
+        fails_with("p.ply", "ply\nformat ascii 1.0\nproperty float x\nelement vertex 3\nend_header\n",
+                   "header line 3: property before any element");
+        // The fuzzer's endless loop: no end_header.
+        fails_with("h.ply", "ply\nformat ascii 1.0\n", "header: no end_header line");
+        fails_with("m.ply", "PLY\nformat ascii 1.0\nend_header\n", "not a PLY file");
+        fails_with("f.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n", "unknown format 'binary_middle_endian'");
+        fails_with("v.ply", "ply\nformat ascii 2.0\nend_header\n", "unknown version '2.0'");
+        fails_with("nf.ply", "ply\nelement vertex 3\n" + xyz + faces + "end_header\n" + tri, "header: no format line");
+        fails_with("t.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float128 x\nend_header\n",
+                   "unknown property type 'float128'");
+        fails_with("k.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz + "colour red\nend_header\n",
+                   "unknown header keyword 'colour'");
+        fails_with("lt.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
+                                 "element face 1\nproperty list float int vertex_indices\nend_header\n" + tri,
+                   "list count type 'float' is not an integer type");
+        fails_with("nx.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n" + faces +
+                                 "end_header\n0 0\n1 0\n0 1\n3 0 1 2\n",
+                   "the vertex element has no property z");
+        fails_with("ni.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
+                                 "element face 1\nproperty list uchar int corners\nend_header\n" + tri,
+                   "the face element has no integer list vertex_indices");
+        fails_with("nofaces.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz + "end_header\n0 0 0\n1 0 0\n0 1 0\n",
+                   "the mesh has no faces");
+    }
+    SECTION("PLY counts the file cannot hold are refused before allocating") {
+        for (const std::string count : {"2147483648", "-3", "inf", "1e9", "0x10", ""}) {
+            fails_with("c.ply", "ply\nformat ascii 1.0\nelement vertex " + count + "\n" + xyz + faces + "end_header\n" + tri,
+                       count.empty() ? "element needs a name and a count" : "element count '" + count + "' is not a count");
+        }
+        fails_with("big.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2147483647\n" + xyz + faces +
+                                  "end_header\n" + std::string(64, '\0'),
+                   "vertex: file is truncated: header promises 2147483647 vertices, the 64 bytes after it hold at most 5");
+        // A list claiming 255 corners in a file with 4 bytes left.
+        std::string list = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n" + xyz + faces + "end_header\n";
+        for (int k = 0; k < 9; ++k) list += bytes(static_cast<float>(k % 2), false);
+        list += bytes(std::uint8_t{255}, false) + bytes(std::int32_t{0}, false);
+        fails_with("list.ply", list, "face 0: file is truncated: header promises 255 list items");
+        fails_with("tb.ply", list.substr(0, list.size() - 10), "vertex: file is truncated");
+    }
+    SECTION("PLY data") {
+        const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz + faces + "end_header\n";
+        fails_with("short.ply", head + "0 0 0\n1 0 0\n0 1 0\n", "file is truncated");
+        fails_with("range.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+                   "face 0: references vertex 3, but the file has 3 vertices");
+        fails_with("neg.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", "face 0: references vertex -1");
+        fails_with("two.ply", head + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "face 0: face has 2 corners (at least 3 needed)");
+        fails_with("word.ply", head + "0 0 zero\n1 0 0\n0 1 0\n3 0 1 2\n", "vertex 0: malformed value 'zero'");
+        fails_with("inf.ply", head + "0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n", "vertex 1: value 'inf' is not finite");
+        fails_with("half.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n", "face 0: value '1.5' is not a whole number");
+        std::string nan_ply = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n" + xyz + faces + "end_header\n";
+        for (int k = 0; k < 9; ++k) nan_ply += bytes(k == 4 ? std::nanf("") : 0.0f, false);
+        nan_ply += bytes(std::uint8_t{3}, false) + bytes(std::int32_t{0}, false) + bytes(std::int32_t{1}, false) +
+                   bytes(std::int32_t{2}, false);
+        fails_with("nan.ply", nan_ply, "vertex 1: coordinate (0, nan, 0) is not finite");
+    }
+    SECTION("OFF") {
+        fails_with("m.off", "MOFF\n3 1 0\n" + tri, "not an OFF file ('MOFF'");
+        fails_with("4.off", "4OFF\n3 1 0\n" + tri, "not an OFF file ('4OFF'");
+        fails_with("c.off", "OFF\n", "missing vertex and face counts");
+        for (const std::string count : {"2147483648", "-3", "inf"})
+            fails_with("n.off", "OFF\n" + count + " 1 0\n" + tri, "header: vertex count '" + count + "' is not a count");
+        fails_with("huge.off", "OFF\n2000000000 1 0\n" + tri,
+                   "vertices: file is truncated: header promises 2000000000 vertices");
+        fails_with("two.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "face 0: face has 2 corners");
+        fails_with("k.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n300000 0 1 2\n",
+                   "face 0: file is truncated: header promises 300000 corners");
+        fails_with("few.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", "face 0: has fewer than the 4 indices");
+        std::string bin = "OFF BINARY\n" + bytes(std::int32_t{1 << 30}, true) + bytes(std::int32_t{1}, true) +
+                          bytes(std::int32_t{0}, true);
+        fails_with("b.off", bin, "vertices: file is truncated: header promises 1073741824 vertices");
+        fails_with("bt.off", "OFF BINARY\n" + bytes(std::int32_t{3}, true), "header: file is truncated");
+    }
+    SECTION("OBJ") {
+        fails_with("two.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: face has 2 corners (at least 3 needed)");
+        fails_with("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4: face references vertex -4");
+        fails_with("empty.obj", "", "the mesh has no faces");
+    }
+    SECTION("not a file of bytes") {
+        fails_with("empty.ply", "", "not a PLY file");
+        fails_with("empty.off", "", "header: empty file");
+        fs::create_directory(dir.path / "d.obj");
+        CHECK_THROWS_WITH(read_mesh_file((dir.path / "d.obj").string(), "d.obj"),
+                          "d.obj: is a directory, not a mesh file");
+        const std::string fifo = (dir.path / "f.ply").string();
+        REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);  // opening it would block for ever
+        CHECK_THROWS_WITH(read_mesh_file(fifo, "f.ply"),
+                          "f.ply: is not a regular file (a FIFO, a socket or a device), not a mesh file");
+        if (fs::exists("/dev/zero")) {  // endless zeros, behind a mesh's name
+            fs::create_symlink("/dev/zero", dir.path / "zero.off");
+            CHECK_THROWS_WITH(read_mesh_file((dir.path / "zero.off").string(), "zero.off"),
+                              Contains("zero.off: is not a regular file"));
+        }
+        CHECK_THROWS_WITH(read_mesh_file(dir.write("x.stl", "solid"), "x.stl"),
+                          "x.stl: unknown mesh format '.stl' (known: .obj, .ply, .off)");
+        CHECK_THROWS_WITH(load_scene(fifo), Contains("f.ply: is not a regular file") && Contains("scene file"));
+    }
+}
+
+TEST_CASE("scene JSON: nesting bounded, keys once, integers of any size", "[scenes][errors]") {
+    auto fails_with = [](const std::string& text, const std::string& needle) {
+        INFO(text.substr(0, 200));
+        try {
+            parse_scene(text, "s.json", ".");
+            FAIL("no error");
+        } catch (const SceneError& e) {
+            const std::string what = e.what();
+            CHECK_THAT(what, Contains("s.json") && Contains(needle));
+            CHECK(what.find('\n') == std::string::npos);
+            CHECK(what.size() < 300);
+        }
+    };
+    // 60,000 nested arrays overflowed the stack; now refused at depth 64 while reading.
+    fails_with("{\"objects\": " + std::string(60000, '[') + std::string(60000, ']') + "}", "nested more than 64 deep");
+    fails_with(R"({"camera": {"eye": [0,0,5], "target": [0,0,0], "eye": [1,1,1]}})", "camera.eye: key given twice");
+    fails_with(R"({"materials": {"w": {"albedo": [0.5,0.5,0.5]}}, "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]],
+               "material": "w", "material": "w"}]})",
+               "objects[0].material: key given twice");
+    // The smallest long long: its absolute value overflowed (UB) in the range check.
+    fails_with(R"({"camera": {"eye": [0,0,5], "target": [0,0,0], "width": -9223372036854775808}})",
+               "camera.width: value -9223372036854775808 is out of range");
+    // Long values are cut in the message: an array, a number too large for a double.
+    std::string ones = "1";
+    for (int k = 0; k < 2000; ++k) ones += ",1";
+    fails_with(R"({"camera": {"eye": [)" + ones + "]}}", "camera.eye: expected [x, y, z], got [1,1,1,");
+    fails_with(R"({"camera": {"eye": [)" + std::string(5000, '1') + "]}}", "...");
+    // A byte-order mark is read past (editors on Windows write one).
+    const Scene s = parse_scene("\xEF\xBB\xBF" R"({"camera": {"eye": [0,0,5], "target": [0,0,0]},
+        "materials": {"w": {"albedo": [0.5,0.5,0.5]}}, "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w"}]})",
+                                "s.json", ".");
+    CHECK(s.patch_count() >= 2);
+}
