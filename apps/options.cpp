@@ -1,6 +1,7 @@
 // The options of `raybundle solve` and `raybundle check`, and the checks only the
 // command line can make.
 #include "cli.h"
+#include "outputs.h"
 
 #include "render/image_io.h"
 #include "scenes/errors.h"
@@ -49,7 +50,7 @@ const CLI::Validator kDigits(
 // The library's option names and the flags that set them.
 const std::map<std::string, std::string> kFlags = {
     {"method", "--method"},       {"basis", "--basis"},
-    {"steps", "--iterations"},    {"both_ways", "--one-way"},
+    {"steps", "--iterations"},    {"both_ways", "--one-way"}, {"ambient", "--ambient"},
     {"depth", "--depth"},         {"unbiased", "--unbiased"},
     {"sampler", "--sampler"},     {"visibility", "--visibility"},
     {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
@@ -60,12 +61,6 @@ const std::map<std::string, std::string> kFlags = {
     {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
     {"emission_samples", "--emission-samples"},
 };
-
-void check_output(const std::string& path, const std::string& flag) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-        throw UsageError(flag + " " + path + ": is a directory, not a file");
-}
 
 }  // namespace
 
@@ -112,6 +107,9 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         ->check(CLI::IsMember({"random", "halton", "sobol"}));
     cmd.add_flag("--both-ways,!--one-way", s.both_ways,
                  "iteration: every geometry matrix serves w and -w (default), or w only");
+    cmd.add_flag("--ambient,!--no-ambient", s.ambient,
+                 "iteration: the ambient control variate and start (high albedo; experimental, docs/stability.md), "
+                 "or the paper's estimator as it is (default)");
     cmd.add_option("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)")->capture_default_str();
     cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
     cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
@@ -213,7 +211,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
-                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--csv-every", "--patches", "--ply", "--shading"})
+                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
         c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;
@@ -230,29 +228,45 @@ void check_command(const CLI::App& cmd, Command& c) {
     if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");
     c.gather.gather_rays = c.gather_rays;
     c.run.progress_every = c.csv_every;
-    // Every output names a writable file, and no two the same one.
-    std::vector<std::pair<std::string, std::string>> outputs;  // path, flag
+    // Every output names a file that can be written, and no two outputs, nor an output
+    // and an input, the same file (compared once resolved: ./d/x.exr is d/x.exr).
+    struct Named {
+        std::string path, flag;
+    };
+    std::vector<Named> outputs;
     for (const auto& image : c.images) {
         try {
             render::image_format(image);
         } catch (const scenes::OptionError& e) {
             throw UsageError("-o " + e.problem());
         }
-        outputs.emplace_back(image, "-o");
+        outputs.push_back({image, "-o"});
     }
     for (const auto& [path, flag] : {std::pair{c.stats, "--stats"}, {c.csv, "--csv"}, {c.patches_csv, "--patches"},
                                      {c.ply, "--ply"}})
-        if (!path.empty()) outputs.emplace_back(path, flag);
-    for (std::size_t a = 0; a < outputs.size(); ++a) {
-        check_output(outputs[a].first, outputs[a].second);
-        for (std::size_t b = a + 1; b < outputs.size(); ++b)
-            if (outputs[a].first == outputs[b].first)
-                throw UsageError(outputs[a].second + " and " + outputs[b].second + " name the same file " +
-                                 outputs[a].first);
-    }
+        if (!path.empty()) outputs.push_back({path, flag});
     struct stat st {};
-    if (!c.aov.empty() && ::stat(c.aov.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
-        throw UsageError("--aov " + c.aov + ": not a directory");
+    if (!c.aov.empty()) {
+        if (::stat(c.aov.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw UsageError("--aov " + c.aov + ": not a directory");
+        for (const char* name : kAovNames) outputs.push_back({c.aov + "/" + name + ".exr", "--aov"});
+    }
+    std::vector<Named> inputs;
+    if (!c.scene_file.empty()) inputs.push_back({c.scene_file, "the scene file"});
+    if (!c.reference.empty()) inputs.push_back({c.reference, "the --reference image"});
+    std::vector<std::string> resolved;
+    for (const auto& out : outputs) {
+        check_output_path(out.path, out.flag);
+        resolved.push_back(resolved_path(out.path));
+    }
+    for (std::size_t a = 0; a < outputs.size(); ++a) {
+        for (std::size_t b = a + 1; b < outputs.size(); ++b)
+            if (resolved[a] == resolved[b])
+                throw UsageError(outputs[a].flag + " " + outputs[a].path + " and " + outputs[b].flag + " " +
+                                 outputs[b].path + " name the same file");
+        for (const auto& in : inputs)
+            if (resolved[a] == resolved_path(in.path))
+                throw UsageError(outputs[a].flag + " " + outputs[a].path + ": is " + in.flag + " (it would be overwritten)");
+    }
 }
 
 scenes::Scene load_scene(const Command& c) {

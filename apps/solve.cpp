@@ -1,5 +1,6 @@
 // `raybundle solve`: load -> solve -> render -> write, and the run's record.
 #include "cli.h"
+#include "outputs.h"
 #include "progress.h"
 #include "stats.h"
 
@@ -14,6 +15,7 @@
 #include "scenes/ray_caster.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -75,9 +77,33 @@ void write_csv(const std::string& path, const std::vector<Row>& rows) {
     });
 }
 
-void make_parent(const std::string& path) {
-    const auto parent = std::filesystem::path(path).parent_path();
-    if (!parent.empty()) std::filesystem::create_directories(parent);
+// A result with a non-finite value is a failure that names where it appeared (an
+// overflow: coordinates or intensities too large for the arithmetic, or a bug), never
+// an output written with exit 0.
+void require_finite(const render::Image& image, const std::string& what) {
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x)
+            for (int k = 0; k < 3; ++k)
+                if (!std::isfinite(image.at(x, y)[k]))
+                    throw std::runtime_error(what + ": pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                             ") is not finite (" + std::to_string(image.at(x, y)[k]) +
+                                             " in channel " + "rgb"[k] + "); nothing written");
+}
+
+std::string object_of(const scenes::Scene& scene, std::size_t patch) {
+    const int object = scene.patch_list()[patch].object;
+    return object >= 0 && static_cast<std::size_t>(object) < scene.object_names.size()
+               ? " (" + scene.object_names[static_cast<std::size_t>(object)] + ")"
+               : "";
+}
+
+void require_finite(const solver::RadianceField& field, const scenes::Scene& scene) {
+    for (std::size_t i = 0; i < field.radiance.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            if (!std::isfinite(field.radiance[i][k]))
+                throw std::runtime_error("the radiance of patch " + std::to_string(i) + object_of(scene, i) + " is not finite (" +
+                                         std::to_string(field.radiance[i][k]) + " in channel " + "rgb"[k] +
+                                         "); nothing written");
 }
 
 // One chain of the solver, as the image needs it (render/progressive.h): the solver
@@ -204,15 +230,12 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
         rows.push_back(row);
     });
     bar.clear();
+    require_finite(traced.traced.image, "the image");
     const auto against = compare(reference, traced.traced.image);
-    for (const auto& path : c.images) {
-        make_parent(path);
-        render::write_image(path, traced.traced.image, c.exposure);
-    }
-    if (!c.csv.empty()) {
-        make_parent(c.csv);
-        write_csv(c.csv, rows);
-    }
+    OutputSet outputs;
+    for (const auto& path : c.images)
+        outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, traced.traced.image, c.exposure); });
+    if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { write_csv(tmp, rows); });
     json stats = {{"scene", scene.name},
                   {"patches", scene.patch_count()},
                   {"method", "pathtrace"},
@@ -229,10 +252,8 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
                               "heuristic, Russian roulette; unbiased (render/path_tracer.h)"},
                     {"rounds", traced.rounds.stopped}}}};
     record(stats, c, against);
-    if (!c.stats.empty()) {
-        make_parent(c.stats);
-        write_json(c.stats, stats);
-    }
+    if (!c.stats.empty()) outputs.stage(c.stats, [&](const std::string& tmp) { write_json(tmp, stats); });
+    outputs.commit();
     if (!c.quiet) {
         std::printf("%s: %zu patches, path traced %ld paths per pixel in %.2f s", scene.name.c_str(),
                     scene.patch_count(), traced.traced.paths / (static_cast<long>(scene.camera.width) * scene.camera.height),
@@ -316,24 +337,25 @@ int solve(const Command& c) {
     const solver::RadianceField& field = made.field;
     const auto against = compare(reference, image);
 
-    // The outputs asked for, their directories made when missing.
-    for (const auto& path : c.images) {
-        make_parent(path);
-        render::write_image(path, image, c.exposure);
-    }
+    require_finite(field, scene);
+    require_finite(image, "the image");
+    // The outputs asked for, all written or none (apps/outputs.h).
+    OutputSet outputs;
+    for (const auto& path : c.images)
+        outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, image, c.exposure); });
     if (made.gather && !c.aov.empty()) {
-        std::filesystem::create_directories(c.aov);
         const auto& g = *made.gather;
-        const std::pair<const char*, const render::Image*> aovs[] = {
-            {"direct", &g.direct}, {"indirect", &g.indirect}, {"indirect-filtered", &g.indirect_filtered},
-            {"normal", &g.normal}, {"depth", &g.depth}};
-        for (const auto& [name, img] : aovs) render::write_exr(c.aov + "/" + name + ".exr", *img);
+        const render::Image* aovs[] = {&g.direct, &g.indirect, &g.indirect_filtered, &g.normal, &g.depth};
+        static_assert(std::size(aovs) == kAovNames.size());
+        for (std::size_t i = 0; i < kAovNames.size(); ++i)
+            outputs.stage(c.aov + "/" + kAovNames[i] + ".exr",
+                          [&](const std::string& tmp) { render::write_exr(tmp, *aovs[i]); });
     }
-    for (const auto* path : {&c.patches_csv, &c.ply, &c.csv, &c.stats})
-        if (!path->empty()) make_parent(*path);
-    if (!c.patches_csv.empty()) render::write_patch_csv(c.patches_csv, scene, field);
-    if (!c.ply.empty()) render::write_patch_ply(c.ply, scene, field, c.exposure);
-    if (!c.csv.empty()) write_csv(c.csv, rows);
+    if (!c.patches_csv.empty())
+        outputs.stage(c.patches_csv, [&](const std::string& tmp) { render::write_patch_csv(tmp, scene, field); });
+    if (!c.ply.empty())
+        outputs.stage(c.ply, [&](const std::string& tmp) { render::write_patch_ply(tmp, scene, field, c.exposure); });
+    if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { write_csv(tmp, rows); });
 
     const solver::SolverReport report = combined(chain_a.solver().report(), chain_b.solver().report());
     const double mean = field.mean_radiance(scene);
@@ -362,7 +384,8 @@ int solve(const Command& c) {
         stats["relative_l1_error"] = *error;
     }
     record(stats, c, against);
-    if (!c.stats.empty()) write_json(c.stats, stats);
+    if (!c.stats.empty()) outputs.stage(c.stats, [&](const std::string& tmp) { write_json(tmp, stats); });
+    outputs.commit();
 
     if (!c.quiet) {
         std::printf("%s: %zu patches, %s %ld steps in %.2f s", scene.name.c_str(), scene.patch_count(),

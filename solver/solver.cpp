@@ -45,8 +45,13 @@ std::unique_ptr<Solver> make_solver(const Transport& transport, const SolverOpti
     if (!iteration && !options.both_ways)
         throw scenes::OptionError("both_ways", "applies to stochastic iteration (the walk method 'bidirectional' "
                                                "uses w and -w)");
+    if ((!iteration || options.basis == "linear") && options.ambient)
+        throw scenes::OptionError("ambient", "applies to stochastic iteration with the constant basis");
     visibility::BackendOptions map = options.map;
-    map.sky = transport.scene().sky.has_value();  // no sky: no sky entries in the maps
+    // Sky entries for a scene with sky; without one, the void's entries only for the
+    // ambient control variate (solver/stochastic_iteration.h), when the backend has them.
+    map.sky = transport.scene().sky.has_value() ||
+              (iteration && options.basis == "constant" && options.ambient && visibility::backend_info(options.visibility).sky);
     if (options.basis == "linear") {
         if (!iteration) throw scenes::OptionError("basis", "linear works with the method 'iteration', not '" + options.method + "'");
         if (options.visibility != visibility::kDefaultBackend && options.visibility != "painter")
@@ -58,7 +63,11 @@ std::unique_ptr<Solver> make_solver(const Transport& transport, const SolverOpti
         return std::make_unique<LinearIteration>(transport, o, run);
     }
     auto backends = std::make_unique<visibility::BackendSet>(options.visibility, transport.scene(), map, run.threads);
-    if (iteration) return std::make_unique<StochasticIteration>(transport, std::move(backends), options, run);
+    if (iteration) {
+        SolverOptions o = options;
+        o.map = map;
+        return std::make_unique<StochasticIteration>(transport, std::move(backends), o, run);
+    }
     const WalkMethod method = options.method == "walk"       ? WalkMethod::walk
                               : options.method == "combined" ? WalkMethod::combined
                                                              : WalkMethod::bidirectional;

@@ -95,6 +95,27 @@ void StochasticIteration::init() {
     report_.decisions["burn_in"] = std::to_string(burn_in_) + " steps left out of the average (largest reflectance " +
                                    std::to_string(rho) + ": its start-up deficit below 1e-4 after " +
                                    std::to_string(wanted) + " steps; at most a tenth of the steps)";
+    if (options_.ambient) {
+        const Rgb ambient = transport_.mean_emitted() / (Rgb::Ones() - transport_.mean_albedo());
+        window_sum_.assign(n, Rgb::Zero());
+        c_.assign(n, ambient);
+        // g_i = 1 before the first step, then at once what the patch sees: a pseudo-step
+        // of a fully lit patch, of weight 1e-6 (a real step's is ~1/4).
+        covered_sum_.assign(n, 1e-6);
+        exposed_sum_.assign(n, 1e-6);
+        lit_.assign(n + 2, 0.0);
+        seen_.assign(n + 2, 0.0);
+        voids_ = options_.map.sky;
+        for (std::size_t i = 0; i < n; ++i)
+            if (!transport_.is_glossy(i)) irradiance_[i] = ambient / 4.0;
+        report_.details["ambient_start"] = {ambient[0], ambient[1], ambient[2]};
+        report_.decisions["ambient"] =
+            "control variate on every diffuse patch: sum_j A_ij (L_j - c_i) + c_i T_i f_i + c_i (1/4 - T_i) g_i, c_i "
+            "its mean incoming radiance over the last window of steps, f_i the lit share of its entries, g_i its mean; "
+            "the chain starts from the ambient radiance (mean emission / (1 - mean albedo))";
+    } else {
+        report_.decisions["ambient"] = "off: the estimator of 004 section 4.4.1 as it is, from no reflected light";
+    }
     report_.decisions["directions_per_step"] = options_.both_ways ? "w and -w from one geometry matrix (weight 1/2 each)"
                                                                   : "w only";
 }
@@ -121,6 +142,49 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
     // exactly one of +-w, so it receives once; weight 1/2 keeps the expectation: the
     // pair (w, -w) is sampled with twice the density of w alone.
     t.gather(matrix, outgoing_, next_, both, both ? 0.5 : 1.0);
+    if (options_.ambient) {
+        // c_i and g_i from the start and the steps before this one; f_i this step's.
+        std::fill(lit_.begin(), lit_.end(), 0.0);
+        std::fill(seen_.begin(), seen_.end(), 0.0);
+        t.exposure(matrix, lit_, seen_, both, both ? 0.5 : 1.0);
+        if (steps_ == burn_in_ && burn_in_ > 0) {
+            // The first averaged step: c_i from the burn-in's last steps (those of the
+            // window under way, when there are enough), then windows anew, so that
+            // the start does not linger in c_i (a dark room started bright).
+            if (window_steps_ >= 8)
+                for (std::size_t i = 0; i < n; ++i)
+                    c_[i] = (4.0 / static_cast<double>(window_steps_)) * window_sum_[i];
+            std::fill(window_sum_.begin(), window_sum_.end(), Rgb::Zero());
+            window_steps_ = 0;
+            window_size_ = 16;
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            if (t.is_glossy(i)) continue;
+            const double T = t.receiving_share(i, w, both);
+            const double g = covered_sum_[i] / exposed_sum_[i];
+            const double f = voids_ ? (seen_[i] > 0.0 ? lit_[i] / seen_[i] : g) : (T > 0.0 ? lit_[i] / T : g);
+            // The departure's entries scaled from the pixels' exposure to the exact one
+            // (T f / lit = T / seen): one pixel on a patch seen edge-on weighs its area
+            // against the patch's, which high albedo would feed back (a 1 with an exact
+            // backend).
+            const double scale = lit_[i] > 0.0 ? T * f / lit_[i] : 0.0;
+            next_[i] = scale * (next_[i] - lit_[i] * c_[i]) + (T * f + (0.25 - T) * g) * c_[i];
+            covered_sum_[i] += T * f;
+            exposed_sum_[i] += T;
+        }
+        // c_i from the window just completed: windows of 16, 32, 64, ... steps, so that
+        // c_i is a mean over many steps (a mean over few feeds its noise back) and over
+        // recent ones (the start, say the ambient radiance in a dark room, is forgotten).
+        for (std::size_t i = 0; i < n; ++i) window_sum_[i] += next_[i];
+        if (++window_steps_ == window_size_) {
+            for (std::size_t i = 0; i < n; ++i) {
+                c_[i] = (4.0 / static_cast<double>(window_steps_)) * window_sum_[i];
+                window_sum_[i] = Rgb::Zero();
+            }
+            window_steps_ = 0;
+            window_size_ *= 2;
+        }
+    }
     irradiance_.swap(next_);
     previous_ = w;
     ++steps_;
@@ -133,6 +197,7 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
     } else {
         for (std::size_t i = 0; i < n; ++i) sum_[i] += irradiance_[i];
     }
+
 }
 
 void StochasticIteration::advance(long total) {

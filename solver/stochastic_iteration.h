@@ -12,7 +12,38 @@
 // shades once at the end (L = Le + 4 albedo <I>); only a scene with glossy materials
 // evaluates the view-dependent radiance towards the eye in every step.
 //
-// Options read: steps, both_ways. Call order: see solver.h.
+// The ambient control variate (options.ambient; off by default, docs/stability.md). One direction exposes
+// patch i to a cosine share T_i(w) of its incoming light (Transport::receiving_share),
+// whose mean over directions is exactly 1/4 but which scatters between 0 and 1/2: in
+// a closed scene of uniform radiance c the estimate is c T_i(w) where it should be
+// c / 4, and high albedo feeds that error back for ~1/(1 - albedo) steps. So the
+// estimate of diffuse patch i is
+//
+//   I_i = sum_j A_ij(w) (L_j - c_i)  +  c_i T_i f_i  +  c_i (1/4 - T_i) g_i:
+//
+// the light's departure from a constant c_i moved by the geometry matrix, plus the
+// constant's share: c_i times what of the patch's exposure T_i saw light (f_i: the
+// fraction of the patch's own entries that came from a surface or the sky rather than
+// the void; 1 in a closed scene, whatever the pixels), plus a term of mean zero
+// (E[1/4 - T_i] = 0) that takes T_i's scatter out: c_i is the patch's mean incoming
+// radiance over a window of steps before (4 x their mean I: windows of 16, 32, 64, ...
+// steps, the last one completed; a mean over few steps would feed its noise back, one
+// over all steps would remember the start; the ambient radiance before the first;
+// windows begin anew when the burn-in ends, from the mean of its last steps), g_i
+// the mean of f_i over all steps before (weighted by T), neither depending on w. In a closed box of one albedo per channel
+// every step is then exact, with a pixel backend too. f_i needs the void's entries:
+// options.map.sky says the backend emits them (make_solver asks for them when the
+// backend can); without them f_i = (what the entries covered) / T_i, the first two
+// terms are the plain estimate, and only the third is added.
+//
+// Bias: none from the third term. With the void's entries, T_i f_i stands for the
+// covered share that pixels measure, which has the same mean with exact backends and
+// up to the pixel noise's correlation with f_i with pixel backends (docs/stability.md
+// measures it). The chain also starts from the ambient radiance (progressive
+// radiosity's ambient term: the mean emission over 1 - the mean albedo, per channel),
+// not from no light, which high albedo would take ~1/(1 - albedo) steps to fill in.
+//
+// Options read: steps, both_ways, ambient. Call order: see solver.h.
 #include "solver/solver.h"
 #include "visibility/parallel.h"
 
@@ -60,6 +91,13 @@ private:
     std::vector<scenes::Rgb> irradiance_, next_, outgoing_;
     long burn_in_ = 0;                             // steps left out of sum_
     std::vector<scenes::Rgb> sum_;                 // sum of I (diffuse) or of 4 pi F(w, eye) I (glossy)
+    // Ambient: c_i, and the I of the window of steps under way summed; T f and T summed
+    // from a light pseudo-step of a fully lit patch (g_i); one step's exposure
+    // (Transport::exposure).
+    std::vector<scenes::Rgb> c_, window_sum_;
+    long window_steps_ = 0, window_size_ = 16;
+    std::vector<double> covered_sum_, exposed_sum_, lit_, seen_;
+    bool voids_ = false;  // the matrices carry the void's entries (options.map.sky)
     scenes::Vec3 previous_ = scenes::Vec3::Zero();
     sampling::RandomDirections directions_;
     sampling::Rng jitter_;

@@ -123,12 +123,50 @@ RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, con
     return f;
 }
 
+Rgb Transport::mean_emitted() const {
+    Rgb sum = Rgb::Zero();
+    double area = 0.0;
+    for (std::size_t j = 0; j < n_; ++j) {
+        const double a = scene_.patch_list()[j].area;
+        sum += a * emitted_diffuse_[j];
+        area += a;
+    }
+    return area > 0.0 ? Rgb(sum / area) : Rgb::Zero();
+}
+
+Rgb Transport::mean_albedo() const {
+    Rgb sum = Rgb::Zero();
+    double area = 0.0;
+    for (std::size_t j = 0; j < n_; ++j) {
+        const double a = scene_.patch_list()[j].area;
+        sum += a * scene_.material_of(j).albedo;
+        area += a;
+    }
+    return area > 0.0 ? Rgb(sum / area) : Rgb::Zero();
+}
+
 void Transport::set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const {
     if (scene_.sky) {
         outgoing[n_] = scene_.sky->arriving_along(w);
         outgoing[n_ + 1] = scene_.sky->arriving_along(-w);
     } else {
         outgoing[n_] = outgoing[n_ + 1] = Rgb::Zero();
+    }
+}
+
+void Transport::exposure(const visibility::GeometryMatrix& m, std::vector<double>& lit, std::vector<double>& seen,
+                         bool both, double weight) const {
+    const double* inv = inv_area_.data();
+    const bool sky = scene_.sky.has_value();
+    for (const auto& e : m.entries) {
+        const bool from_void = !sky && e.source >= n_, to_void = !sky && e.receiver >= n_;
+        const double a = weight * e.area;
+        seen[e.receiver] += a * inv[e.receiver];
+        if (!from_void) lit[e.receiver] += a * inv[e.receiver];
+        if (both) {
+            seen[e.source] += a * inv[e.source];
+            if (!to_void) lit[e.source] += a * inv[e.source];
+        }
     }
 }
 

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <vector>
 
 namespace raybundle::solver {
@@ -102,6 +103,28 @@ public:
 
     // Sets the two sky slots of an outgoing-radiance vector for direction w.
     void set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const;
+
+    // The cosine share of its incoming light that patch i is exposed to in one
+    // gather() along w: |n_i . w| / 2 with `both` (each patch faces one of +-w, weight
+    // 1/2), |n_i . w| when it faces against w alone, else 0. Over uniform directions its
+    // mean is exactly 1/4. What the entries cover of it (exposure()) is this share in a
+    // closed scene with exact visibility, less where the patch looks into the void or
+    // where a rasterising backend's pixels miss.
+    double receiving_share(std::size_t i, const Vec3& w, bool both) const {
+        const double c = normal_[i].dot(w);
+        return both ? 0.5 * std::abs(c) : std::max(0.0, -c);
+    }
+    // What one gather() along m exposes every patch to, as shares of its area times its
+    // cosine (what gather() would give it of a radiance of 1): `lit[i]` over the entries
+    // that bring it light (from a patch, or from the sky when the scene has one),
+    // `seen[i]` over all its entries, the void's too (a sky slot in a scene without
+    // sky: the backend emits them with BackendOptions::sky). Both are added to.
+    void exposure(const visibility::GeometryMatrix& m, std::vector<double>& lit, std::vector<double>& seen, bool both,
+                  double weight) const;
+    // The patches' area-weighted mean emitted() radiance and diffuse albedo, per
+    // channel (the ambient term's inputs).
+    Rgb mean_emitted() const;
+    Rgb mean_albedo() const;
 
     // next += weight * A(w) outgoing; with `both` also along -w (each entry carries
     // light from the receiver back to the source). Vectors have slots() entries.

@@ -58,7 +58,51 @@ printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "fov_y": 200}
 scene "$quad" ', "patch_size": 0' > patch-size.json
 scene "" > empty.json
 
+# Inputs a mutation fuzzer found crashing, hanging or eating memory (tests/scenes/
+# test_mesh_file.cpp has the full set), and inputs that are not files.
+printf 'ply\nformat ascii 1.0\nproperty float x\nelement vertex 3\nend_header\n' > early.ply
+printf 'ply\nformat ascii 1.0\n' > endless.ply
+printf 'OFF\n2147483648 1 0\n0 0 0\n' > huge.off
+printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n' > two.off
+mkfifo fifo.obj fifo.json
+mkdir -p dir.obj
+ln -sf /dev/zero zero.off
+for m in early.ply endless.ply huge.off two.off fifo.obj dir.obj zero.off; do
+  scene "{\"mesh\": \"$m\", \"material\": \"w\"}" > "mesh-${m%.*}.json"
+done
+expect_bad "PLY property before element" "early.ply: header line 3: property before any element" solve mesh-early.json
+expect_bad "PLY without end_header" "endless.ply: header: no end_header line" solve mesh-endless.json
+expect_bad "OFF count of 2^31" "huge.off: header: vertex count '2147483648' is not a count" solve mesh-huge.json
+expect_bad "2-corner OFF face" "two.off: face 0: face has 2 corners (at least 3 needed)" solve mesh-two.json
+expect_bad "FIFO as a mesh" "fifo.obj: is not a regular file" solve mesh-fifo.json
+expect_bad "directory as a mesh" "dir.obj: is a directory, not a mesh file" solve mesh-dir.json
+expect_bad "/dev/zero as a mesh" "zero.off: is not a regular file" solve mesh-zero.json
+expect_bad "FIFO as the scene" "fifo.json: is not a regular file (a FIFO, a socket or a device), not a scene file" solve fifo.json
+printf '{"objects": %s%s}\n' "$(head -c 60000 /dev/zero | tr '\0' '[')" "$(head -c 60000 /dev/zero | tr '\0' ']')" > deep.json
+expect_bad "JSON nested 60,000 deep" "deep.json: objects[0][0]" solve deep.json
+scene "$quad" ', "patch_size": 1, "patch_size": 2' > twice.json
+expect_bad "a key given twice" "twice.json: patch_size: key given twice" solve twice.json
 expect_bad "missing scene file" "no-such.json: cannot open scene file" solve no-such.json
+expect_bad "--ambient with walks" "--ambient: applies to stochastic iteration with the constant basis" \
+  solve good.json --method walk --ambient
+expect_bad "--ambient with pathtrace" "ambient does not apply to --method pathtrace" \
+  solve good.json --method pathtrace --ambient
+# The ambient control variate: off by default, on with --ambient, in the stats either way.
+"$bin" solve --builtin homogeneous-box --iterations 50 --gather 0 --ambient --stats amb-on.json -q &&
+  "$bin" solve --builtin homogeneous-box --iterations 50 --gather 0 --stats amb-off.json -q &&
+  grep -q '"ambient": "control variate' amb-on.json && grep -q '"ambient": "off' amb-off.json
+check $? "--ambient/--no-ambient: the decision is not in the stats"
+# A result that overflows: one line naming where, exit 1, nothing written.
+scene "$quad" ', "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [1e308, 1e308, 1e308]}]' > overflow.json
+rm -rf ovf && mkdir ovf
+"$bin" solve overflow.json --iterations 20 -o ovf/i.exr --stats ovf/s.json >out.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 1 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "is not finite" err.txt && grep -q "nothing written" err.txt &&
+   [ -z "$(ls -A ovf)" ]; then
+  passed=$((passed + 1))
+else
+  fail "overflowing point light: exit $rc, $(cat err.txt), written: $(ls -A ovf)"
+fi
 expect_bad "malformed JSON" "malformed.json:3:" solve malformed.json
 expect_bad "unknown key" "unknown key 'patchsize'" solve unknown-key.json
 expect_bad "unknown material" "objects[0].material: unknown material 'red'" solve unknown-material.json
@@ -91,8 +135,20 @@ expect_bad "negative seed" "--seed: '-1' is not an integer in 0..2^64-1" solve g
 expect_bad "exposure nan" "--exposure: 'nan' is not a finite number" solve good.json --exposure nan
 expect_bad "eps inf" "--eps-depth: 'inf' is not a finite number" solve good.json --gather 2 --eps-depth inf
 # Outputs that collide or are directories (expect_bad names every output itself).
-mkdir -p adir
-for case in "-o same.exr -o same.exr|-o and -o name the same file" "-o same.exr --stats same.exr|-o and --stats name the same file" "--stats adir|--stats adir: is a directory"; do
+mkdir -p adir d
+echo file > afile
+touch ro.exr && chmod 444 ro.exr
+mkfifo fifo.exr
+for case in "-o same.exr -o same.exr|-o same.exr and -o same.exr name the same file" \
+            "-o same.exr --stats same.exr|-o same.exr and --stats same.exr name the same file" \
+            "-o ./d/same.exr -o d/../d/same.exr|-o ./d/same.exr and -o d/../d/same.exr name the same file" \
+            "--gather 4 --aov d -o d/direct.exr|-o d/direct.exr and --aov d/direct.exr name the same file" \
+            "--stats adir|--stats adir: is a directory" \
+            "--stats /dev/null|--stats /dev/null: is a device, a FIFO or a socket, not a file" \
+            "-o fifo.exr|-o fifo.exr: is a device, a FIFO or a socket" \
+            "-o ro.exr|-o ro.exr: is read-only" \
+            "-o afile/x.exr|-o afile/x.exr: Not a directory" \
+            "--stats good.json|--stats good.json: is the scene file (it would be overwritten)"; do
   args=${case%%|*}
   text=${case#*|}
   # shellcheck disable=SC2086
@@ -104,6 +160,7 @@ for case in "-o same.exr -o same.exr|-o and -o name the same file" "-o same.exr 
     fail "$args: exit $rc, $(cat err.txt)"
   fi
 done
+[ -p fifo.exr ] && [ -c /dev/null ] && [ "$(cat ro.exr)" = "" ] || fail "a refused output was replaced"
 expect_bad "filter without gather" "--filter needs the final gather" solve good.json --gather 0 --filter atrous
 expect_bad "unbiased QMC walks" "--unbiased: needs the random sampler" solve good.json --method walk --unbiased --sampler sobol
 expect_bad "spp without gather" "--spp needs the final gather" solve good.json --gather 0 --spp 4

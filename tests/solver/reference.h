@@ -92,11 +92,11 @@ inline std::vector<double> form_factors(const scenes::Scene& scene, int levels) 
     return F;
 }
 
-// L = Le + rho F L by Jacobi iteration.
-inline std::vector<Rgb> radiosity(const scenes::Scene& scene, const std::vector<double>& F) {
+// L = Le + rho F L by Jacobi iteration (the error after k sweeps falls like rho^k).
+inline std::vector<Rgb> radiosity(const scenes::Scene& scene, const std::vector<double>& F, int sweeps = 200) {
     const std::size_t n = scene.patch_count();
     std::vector<Rgb> ref(n, Rgb::Zero()), next(n);
-    for (int sweep = 0; sweep < 200; ++sweep) {
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
         for (std::size_t i = 0; i < n; ++i) {
             Rgb gathered = Rgb::Zero();
             for (std::size_t j = 0; j < n; ++j) gathered += F[i * n + j] * ref[j];
