@@ -454,6 +454,19 @@ expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 
 
 # The error estimate on every run, and rounds for a target error or a time budget.
 json_number() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{print $2}'; }
+# --filter-radius: 0 (the default) chooses it from the image and the rays per pass, a
+# number sets it; --direct-samples; both in the stats, and refused out of range.
+"$bin" solve --builtin cornell-box --patch-size 100 --iterations 50 --width 64 --height 64 --gather 8 --spp 2 \
+  --stats fr-auto.json -q &&
+  "$bin" solve --builtin cornell-box --patch-size 100 --iterations 50 --width 64 --height 64 --gather 8 --spp 2 \
+    --filter-radius 5 --direct-samples 3 --stats fr-5.json -q
+check $? "--filter-radius / --direct-samples runs failed"
+r_auto=$(json_number filter_radius fr-auto.json)
+[ "$(json_number filter_radius fr-5.json)" = 5 ] && [ "$(json_number direct_samples fr-5.json)" = 3 ] &&
+  [ -n "$r_auto" ] && [ "$r_auto" -ge 1 ]
+check $? "--filter-radius 5 --direct-samples 3 not in the stats, or the automatic radius not >= 1 ($r_auto)"
+expect_bad "--filter-radius out of range" "--filter-radius" solve good.json --gather 4 --filter-radius 2000
+expect_bad "--direct-samples out of range" "--direct-samples" solve good.json --gather 4 --direct-samples -1
 "$bin" solve --builtin homogeneous-box --width 16 --height 16 --iterations 100 --gather 8 --spp 4 --stats est.json \
   --csv est.csv >est.txt 2>&1
 check $? "estimate run failed: $(cat est.txt)"

@@ -4,6 +4,8 @@
 #include "scenes/loader.h"
 #include "scenes/errors.h"
 
+#include "temp_dir.h"
+
 #include <catch2/catch.hpp>
 
 #include <cstdio>
@@ -15,22 +17,9 @@ namespace fs = std::filesystem;
 using namespace raybundle::scenes;
 using Catch::Matchers::Contains;
 
-namespace {
+using raybundle::test::TempDir;
 
-// A scratch directory for mesh files, removed at the end of the test.
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        path = fs::temp_directory_path() / ("raybundle-test-" + std::to_string(std::rand()) + "-" +
-                                            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-        fs::create_directories(path);
-    }
-    ~TempDir() { fs::remove_all(path); }
-    std::string write(const std::string& name, const std::string& text) const {
-        std::ofstream(path / name) << text;
-        return (path / name).string();
-    }
-};
+namespace {
 
 const char* kCamera = R"("camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "width": 64, "height": 48})";
 const char* kMaterials = R"("materials": {"white": {"albedo": [0.5, 0.5, 0.5]}, "lamp": {"albedo": [0.1, 0.1, 0.1], "emission": [2, 2, 2]}})";

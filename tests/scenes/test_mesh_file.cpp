@@ -7,6 +7,8 @@
 #include "scenes/loader.h"
 #include "scenes/mesh_file.h"
 
+#include "temp_dir.h"
+
 #include <catch2/catch.hpp>
 
 #include <sys/stat.h>
@@ -22,21 +24,9 @@ namespace fs = std::filesystem;
 using namespace raybundle::scenes;
 using Catch::Matchers::Contains;
 
-namespace {
+using raybundle::test::TempDir;
 
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        path = fs::temp_directory_path() / ("raybundle-mesh-test-" + std::to_string(std::rand()) + "-" +
-                                            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-        fs::create_directories(path);
-    }
-    ~TempDir() { fs::remove_all(path); }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        std::ofstream(path / name, std::ios::binary) << bytes;
-        return (path / name).string();
-    }
-};
+namespace {
 
 // Bytes of a value in little- or big-endian order.
 template <class T>

@@ -5,6 +5,8 @@
 #include "scenes/loader.h"
 #include "tests/scenes/uv_sphere.h"
 
+#include "temp_dir.h"
+
 #include <catch2/catch.hpp>
 
 #include <cstdint>
@@ -22,18 +24,9 @@ using raybundle::test::ply_text;
 using raybundle::test::uv_sphere;
 using Catch::Matchers::Contains;
 
-namespace {
+using raybundle::test::TempDir;
 
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        path = fs::temp_directory_path() / ("raybundle-normals-" + std::to_string(std::rand()) + "-" +
-                                            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-        fs::create_directories(path);
-    }
-    ~TempDir() { fs::remove_all(path); }
-    void write(const std::string& name, const std::string& text) const { std::ofstream(path / name) << text; }
-};
+namespace {
 
 // A scene of the given objects (JSON), with `extra` root keys.
 std::string scene_text(const std::string& objects, const std::string& extra = "") {
