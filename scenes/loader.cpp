@@ -28,6 +28,10 @@ std::string format_number(double x) {
 
 const char* type_name(const json& j) { return j.type_name(); }
 
+// The largest magnitude of a coordinate, colour or intensity: beyond it products
+// (areas, depths, irradiance) overflow or reach the float image's range.
+constexpr double kMaxMagnitude = 1e15;
+
 // Text for an error message, cut to at most `n` characters ("..." at the end if cut).
 std::string cut(std::string text, std::size_t n) {
     if (text.size() > n) text = text.substr(0, n - 3) + "...";
@@ -164,6 +168,9 @@ public:
             r[k] = v[k].get<double>();
             if (!std::isfinite(r[k]))
                 throw SceneError(file_, where, "coordinate " + format_number(r[k]) + " is not finite");
+            if (std::abs(r[k]) > kMaxMagnitude)
+                throw SceneError(file_, where, "value " + format_number(r[k]) + " is too large (at most " +
+                                                   format_number(kMaxMagnitude) + " in magnitude)");
         }
         return r;
     }
@@ -401,6 +408,11 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             } catch (const SceneError& e) {
                 obj.fail("mesh", e.what());
             }
+            for (std::size_t v = 0; v < data.vertices.size(); ++v)
+                if (data.vertices[v].cwiseAbs().maxCoeff() > kMaxMagnitude)
+                    obj.fail("mesh", rel + ": vertex " + std::to_string(v) + ": coordinate " +
+                                         format_number(data.vertices[v].cwiseAbs().maxCoeff()) + " is too large (at most " +
+                                         format_number(kMaxMagnitude) + " in magnitude)");
             for (const auto& t : data.triangles)
                 for (int k : t)
                     if (k < 0 || k >= static_cast<int>(data.vertices.size()))

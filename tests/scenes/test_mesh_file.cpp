@@ -250,6 +250,13 @@ TEST_CASE("scene JSON: nesting bounded, keys once, integers of any size", "[scen
     for (int k = 0; k < 2000; ++k) ones += ",1";
     fails_with(R"({"camera": {"eye": [)" + ones + "]}}", "camera.eye: expected [x, y, z], got [1,1,1,");
     fails_with(R"({"camera": {"eye": [)" + std::string(5000, '1') + "]}}", "...");
+    // Magnitudes whose products overflow: coordinates, intensities.
+    fails_with(R"({"camera": {"eye": [0,0,5], "target": [0,0,1e200]}})",
+               "camera.target: value 1e+200 is too large (at most 1e+15 in magnitude)");
+    fails_with(R"({"camera": {"eye": [0,0,5], "target": [0,0,0]}, "materials": {"w": {"albedo": [0.5,0.5,0.5]}},
+               "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w"}],
+               "point_lights": [{"position": [0,0,1], "intensity": [1e308, 1, 1]}]})",
+               "point_lights[0].intensity: value 1e+308 is too large");
     // A byte-order mark is read past (editors on Windows write one).
     const Scene s = parse_scene("\xEF\xBB\xBF" R"({"camera": {"eye": [0,0,5], "target": [0,0,0]},
         "materials": {"w": {"albedo": [0.5,0.5,0.5]}}, "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w"}]})",
