@@ -102,7 +102,15 @@ void check_refinement(const Scene& scene, double max_edge, const std::string& sh
     size << max_edge;
     if (!(max_edge > 0.0) || !std::isfinite(max_edge))
         throw SceneError(shown, "patch_size", "must be a positive number, got " + size.str());
-    const double estimate = scene.total_area() / (0.25 * max_edge * max_edge);
+    // Per triangle, the pieces its area needs or, for a sliver, its longest edge: a
+    // 1000 x 0.001 sliver has little area but is cut along all of its length.
+    double estimate = 0.0;
+    const auto& pos = scene.vertex_positions();
+    for (const auto& p : scene.patch_list()) {
+        double longest = 0.0;
+        for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[p.v[k]] - pos[p.v[(k + 1) % 3]]).norm());
+        estimate += std::max({1.0, p.area / (0.25 * max_edge * max_edge), longest / max_edge});
+    }
     if (estimate > 2e7) {
         std::ostringstream count;
         count << estimate;

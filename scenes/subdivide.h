@@ -22,8 +22,9 @@ std::size_t subdivide(Scene& scene, double max_edge);
 // are stale until scene.finalize().
 TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double t);
 
-// Refinement to max_edge leaves triangles of at least about max_edge^2 / 4 area:
-// throws SceneError (naming `shown`) when that would make more than 20 million patches,
+// Refinement to max_edge leaves triangles of at least about max_edge^2 / 4 area, and
+// cuts a sliver along all of its longest edge: throws SceneError (naming `shown`) when
+// the larger of the two counts, summed over the triangles, passes 20 million patches,
 // more than any run can hold, or when max_edge is not a positive number.
 void check_refinement(const Scene& scene, double max_edge, const std::string& shown);
 

@@ -257,6 +257,11 @@ TEST_CASE("scene JSON: nesting bounded, keys once, integers of any size", "[scen
                "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w"}],
                "point_lights": [{"position": [0,0,1], "intensity": [1e308, 1, 1]}]})",
                "point_lights[0].intensity: value 1e+308 is too large");
+    // A sliver of little area but a long edge (its area alone asks for 1.25e7 patches):
+    // the patch limit counts its length.
+    fails_with(R"({"camera": {"eye": [0,0,5], "target": [0,0,0]}, "materials": {"w": {"albedo": [0.5,0.5,0.5]}},
+               "objects": [{"triangle": [[0,0,0],[1e5,0,0],[0,1e-3,0]], "material": "w"}], "patch_size": 0.004})",
+               "patch_size: 0.004 would make about 2.5e+07 patches (limit 20,000,000)");
     // A byte-order mark is read past (editors on Windows write one).
     const Scene s = parse_scene("\xEF\xBB\xBF" R"({"camera": {"eye": [0,0,5], "target": [0,0,0]},
         "materials": {"w": {"albedo": [0.5,0.5,0.5]}}, "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w"}]})",
