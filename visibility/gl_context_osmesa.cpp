@@ -47,10 +47,10 @@ public:
             throw;
         }
     }
-    ~OsmesaContext() override {
-        destroy_(context_);
-        dlclose(handle_);
-    }
+    // The library stays loaded (each dlopen only counts up): Mesa keeps per-thread
+    // dispatch state past OSMesaDestroyContext, which unloading would leave dangling,
+    // and LeakSanitizer could no longer name it (tests/sanitizers/lsan.supp).
+    ~OsmesaContext() override { destroy_(context_); }
 
     void* proc_address(const char* name) const override { return reinterpret_cast<void*>(get_proc_(name)); }
     void make_current() override {

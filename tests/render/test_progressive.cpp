@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -182,7 +183,9 @@ TEST_CASE("time budget: rounds until it is spent, at least one", "[render][progr
     auto m = homogeneous(so, io, ro, 4);
     CHECK(m.image.rounds.rounds.size() == 1);
     CHECK(m.image.rounds.stopped == "the time budget");
-    ro.time_budget = 0.5;
+    // A budget of 4 such rounds (a multiple of the time measured here, not seconds: a
+    // sanitizer build is several times slower).
+    ro.time_budget = std::max(0.5, 4.0 * m.image.rounds.rounds.back().seconds);
     m = homogeneous(so, io, ro, 4);
     INFO("rounds " << m.image.rounds.rounds.size() << ", last ended at " << m.image.rounds.rounds.back().seconds);
     CHECK(m.image.rounds.rounds.size() >= 2);

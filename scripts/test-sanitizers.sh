@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The whole test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in a
+# build of its own (./build-sanitize; CI runs it after scripts/test.sh). Any sanitizer
+# report fails the test that triggered it: UBSan does not recover, ASan and LSan stop
+# at the first error. Two exceptions, in Mesa and CGAL, not in ours: leaks inside
+# libOSMesa (tests/sanitizers/lsan.supp), and CGAL's arrangement iterators, compiled
+# without UBSan's vptr check (visibility/CMakeLists.txt). Extra arguments go to ctest
+# (e.g. -R cli).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=${RAYBUNDLE_JOBS:-2}
+cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYBUNDLE_SANITIZE=ON \
+  -DRAYBUNDLE_BUILD_BENCH=OFF -DRAYBUNDLE_REQUIRE_OPENCV=ON
+cmake --build build-sanitize -j "$jobs"
+export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:check_initialization_order=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+export LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0"
+ctest --test-dir build-sanitize --output-on-failure -j "$jobs" "$@"
