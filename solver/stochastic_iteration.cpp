@@ -120,6 +120,13 @@ void StochasticIteration::init() {
                                                                   : "w only";
 }
 
+void StochasticIteration::close_window(bool take_mean) {
+    if (take_mean)
+        for (std::size_t i = 0; i < c_.size(); ++i) c_[i] = (4.0 / static_cast<double>(window_steps_)) * window_sum_[i];
+    std::fill(window_sum_.begin(), window_sum_.end(), Rgb::Zero());
+    window_steps_ = 0;
+}
+
 void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& matrix) {
     const Transport& t = transport_;
     const std::size_t n = t.patches();
@@ -151,11 +158,7 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
             // The first averaged step: c_i from the burn-in's last steps (those of the
             // window under way, when there are enough), then windows anew, so that
             // the start does not linger in c_i (a dark room started bright).
-            if (window_steps_ >= 8)
-                for (std::size_t i = 0; i < n; ++i)
-                    c_[i] = (4.0 / static_cast<double>(window_steps_)) * window_sum_[i];
-            std::fill(window_sum_.begin(), window_sum_.end(), Rgb::Zero());
-            window_steps_ = 0;
+            close_window(window_steps_ >= 8);
             window_size_ = 16;
         }
         for (std::size_t i = 0; i < n; ++i) {
@@ -177,11 +180,7 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
         // recent ones (the start, say the ambient radiance in a dark room, is forgotten).
         for (std::size_t i = 0; i < n; ++i) window_sum_[i] += next_[i];
         if (++window_steps_ == window_size_) {
-            for (std::size_t i = 0; i < n; ++i) {
-                c_[i] = (4.0 / static_cast<double>(window_steps_)) * window_sum_[i];
-                window_sum_[i] = Rgb::Zero();
-            }
-            window_steps_ = 0;
+            close_window(true);
             window_size_ *= 2;
         }
     }

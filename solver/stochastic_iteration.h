@@ -12,36 +12,38 @@
 // shades once at the end (L = Le + 4 albedo <I>); only a scene with glossy materials
 // evaluates the view-dependent radiance towards the eye in every step.
 //
-// The ambient control variate (options.ambient; off by default, docs/stability.md). One direction exposes
-// patch i to a cosine share T_i(w) of its incoming light (Transport::receiving_share),
-// whose mean over directions is exactly 1/4 but which scatters between 0 and 1/2: in
-// a closed scene of uniform radiance c the estimate is c T_i(w) where it should be
-// c / 4, and high albedo feeds that error back for ~1/(1 - albedo) steps. So the
-// estimate of diffuse patch i is
+// The ambient control variate (options.ambient; off by default, docs/stability.md).
+// One direction exposes patch i to a cosine share T_i(w) of its incoming light
+// (Transport::receiving_share), whose mean over directions is exactly 1/4 but which
+// scatters between 0 and 1/2: in a closed scene of uniform radiance c the estimate is
+// c T_i(w) where it should be c / 4, and high albedo feeds that error back for
+// ~1/(1 - albedo) steps. So the estimate of diffuse patch i is
 //
-//   I_i = sum_j A_ij(w) (L_j - c_i)  +  c_i T_i f_i  +  c_i (1/4 - T_i) g_i:
+//   I_i = s_i sum_j A_ij(w) (L_j - c_i)  +  c_i T_i f_i  +  c_i (1/4 - T_i) g_i:
 //
 // the light's departure from a constant c_i moved by the geometry matrix, plus the
-// constant's share: c_i times what of the patch's exposure T_i saw light (f_i: the
-// fraction of the patch's own entries that came from a surface or the sky rather than
-// the void; 1 in a closed scene, whatever the pixels), plus a term of mean zero
-// (E[1/4 - T_i] = 0) that takes T_i's scatter out: c_i is the patch's mean incoming
-// radiance over a window of steps before (4 x their mean I: windows of 16, 32, 64, ...
-// steps, the last one completed; a mean over few steps would feed its noise back, one
-// over all steps would remember the start; the ambient radiance before the first;
-// windows begin anew when the burn-in ends, from the mean of its last steps), g_i
-// the mean of f_i over all steps before (weighted by T), neither depending on w. In a closed box of one albedo per channel
-// every step is then exact, with a pixel backend too. f_i needs the void's entries:
-// options.map.sky says the backend emits them (make_solver asks for them when the
-// backend can); without them f_i = (what the entries covered) / T_i, the first two
-// terms are the plain estimate, and only the third is added.
+// constant's share, c_i times what of the exposure T_i saw light (f_i: the part of the
+// patch's own entries that came from a surface or the sky rather than the void), plus
+// a term of mean zero (E[1/4 - T_i] = 0) that takes T_i's scatter out. s_i = T_i f_i /
+// sum_j A_ij(w) scales the departure from the pixels' exposure to the exact one (1 with
+// an exact backend; a pixel backend gives a patch seen edge-on one pixel of far more
+// than its projected area). c_i is the patch's mean incoming radiance over a window of
+// steps before (4 x their mean I; windows of 16, 32, 64, ... steps, the last one
+// completed: a mean over few steps would feed its noise back, one over all steps would
+// remember the start; the ambient radiance before the first; windows begin anew when
+// the burn-in ends, from the mean of its last steps); g_i is the mean of f_i over all
+// steps before (weighted by T). Neither depends on w. A closed box of one albedo per
+// channel is then exact in every step with a backend that pairs every pixel (the
+// centre-sorted painter on a convex box; the exact painter leaves a pixel now and then,
+// docs/stability.md). f_i needs the void's entries: options.map.sky says the backend
+// emits them (make_solver asks for them when the backend can); without them f_i = (what
+// the entries covered) / T_i, s_i = 1, and only the third term is added.
 //
-// Bias: none from the third term. With the void's entries, T_i f_i stands for the
-// covered share that pixels measure, which has the same mean with exact backends and
-// up to the pixel noise's correlation with f_i with pixel backends (docs/stability.md
-// measures it). The chain also starts from the ambient radiance (progressive
-// radiosity's ambient term: the mean emission over 1 - the mean albedo, per channel),
-// not from no light, which high albedo would take ~1/(1 - albedo) steps to fill in.
+// Bias: none from the third term, none with an exact backend. With a pixel backend,
+// s_i is a ratio of the pixels' counts, whose bias falls with the pixels per patch.
+// The chain also starts from the ambient radiance (progressive radiosity's ambient
+// term: the mean emission over 1 - the mean albedo, per channel), not from no light,
+// which high albedo would take ~1/(1 - albedo) steps to fill in.
 //
 // Options read: steps, both_ways, ambient. Call order: see solver.h.
 #include "solver/solver.h"
@@ -79,6 +81,8 @@ public:
 private:
     void init();
     void step(const scenes::Vec3& direction, const visibility::GeometryMatrix& matrix);
+    // Ambient: c_i from the window's mean (take_mean), and a new window begun.
+    void close_window(bool take_mean);
 
     std::unique_ptr<Transport> own_;
     const Transport& transport_;
