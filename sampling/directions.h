@@ -39,6 +39,9 @@ public:
         const double u2 = rng_.uniform();
         return uniform_sphere(u1, u2);
     }
+    // Its generator, to save and restore (checkpoints).
+    Rng& generator() { return rng_; }
+    const Rng& generator() const { return rng_; }
 
 private:
     Rng rng_;

@@ -3,7 +3,9 @@
 // Streams are split by index, never by timing, so results do not depend on the
 // number of threads: stream k of seed s is the same sequence on every machine.
 //
-// Call order: Rng(seed, stream) -> uniform()/next_u64() ... ; nothing else.
+// Call order: Rng(seed, stream) -> uniform()/next_u64() ... ; state()/set_state() to
+// save a generator and go on with it later (checkpoints).
+#include <array>
 #include <cstdint>
 
 namespace raybundle::sampling {
@@ -29,6 +31,13 @@ public:
 
     // Uniform in [0, 1) with 53 random bits.
     double uniform() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
+
+    // The whole state: a generator given it goes on with the same sequence.
+    using State = std::array<std::uint64_t, 4>;
+    State state() const { return {s_[0], s_[1], s_[2], s_[3]}; }
+    void set_state(const State& s) {
+        for (int k = 0; k < 4; ++k) s_[k] = s[static_cast<std::size_t>(k)];
+    }
 
 private:
     static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }

@@ -271,6 +271,32 @@ void GlobalWalks::advance(long total) {
     }
 }
 
+// Between walks only the sums, the jitters' generator and the correction carry over
+// (the sampler gives walk m from m alone; the walk's vectors start anew).
+void GlobalWalks::save(StateWriter& out) const {
+    out.tag(walk_method_name(method_));
+    out.put(walks_done_);
+    out.put(sum_);
+    out.put(jitter_);
+    out.put(correction_);
+    out.put(correction_dir_);
+    out.put(correction_both_);
+    out.put(correction_scale_);
+    save_counters(out, report_);
+}
+
+void GlobalWalks::restore(StateReader& in) {
+    in.expect(walk_method_name(method_));
+    in.get(walks_done_);
+    in.get(sum_);
+    in.get(jitter_);
+    in.get(correction_);
+    in.get(correction_dir_);
+    in.get(correction_both_);
+    in.get(correction_scale_);
+    restore_counters(in, report_);
+}
+
 RadianceField GlobalWalks::field() const { return t_.field_from(sum_, walks_done_, to_eye_); }
 
 }  // namespace raybundle::solver

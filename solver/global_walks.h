@@ -64,6 +64,8 @@ public:
     RadianceField field() const override;
     long averaged() const override { return walks_done_; }
     SolverReport report() const override { return report_; }
+    void save(StateWriter& out) const override;
+    void restore(StateReader& in) override;
     // (The diffuse shot adds the first bounce exactly: D + 1 bounces in all.)
     double converged_fraction(double albedo) const override {
         return truncation_factor(albedo, options_.depth + (t_.diffuse_shot() ? 1 : 0), options_.unbiased);

@@ -120,6 +120,26 @@ void LinearIteration::advance(long total) {
     }
 }
 
+void LinearIteration::save(StateWriter& out) const {
+    out.tag("iteration-linear");
+    out.put(steps_);
+    out.put(irradiance_);
+    out.put(sum_);
+    out.put(directions_.generator());
+    out.put(jitter_);
+    save_counters(out, report_);
+}
+
+void LinearIteration::restore(StateReader& in) {
+    in.expect("iteration-linear");
+    in.get(steps_);
+    in.get(irradiance_);
+    in.get(sum_);
+    in.get(directions_.generator());
+    in.get(jitter_);
+    restore_counters(in, report_);
+}
+
 RadianceField LinearIteration::field() const {
     RadianceField f;
     const std::size_t n = scene_.patch_count();

@@ -38,6 +38,8 @@ public:
     RadianceField field() const override;
     long averaged() const override { return steps_; }
     SolverReport report() const override { return report_; }
+    void save(StateWriter& out) const override;
+    void restore(StateReader& in) override;
     int resolution() const { return painter_.resolution(); }
     std::size_t nodes() const { return mass_.size(); }
 

@@ -25,6 +25,24 @@ VisibilityUsed describe(visibility::BackendSet& backends) {
     return {b.name(), b.details(), visibility::backend_info(b.name()).exact, b.resolution(), backends.threads()};
 }
 
+void save_counters(StateWriter& out, const SolverReport& r) {
+    out.tag("counters");
+    out.put(r.steps);
+    out.put(r.directions);
+    out.put(r.seconds_visibility);
+    out.put(r.seconds_transport);
+    out.put(static_cast<std::uint64_t>(r.entries_total));
+}
+
+void restore_counters(StateReader& in, SolverReport& r) {
+    in.expect("counters");
+    in.get(r.steps);
+    in.get(r.directions);
+    in.get(r.seconds_visibility);
+    in.get(r.seconds_transport);
+    r.entries_total = in.u64();
+}
+
 std::vector<std::string> method_names() { return {"iteration", "walk", "combined", "bidirectional"}; }
 
 std::unique_ptr<Solver> make_solver(const Transport& transport, const SolverOptions& options,

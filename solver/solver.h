@@ -16,12 +16,19 @@
 // never print; then field(), averaged() and report(), also between calls and from
 // inside the progress callback.
 //
+// Checkpoints: save() writes what advance() has changed (solver/state.h); restore(),
+// on a solver made with the same transport, options and run (a fresh one, before any
+// advance()), takes it back, and the solver goes on bit-identically: save after k
+// steps, restore, advance(n - k) gives what advance(n) gives. It throws StateError for
+// bytes another method, scene or option set wrote.
+//
 // Chains: RunOptions::chain picks the solver's random streams. Solvers of one seed
 // and different chains are independent; the pipeline runs two and compares them to
 // estimate the error (render/progressive.h).
 #include "sampling/run.h"
 #include "sampling/walk_sampler.h"
 #include "solver/radiance_field.h"
+#include "solver/state.h"
 #include "solver/transport.h"
 #include "visibility/backend.h"
 #include "visibility/parallel.h"
@@ -91,6 +98,8 @@ public:
     // the steps between two moments is (n2 field2 - n1 field1) / (n2 - n1).
     virtual long averaged() const = 0;
     virtual SolverReport report() const = 0;
+    virtual void save(StateWriter& out) const = 0;
+    virtual void restore(StateReader& in) = 0;
     // What the method converges to on a closed homogeneous scene of albedo `albedo`,
     // relative to the exact answer: 1, or 1 - a^(D+1) for walks truncated at D bounces.
     virtual double converged_fraction(double albedo) const {
@@ -104,6 +113,11 @@ protected:
 private:
     long planned_;
 };
+
+// The counters of a report (steps, directions, seconds, entries), for save()/restore():
+// the rest of a report is fixed when the solver is made.
+void save_counters(StateWriter& out, const SolverReport& report);
+void restore_counters(StateReader& in, SolverReport& report);
 
 // The methods make_solver knows.
 std::vector<std::string> method_names();

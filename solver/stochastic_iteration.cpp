@@ -231,6 +231,46 @@ void StochasticIteration::advance(long total) {
     }
 }
 
+void StochasticIteration::save(StateWriter& out) const {
+    out.tag("iteration");
+    out.put(steps_);
+    out.put(irradiance_);
+    out.put(sum_);
+    out.put(previous_);
+    out.put(directions_.generator());
+    out.put(jitter_);
+    out.put(options_.ambient);
+    if (options_.ambient) {
+        out.put(c_);
+        out.put(window_sum_);
+        out.put(window_steps_);
+        out.put(window_size_);
+        out.put(covered_sum_);
+        out.put(exposed_sum_);
+    }
+    save_counters(out, report_);
+}
+
+void StochasticIteration::restore(StateReader& in) {
+    in.expect("iteration");
+    in.get(steps_);
+    in.get(irradiance_);
+    in.get(sum_);
+    in.get(previous_);
+    in.get(directions_.generator());
+    in.get(jitter_);
+    if (in.flag() != options_.ambient) throw StateError("saved with the ambient variate " + std::string(options_.ambient ? "off" : "on"));
+    if (options_.ambient) {
+        in.get(c_);
+        in.get(window_sum_);
+        in.get(window_steps_);
+        in.get(window_size_);
+        in.get(covered_sum_);
+        in.get(exposed_sum_);
+    }
+    restore_counters(in, report_);
+}
+
 RadianceField StochasticIteration::field() const {
     return transport_.field_from(sum_, averaged(), to_eye_);
 }

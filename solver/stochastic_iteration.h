@@ -77,6 +77,8 @@ public:
     RadianceField field() const override;
     long averaged() const override { return std::max(0L, steps_ - burn_in_); }
     SolverReport report() const override { return report_; }
+    void save(StateWriter& out) const override;
+    void restore(StateReader& in) override;
 
 private:
     void init();
