@@ -13,6 +13,7 @@
 #include "solver/transport.h"
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <stdexcept>
 #include <string>
@@ -48,6 +49,12 @@ struct Command {
     std::string reference;  // an EXR the image is compared with (relative L1, MSE)
     long csv_every = 0;
     bool quiet = false;
+    // Checkpoints (apps/checkpoint.h): the file, how often (steps over both chains, or
+    // seconds; one of them), the file to resume from, and what the run is.
+    std::string checkpoint, resume;
+    long checkpoint_steps = 0;
+    double checkpoint_seconds = 60.0;
+    nlohmann::json identity;
 };
 
 // The options of `solve` (and the scene options of `check`) on their subcommand.

@@ -1,6 +1,7 @@
 // The options of `raybundle solve` and `raybundle check`, and the checks only the
 // command line can make.
 #include "cli.h"
+#include "checkpoint.h"
 #include "outputs.h"
 
 #include "render/image_io.h"
@@ -46,6 +47,21 @@ const CLI::Validator kDigits(
         return "'" + text + "' is not an integer in 0..2^64-1";
     },
     "UINT64");
+
+// --checkpoint-every: a step count (digits, at least 1) or seconds (a positive number
+// and 's').
+const CLI::Validator kEvery(
+    [](std::string& text) {
+        const std::string bad = "'" + text + "' is neither steps (N >= 1) nor seconds (e.g. 30s)";
+        if (text.empty()) return bad;
+        if (text.back() == 's') {
+            std::string number = text.substr(0, text.size() - 1);
+            return kPositive(number).empty() ? std::string() : bad;
+        }
+        if (text.size() > 18 || text.find_first_not_of("0123456789") != std::string::npos || std::stol(text) < 1) return bad;
+        return std::string();
+    },
+    "N|Ss");
 
 // The library's option names and the flags that set them.
 const std::map<std::string, std::string> kFlags = {
@@ -183,6 +199,25 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
     cmd.add_option("--ply", c.ply, "per-patch PLY with radiance colours (MeshLab)");
     cmd.add_flag("-q,--quiet", c.quiet, "no progress bar and no summary line");
+    cmd.add_option("--checkpoint", c.checkpoint,
+                   "write the solver's state to FILE every --checkpoint-every, and when interrupted, to go on with "
+                   "--resume FILE (one-round runs: not with --target-error, --time-budget or pathtrace)");
+    cmd.add_option_function<std::string>(
+           "--checkpoint-every",
+           [&c](const std::string& v) {
+               if (v.back() == 's') {
+                   c.checkpoint_seconds = std::stod(v.substr(0, v.size() - 1));
+                   c.checkpoint_steps = 0;
+               } else {
+                   c.checkpoint_steps = std::stol(v);
+                   c.checkpoint_seconds = 0.0;
+               }
+           },
+           "N steps (over both chains, as --iterations counts them) or Ss seconds between checkpoints (default 60s)")
+        ->check(kEvery);
+    cmd.add_option("--resume", c.resume,
+                   "go on from a checkpoint of the same command (outputs, --threads and --quiet may differ): the "
+                   "result is bit-identical to an uninterrupted run");
 }
 
 void check_command(const CLI::App& cmd, Command& c) {
@@ -226,6 +261,17 @@ void check_command(const CLI::App& cmd, Command& c) {
     if (c.solver.method == "iteration" && cmd.count("--depth") > 0)
         throw UsageError("--depth applies to the walk methods, not to --method iteration");
     if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");
+    if (cmd.count("--checkpoint-every") > 0 && c.checkpoint.empty())
+        throw UsageError("--checkpoint-every needs --checkpoint FILE");
+    for (const auto& [path, flag] : {std::pair{c.checkpoint, "--checkpoint"}, {c.resume, "--resume"}}) {
+        if (path.empty()) continue;
+        if (c.solver.method == "pathtrace")
+            throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no solver state)");
+        if (c.rounds.target_error > 0.0 || c.rounds.time_budget > 0.0)
+            throw UsageError(std::string(flag) + " works for runs of one round: not with " +
+                             (c.rounds.target_error > 0.0 ? "--target-error" : "--time-budget"));
+    }
+    c.identity = options_identity(cmd);
     c.gather.gather_rays = c.gather_rays;
     c.run.progress_every = c.csv_every;
     // Every output names a file that can be written, and no two outputs, nor an output
@@ -250,9 +296,13 @@ void check_command(const CLI::App& cmd, Command& c) {
         if (::stat(c.aov.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw UsageError("--aov " + c.aov + ": not a directory");
         for (const char* name : kAovNames) outputs.push_back({c.aov + "/" + name + ".exr", "--aov"});
     }
+    if (!c.checkpoint.empty()) outputs.push_back({c.checkpoint, "--checkpoint"});
     std::vector<Named> inputs;
     if (!c.scene_file.empty()) inputs.push_back({c.scene_file, "the scene file"});
     if (!c.reference.empty()) inputs.push_back({c.reference, "the --reference image"});
+    // --resume F --checkpoint F goes on writing the checkpoint it resumed from.
+    if (!c.resume.empty() && (c.checkpoint.empty() || resolved_path(c.resume) != resolved_path(c.checkpoint)))
+        inputs.push_back({c.resume, "the --resume checkpoint"});
     std::vector<std::string> resolved;
     for (const auto& out : outputs) {
         check_output_path(out.path, out.flag);

@@ -1,50 +1,19 @@
 #include "outputs.h"
 
 #include "cli.h"
+#include "signals.h"
 
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cerrno>
-#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
 
 namespace raybundle::apps {
-namespace {
 
 namespace fs = std::filesystem;
-
-// The temporaries that exist now, for the signal handler: fixed storage, so that the
-// handler reads no memory the main thread may be reallocating. Each staged file has
-// two (its own and the ".partial-PID" that render::write_atomically makes beside it).
-constexpr int kMaxTemporaries = 64;
-constexpr std::size_t kMaxPath = 4096;
-char g_temporaries[kMaxTemporaries][kMaxPath];
-std::atomic<int> g_temporary_count{0};
-
-extern "C" void remove_temporaries_and_die(int sig) {
-    const int n = g_temporary_count.load();
-    for (int i = 0; i < n; ++i) ::unlink(g_temporaries[i]);
-    std::signal(sig, SIG_DFL);
-    std::raise(sig);
-}
-
-void track(const std::string& path) {
-    static const bool installed = [] {
-        for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_temporaries_and_die);
-        return true;
-    }();
-    (void)installed;
-    const int i = g_temporary_count.load();
-    if (i >= kMaxTemporaries || path.size() >= kMaxPath) return;  // not removed on a signal, still on failure
-    std::memcpy(g_temporaries[i], path.c_str(), path.size() + 1);
-    g_temporary_count.store(i + 1);
-}
-
-}  // namespace
 
 void check_output_path(const std::string& path, const std::string& flag) {
     const std::string named = flag + " " + path + ": ";
@@ -79,8 +48,9 @@ void OutputSet::stage(const std::string& path, const std::function<void(const st
     if (target.has_parent_path()) fs::create_directories(target.parent_path());
     const std::string pid = std::to_string(::getpid());
     const std::string tmp = (target.parent_path() / (".raybundle-" + pid + "-" + target.filename().string())).string();
-    track(tmp);
-    track(tmp + ".partial-" + pid);
+    // Its own temporary and the ".partial-PID" render::write_atomically makes beside it.
+    slots_.push_back(track_temporary(tmp));
+    slots_.push_back(track_temporary(tmp + ".partial-" + pid));
     staged_.emplace_back(tmp, path);
     write(tmp);
 }
@@ -90,13 +60,18 @@ void OutputSet::commit() {
         if (std::rename(tmp.c_str(), path.c_str()) != 0)
             throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
     staged_.clear();
-    g_temporary_count.store(0);
+    untrack();
+}
+
+void OutputSet::untrack() noexcept {
+    for (int slot : slots_) untrack_temporary(slot);
+    slots_.clear();
 }
 
 void OutputSet::discard() noexcept {
     for (const auto& [tmp, path] : staged_) ::unlink(tmp.c_str());
     staged_.clear();
-    g_temporary_count.store(0);
+    untrack();
 }
 
 }  // namespace raybundle::apps

@@ -6,6 +6,7 @@
 // failure on the way, an exception or SIGINT, SIGTERM or SIGHUP removes the
 // temporaries and leaves the old files as they were. Before any work, the command
 // line checks that every output can be written and that no two name one file.
+// (A first signal while the run can stop cleanly does not end it: apps/signals.h.)
 #include <array>
 #include <functional>
 #include <string>
@@ -43,7 +44,9 @@ public:
 
 private:
     void discard() noexcept;
+    void untrack() noexcept;
     std::vector<std::pair<std::string, std::string>> staged_;  // temporary, target
+    std::vector<int> slots_;                                    // apps/signals.h
 };
 
 }  // namespace raybundle::apps

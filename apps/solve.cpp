@@ -1,6 +1,9 @@
 // `raybundle solve`: load -> solve -> render -> write, and the run's record.
+#include "checkpoint.h"
 #include "cli.h"
+#include "memory.h"
 #include "outputs.h"
+#include "signals.h"
 #include "progress.h"
 #include "stats.h"
 
@@ -52,6 +55,28 @@ struct Row {
     std::optional<double> error, mean, estimate, image_estimate, image_l1, image_mse;
     long round = 0;
 };
+
+// Rows in a checkpoint: the counts, and the values a row has.
+constexpr std::pair<const char*, std::optional<double> Row::*> kRowValues[] = {
+    {"error", &Row::error},          {"mean", &Row::mean},         {"estimate", &Row::estimate},
+    {"image_estimate", &Row::image_estimate}, {"image_l1", &Row::image_l1}, {"image_mse", &Row::image_mse}};
+
+json to_json(const Row& r) {
+    json j = {{"steps", r.steps}, {"seconds", r.seconds}, {"round", r.round}};
+    for (const auto& [key, value] : kRowValues)
+        if (r.*value) j[key] = *(r.*value);
+    return j;
+}
+
+Row row_from(const json& j) {
+    Row r;
+    r.steps = j.at("steps").get<long>();
+    r.seconds = j.at("seconds").get<double>();
+    r.round = j.at("round").get<long>();
+    for (const auto& [key, value] : kRowValues)
+        if (j.contains(key)) r.*value = j.at(key).get<double>();
+    return r;
+}
 
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
     render::write_atomically(path, [&](const std::string& tmp) {
@@ -127,6 +152,7 @@ public:
     solver::RadianceField field() const override { return solver_->field(); }
     long averaged() const override { return solver_->averaged(); }
     const solver::Solver& solver() const { return *solver_; }
+    solver::Solver& solver() { return *solver_; }
 
 private:
     std::unique_ptr<solver::Solver> solver_;
@@ -271,11 +297,19 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
 
 int solve(const Command& c) {
     const auto t_start = Clock::now();
+    install_signal_handlers();
     ProgressBar bar(c.quiet);
     sampling::RunOptions run = c.run;
     run.progress = [&](const sampling::Progress& p) { bar(p); };
 
+    // The checkpoint to go on from: read first (a wrong file stops the run at once), its
+    // run checked against this one once the scene is loaded.
+    std::optional<Checkpoint> resumed;
+    if (!c.resume.empty()) resumed = read_checkpoint(c.resume);
     const scenes::Scene scene = load_scene(c);
+    require_memory(c, scene);
+    const json identity = run_identity(c, scene);
+    if (resumed) require_same_run(c.resume, resumed->identity, identity);
     const scenes::RayCaster caster(scene);
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
     const render::SceneSummary summary = render::summarize(scene, caster, run.threads, 128 * 128);
@@ -316,21 +350,90 @@ int solve(const Command& c) {
     image_options.gather_options = c.gather;
     image_options.shading = render::parse_shading(c.shading);
     std::vector<Row> rows;
+    double seconds_before = 0.0;  // of a resumed run's solve
     if (!c.csv.empty()) image_options.record_every = c.csv_every > 0 ? c.csv_every : std::max(2L, c.solver.steps / 100);
     const auto observe = [&](const render::Snapshot& s) {
         if (c.csv.empty()) return;
         Row row;
         row.steps = s.steps;
-        row.seconds = s.seconds;
+        row.seconds = seconds_before + s.seconds;
         if (exact) row.error = s.field->relative_l1_error(scene, *exact);
         row.mean = s.field->mean_radiance(scene);
         if (s.field_estimate >= 0.0) row.estimate = s.field_estimate;
         if (s.image) add_image_columns(row, s, reference);
         rows.push_back(row);
     };
+    // Going on from a checkpoint: the chains' states, the steps done, the rows so far.
+    if (resumed) {
+        for (int h = 0; h < 2; ++h) {
+            SolverChain& chain = h == 0 ? chain_a : chain_b;
+            try {
+                solver::StateReader in(resumed->states[static_cast<std::size_t>(h)]);
+                chain.solver().restore(in);
+                in.finish();
+            } catch (const solver::StateError& e) {
+                throw UsageError("--resume " + c.resume + ": chain " + std::to_string(h) + ": " + e.what());
+            }
+        }
+        if (resumed->steps_done < 0 || resumed->steps_done > per_chain.steps ||
+            chain_a.solver().report().steps != resumed->steps_done)
+            throw UsageError("--resume " + c.resume + ": " + std::to_string(resumed->steps_done) +
+                             " steps done does not fit the run's " + std::to_string(per_chain.steps));
+        image_options.resume_steps = resumed->steps_done;
+        seconds_before = resumed->seconds;
+        try {
+            for (const auto& r : resumed->rows) rows.push_back(row_from(r));
+        } catch (const json::exception& e) {
+            throw UsageError("--resume " + c.resume + ": its convergence rows are damaged (" + e.what() + ")");
+        }
+    }
+    // Between steps: a checkpoint when one is due, and a stop when a signal asked for one
+    // (apps/signals.h). The seconds are the solve's, the resumed run's before included.
+    const auto t_solve = Clock::now();
+    long next_checkpoint = c.checkpoint_steps > 0 ? (image_options.resume_steps * 2 / c.checkpoint_steps + 1) * c.checkpoint_steps : 0;
+    auto last_checkpoint = t_solve;
+    long checkpointed = -1;
+    auto save = [&](long done) {
+        Checkpoint k;
+        k.identity = identity;
+        k.steps_done = done;
+        k.seconds = seconds_before + since(t_solve);
+        for (const auto& r : rows) k.rows.push_back(to_json(r));
+        for (const SolverChain* chain : {&chain_a, &chain_b}) {
+            solver::StateWriter out;
+            chain->solver().save(out);
+            k.states.push_back(out.bytes());
+        }
+        write_checkpoint(c.checkpoint, k);
+        checkpointed = done;
+    };
+    image_options.pause = [&](long done) {
+        const int sig = stop_requested();
+        if (!c.checkpoint.empty()) {
+            const bool due = sig != 0 || (c.checkpoint_steps > 0 && 2 * done >= next_checkpoint) ||
+                             (c.checkpoint_seconds > 0.0 && since(last_checkpoint) >= c.checkpoint_seconds);
+            if (due && done != checkpointed) {
+                save(done);
+                last_checkpoint = Clock::now();
+                while (c.checkpoint_steps > 0 && next_checkpoint <= 2 * done) next_checkpoint += c.checkpoint_steps;
+            }
+        }
+        return sig == 0;
+    };
+    // From here a first signal stops the solve and makes the image of the steps done.
+    set_stoppable(true);
     const render::PinholeCamera camera(scene.camera);
-    const render::FieldImage made =
-        render::field_image(scene, caster, camera, chain_a, chain_b, image_options, c.rounds, run, observe);
+    std::optional<render::FieldImage> made_or_none;
+    try {
+        made_or_none = render::field_image(scene, caster, camera, chain_a, chain_b, image_options, c.rounds, run, observe);
+    } catch (const render::Interrupted& e) {
+        bar.clear();
+        const int sig = stop_requested();
+        std::cerr << "raybundle: " << signal_name(sig) << ": " << e.what() << ", nothing written"
+                  << (checkpointed >= 0 ? "; the checkpoint " + c.checkpoint + " holds the steps done" : "") << "\n";
+        return 128 + sig;
+    }
+    const render::FieldImage& made = *made_or_none;
     bar.clear();
     const render::Image& image = made.image;
     const solver::RadianceField& field = made.field;
@@ -376,6 +479,13 @@ int solve(const Command& c) {
                                                     std::string(render::filter_name(c.gather.filter.filter)) + " filter"
                                               : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";
     stats["decisions"]["rounds"] = made.rounds.stopped;
+    const int sig = stop_requested();
+    stats["partial"] = made.rounds.interrupted;
+    if (sig != 0) stats["interrupted_by"] = signal_name(sig);
+    stats["steps_planned"] = 2 * per_chain.steps;
+    if (resumed)
+        stats["resumed"] = {{"checkpoint", c.resume}, {"steps_done", 2 * resumed->steps_done}, {"seconds_before", seconds_before}};
+    if (!c.checkpoint.empty()) stats["checkpoint"] = {{"file", c.checkpoint}, {"steps", 2 * std::max(0L, checkpointed)}};
     std::optional<double> error;
     if (exact) {
         error = field.relative_l1_error(scene, *exact);
@@ -399,6 +509,15 @@ int solve(const Command& c) {
         for (const auto* path : {&c.stats, &c.csv, &c.patches_csv, &c.ply})
             if (!path->empty()) written.push_back(*path);
         print_written(written);
+    }
+    if (sig != 0) {
+        std::cerr << "raybundle: " << signal_name(sig) << ": "
+                  << (made.rounds.interrupted ? "stopped after " + std::to_string(made.steps) + " of " +
+                                                    std::to_string(2 * per_chain.steps) +
+                                                    " steps; the outputs are of the steps done (\"partial\" in the stats)"
+                                              : "the run was complete; its outputs are written")
+                  << (checkpointed >= 0 ? "; go on with --resume " + c.checkpoint : "") << "\n";
+        return 128 + sig;
     }
     return 0;
 }

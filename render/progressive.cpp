@@ -89,6 +89,10 @@ struct Shape {
     double field = -1.0;  // e_f / e_total of the latest probed round (negative: not probed)
 };
 
+// What a round's advance did: all its steps; all, and told to stop after the round;
+// stopped part-way (pause), with new averaged steps in both chains, or without.
+enum class Advanced { all, last, cut, nothing_new };
+
 // The rounds (see the header): `advance(steps_scale, run)` moves the solver on,
 // `render(h, scale, pass, run)` makes half h's pass, `probe(scale, pass, run)` half
 // A's pass from chain B's field (or nothing), `after(round, image, estimate)` sees
@@ -119,8 +123,15 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         ++round;
         const double steps = scale * shape.steps;
         const auto t0 = Clock::now();
-        advance(steps, inner);
+        const Advanced advanced = advance(steps, inner);
         const auto t1 = Clock::now();
+        if (advanced == Advanced::nothing_new) {
+            if (round == 1) throw Interrupted("interrupted before any step was averaged (the burn-in): no image");
+            out.seconds_solve += std::chrono::duration<double>(t1 - t0).count();
+            out.stopped = "interrupted: the image of the rounds before";
+            out.interrupted = true;
+            break;
+        }
         Image pass_image[2];
         for (int h = 0; h < 2; ++h) {
             const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
@@ -159,6 +170,11 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         after(round, mean, estimate, spent);
 
         // The next round, or why there is none.
+        if (advanced == Advanced::cut || (advanced == Advanced::last && (target || timed))) {
+            out.stopped = "interrupted: the image of the steps done";
+            out.interrupted = true;
+            break;
+        }
         if (!target && !timed) {
             out.stopped = "one round: the budget as given";
             break;
@@ -309,11 +325,22 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     const auto start = Clock::now();
 
     solver::RadianceField segment[2];  // each chain's field of the round's steps
+    long resume = o.resume_steps;
+    out.steps = 2 * resume;
     auto advance = [&](double steps_scale, const sampling::RunOptions& r) {
         const long per_chain = half_of(o.steps, steps_scale);
+        if (resume > per_chain)
+            throw std::logic_error("field_image: resume_steps " + std::to_string(resume) + " beyond the round's " +
+                                   std::to_string(per_chain));
+        // Snapshots every `chunk` steps of a chain (and at the round's end), pauses every
+        // pause_every; a resumed round begins at its checkpoint.
         const long chunk = o.record_every > 0 ? std::max(1L, o.record_every / 2) : per_chain;
-        for (long done = 0; done < per_chain;) {
-            const long count = std::min(chunk, per_chain - done);
+        long done = resume;
+        long next_record = std::min(per_chain, (done / chunk + 1) * chunk);
+        resume = 0;
+        while (done < per_chain) {
+            long count = next_record - done;
+            if (o.pause) count = std::min(count, std::max(1L, o.pause_every));
             for (int h = 0; h < 2; ++h) {
                 sampling::ProgressCallback progress;
                 if (r.progress)
@@ -328,15 +355,24 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             }
             done += count;
             out.steps += 2 * count;
-            if (!observe || o.record_every <= 0 || a.averaged() <= 0 || b.averaged() <= 0) continue;
-            const auto [field, estimate] = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
-            Snapshot s;
-            s.steps = out.steps;
-            s.seconds = since(start);
-            s.field = &field;
-            s.field_estimate = estimate;
-            observe(s);
+            if (done == next_record) {
+                next_record = std::min(per_chain, next_record + chunk);
+                if (observe && o.record_every > 0 && a.averaged() > 0 && b.averaged() > 0) {
+                    const auto [field, estimate] = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
+                    Snapshot s;
+                    s.steps = out.steps;
+                    s.seconds = since(start);
+                    s.field = &field;
+                    s.field_estimate = estimate;
+                    observe(s);
+                }
+            }
+            if (o.pause && !o.pause(done)) {
+                if (done == per_chain) return Advanced::last;
+                return a.averaged() > seen[0].n && b.averaged() > seen[1].n ? Advanced::cut : Advanced::nothing_new;
+            }
         }
+        return Advanced::all;
     };
     auto pass_options = [&](double scale, std::uint64_t pass) {
         GatherOptions g = o.gather_options;
@@ -398,7 +434,7 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
                          const Observer& observe) {
     if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
     TracedImage out;
-    auto advance = [](double, const sampling::RunOptions&) {};
+    auto advance = [](double, const sampling::RunOptions&) { return Advanced::all; };
     auto render = [&](int, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
         PathTraceOptions p = o;
         p.spp = static_cast<int>(half_of(o.spp, scale));

@@ -58,6 +58,7 @@
 
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,7 @@ struct Rounds {
     double scale = 0.0;         // the budget used, in units of the options' budget
     double estimate = -1.0;     // the final image's estimated relative L1 error
     std::string stopped;        // why the rounds stopped
+    bool interrupted = false;   // by FieldImageOptions::pause, before the rounds were done
     // Wall time of the chains' steps, of the passes, and of the probes.
     double seconds_solve = 0.0, seconds_render = 0.0, seconds_probe = 0.0;
     double steps_share = 1.0;   // steps per unit of scale of the last rounds, relative to the options'
@@ -120,6 +122,22 @@ struct FieldImageOptions {
     GatherOptions gather_options;  // gather_rays and spp per round of scale 1, over both halves
     Shading shading = Shading::Smooth;
     long record_every = 0;   // steps (over both chains) between solve snapshots (0: none)
+    // Interruption and checkpoints (apps/): with `pause`, the solve stops after every
+    // `pause_every` steps of each chain (both chains at one count) and calls pause(done),
+    // `done` the steps of each chain in the round so far; false stops the solve there:
+    // the round's image is made from the steps done, and the rounds end ("interrupted").
+    // Where no step of the round is averaged yet (the burn-in), there is no image to
+    // make: the first round throws Interrupted, a later one ends the rounds without it.
+    std::function<bool(long done)> pause;
+    long pause_every = 16;
+    // A solve going on from a checkpoint: the chains, restored, have each done this many
+    // steps of the first round (before any image).
+    long resume_steps = 0;
+};
+
+// A run stopped before it had an image to show.
+struct Interrupted : std::runtime_error {
+    using std::runtime_error::runtime_error;
 };
 
 struct FieldImage {

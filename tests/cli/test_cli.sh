@@ -499,5 +499,69 @@ done
 expect_bad "--csv-every with pathtrace" "--csv-every does not apply to --method pathtrace" \
   solve --builtin homogeneous-box --method pathtrace --csv-every 5
 
+# Checkpoints and signals (apps/checkpoint.h, apps/signals.h): a run killed with
+# SIGKILL once its first checkpoint is written, then resumed, writes byte-identical
+# outputs to an uninterrupted run; SIGINT writes the outputs of the steps done, marked
+# partial, exits 130 and leaves a checkpoint that resumes to the same result again.
+ck_base=(solve --builtin cornell-box --gather 0 --width 32 --height 32 --iterations 20000 -q)
+ck=("${ck_base[@]}" --patch-size 150 --seed 5)
+"$bin" "${ck[@]}" -o ck-full.exr --patches ck-full.csv
+check $? "checkpoint: the uninterrupted run failed"
+# Starts a run in the background, waits for its first checkpoint, sends the signal;
+# the run's exit code in $rc.
+interrupt() {
+  local sig=$1 file=$2
+  shift 2
+  "$bin" "${ck[@]}" --checkpoint "$file" --checkpoint-every 1000 "$@" 2>signal-err.txt &
+  local pid=$!
+  for _ in $(seq 1 1200); do [ -f "$file" ] && break; sleep 0.05; done
+  kill "-$sig" "$pid"
+  wait "$pid"
+  rc=$?
+}
+interrupt KILL ck-kill.bin -o ck-kill.exr
+[ "$rc" -eq 137 ] && [ ! -e ck-kill.exr ]
+check $? "checkpoint: the run was not killed part-way (exit $rc), or wrote its image"
+"$bin" "${ck[@]}" --resume ck-kill.bin -o ck-kill.exr --patches ck-kill.csv --stats ck-kill.json
+check $? "--resume after SIGKILL failed"
+cmp -s ck-full.exr ck-kill.exr && cmp -s ck-full.csv ck-kill.csv && grep -q '"resumed"' ck-kill.json
+check $? "killed and resumed: outputs differ from the uninterrupted run's"
+interrupt INT ck-int.bin -o ck-int.exr --stats ck-int.json
+[ "$rc" -eq 130 ] && [ -s ck-int.exr ] && grep -q '"partial": true' ck-int.json &&
+  grep -q '"interrupted_by": "SIGINT"' ck-int.json && grep -q "stopped after" signal-err.txt &&
+  [ "$(ls -a | grep -c -e '^\.raybundle-' -e 'partial-')" -eq 0 ]
+check $? "SIGINT: exit $rc, or no partial image and stats, or temporaries left: $(cat signal-err.txt)"
+"$bin" "${ck[@]}" --resume ck-int.bin --checkpoint ck-int.bin -o ck-int.exr --patches ck-int.csv --threads 1
+check $? "--resume after SIGINT failed"
+cmp -s ck-full.exr ck-int.exr && cmp -s ck-full.csv ck-int.csv
+check $? "interrupted by SIGINT and resumed (on one thread): outputs differ from the uninterrupted run's"
+head -c 2000 ck-kill.bin >ck-cut.bin
+expect_bad "--resume of a cut checkpoint" "--resume ck-cut.bin: its checksum does not match" "${ck[@]}" --resume ck-cut.bin
+expect_bad "--resume of an image" "--resume ck-full.exr: not a raybundle checkpoint" "${ck[@]}" --resume ck-full.exr
+expect_bad "--resume of a missing file" "--resume missing.bin" "${ck[@]}" --resume missing.bin
+expect_bad "--resume with another seed" "--seed was 5, now 6" "${ck_base[@]}" --patch-size 150 --seed 6 --resume ck-kill.bin
+expect_bad "--resume with another option" "--ambient true is given now, not then" "${ck[@]}" --ambient --resume ck-kill.bin
+scene "$quad" > edited.json
+"$bin" solve edited.json --gather 0 --iterations 100 --checkpoint edited.bin --checkpoint-every 20 -q
+sed -i 's/0.5, 0.5, 0.5/0.5, 0.5, 0.6/' edited.json
+expect_bad "--resume of an edited scene" "the scene differs" solve edited.json --gather 0 --iterations 100 --resume edited.bin
+expect_bad "--checkpoint with a target" "--checkpoint works for runs of one round: not with --target-error" \
+  "${ck[@]}" --checkpoint c.bin --target-error 0.01
+"$bin" solve --builtin homogeneous-box --method pathtrace --resume ck-kill.bin -o pt.exr 2>err.txt
+[ $? -eq 2 ] && grep -q -- "--resume does not apply to --method pathtrace" err.txt && [ ! -e pt.exr ]
+check $? "--resume with pathtrace: $(cat err.txt)"
+expect_bad "--checkpoint-every alone" "--checkpoint-every needs --checkpoint FILE" "${ck[@]}" --checkpoint-every 10
+for v in 0 -3 1.5 abc 0s -2s s; do
+  expect_bad "--checkpoint-every $v" "--checkpoint-every" "${ck[@]}" --checkpoint c.bin --checkpoint-every "$v"
+done
+expect_bad "--checkpoint onto a device" "--checkpoint /dev/null: is a device" "${ck[@]}" --checkpoint /dev/null
+expect_bad "--checkpoint onto the scene file" "--checkpoint good.json: is the scene file" \
+  solve good.json --checkpoint good.json
+
+# The memory guard: a run that cannot fit is refused before any work (16384^2 pixels,
+# 16384^2 global z-buffer maps on 1024 threads: some 16 TB on any machine).
+expect_bad "memory guard" "need about" solve --builtin homogeneous-box --width 16384 --height 16384 \
+  --visibility global-zbuffer --resolution 16384 --threads 1024
+
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

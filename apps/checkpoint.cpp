@@ -1,0 +1,238 @@
+#include "checkpoint.h"
+
+#include "signals.h"
+
+#include "render/image_io.h"
+#include "scenes/errors.h"
+#include "scenes/mesh_file.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <set>
+
+#ifndef RAYBUNDLE_VERSION
+#define RAYBUNDLE_VERSION "unknown"
+#endif
+
+namespace raybundle::apps {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr char kMagic[] = "raybundle checkpoint 1\n";
+constexpr std::uint32_t kByteOrder = 0x01020304u;
+// The largest checkpoint read: two chains of 10^7 patches with the ambient variate's
+// vectors are about 3 GB.
+constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{16} << 30;
+
+// The flags that do not change what a run computes: its outputs, its thread count (the
+// same result for any), its chatter, and the checkpoint flags themselves.
+const std::set<std::string> kNotIdentity = {"--output", "--exposure", "--stats", "--csv",  "--csv-every",
+                                            "--patches", "--ply",     "--aov",   "--reference", "--quiet",
+                                            "--threads", "--checkpoint", "--checkpoint-every", "--resume",
+                                            "--help", "scene"};
+
+struct Fnv {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    void bytes(const void* p, std::size_t n) {
+        const auto* c = static_cast<const unsigned char*>(p);
+        for (std::size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 0x100000001b3ull;
+    }
+    template <class T>
+    void value(const T& v) {
+        bytes(&v, sizeof v);
+    }
+    void vec(const Eigen::Vector3d& v) { bytes(v.data(), 3 * sizeof(double)); }
+    void rgb(const Eigen::Array3d& v) { bytes(v.data(), 3 * sizeof(double)); }
+};
+
+std::string hex(std::uint64_t h) {
+    char text[17];
+    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
+    return text;
+}
+
+// Everything of the loaded scene that the solve and the image read.
+std::string scene_hash(const scenes::Scene& scene) {
+    Fnv f;
+    f.value(scene.patch_count());
+    for (const auto& p : scene.patch_list()) {
+        f.bytes(p.v, sizeof p.v);
+        f.value(p.material);
+        f.value(p.object);
+    }
+    for (const auto& v : scene.vertex_positions()) f.vec(v);
+    for (const auto& corners : scene.corner_normals())
+        for (const auto& n : corners) f.vec(n);
+    for (const auto& m : scene.materials) {
+        f.rgb(m.albedo);
+        f.rgb(m.emission);
+        f.rgb(m.specular);
+        f.value(m.exponent);
+        f.value(m.two_sided);
+    }
+    const auto& c = scene.camera;
+    f.vec(c.eye);
+    f.vec(c.target);
+    f.vec(c.up);
+    f.value(c.fov_y);
+    f.value(c.width);
+    f.value(c.height);
+    for (const auto& l : scene.point_lights) {
+        f.vec(l.position);
+        f.rgb(l.intensity);
+    }
+    if (scene.sky) {
+        f.rgb(scene.sky->radiance);
+        f.vec(scene.sky->up);
+        f.value(static_cast<int>(scene.sky->model));
+    }
+    return hex(f.h);
+}
+
+UsageError bad(const std::string& path, const std::string& why) {
+    return UsageError("--resume " + path + ": " + why);
+}
+
+// Appends a u64 length and the bytes.
+void put_block(std::string& out, const std::string& block) {
+    const std::uint64_t n = block.size();
+    out.append(reinterpret_cast<const char*>(&n), sizeof n);
+    out += block;
+}
+
+}  // namespace
+
+json options_identity(const CLI::App& cmd) {
+    json options = json::object();
+    for (const CLI::Option* o : cmd.get_options()) {
+        if (o->count() == 0) continue;
+        const std::string name = o->get_name();
+        if (kNotIdentity.count(name) > 0) continue;
+        options[name] = o->results();
+    }
+    return options;
+}
+
+json run_identity(const Command& c, const scenes::Scene& scene) {
+    return {{"version", RAYBUNDLE_VERSION},
+            {"scene", {{"name", scene.name}, {"patches", scene.patch_count()}, {"hash", scene_hash(scene)}}},
+            {"options", c.identity}};
+}
+
+void write_checkpoint(const std::string& path, const Checkpoint& k) {
+    std::string bytes = kMagic;
+    bytes.append(reinterpret_cast<const char*>(&kByteOrder), sizeof kByteOrder);
+    const json header = {{"identity", k.identity}, {"steps_done", k.steps_done}, {"seconds", k.seconds}, {"rows", k.rows}};
+    put_block(bytes, header.dump());
+    const std::uint64_t count = k.states.size();
+    bytes.append(reinterpret_cast<const char*>(&count), sizeof count);
+    for (const auto& state : k.states) put_block(bytes, state);
+    Fnv f;
+    f.bytes(bytes.data(), bytes.size());
+    bytes.append(reinterpret_cast<const char*>(&f.h), sizeof f.h);
+
+    const int slot = track_temporary(path + ".partial-" + std::to_string(::getpid()));
+    try {
+        render::write_atomically(path, [&](const std::string& tmp) {
+            std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+            if (!file) throw std::runtime_error("--checkpoint " + path + ": cannot write (" + std::strerror(errno) + ")");
+            // On disk before the rename: a crash of the machine leaves the old checkpoint.
+            if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0 ||
+                ::fsync(::fileno(file.get())) != 0)
+                throw std::runtime_error("--checkpoint " + path + ": write failed (" + std::strerror(errno) + ")");
+        });
+    } catch (...) {
+        untrack_temporary(slot);
+        throw;
+    }
+    untrack_temporary(slot);
+}
+
+Checkpoint read_checkpoint(const std::string& path) {
+    std::string bytes;
+    try {
+        bytes = scenes::read_input_file(path, path, "checkpoint", kMaxCheckpointBytes);
+    } catch (const scenes::SceneError& e) {
+        throw UsageError(std::string("--resume ") + e.what());
+    }
+    const std::size_t magic = sizeof kMagic - 1;
+    if (bytes.compare(0, magic, kMagic) != 0) throw bad(path, "not a raybundle checkpoint");
+    std::size_t at = magic;
+    auto take = [&](void* p, std::size_t n) {
+        if (bytes.size() - at < n) throw bad(path, "the checkpoint ends early (a truncated or damaged file)");
+        std::memcpy(p, bytes.data() + at, n);
+        at += n;
+    };
+    std::uint32_t order = 0;
+    take(&order, sizeof order);
+    if (order != kByteOrder) throw bad(path, "written on a machine of another byte order");
+    if (bytes.size() < at + sizeof(std::uint64_t)) throw bad(path, "the checkpoint ends early (a truncated or damaged file)");
+    Fnv f;
+    f.bytes(bytes.data(), bytes.size() - sizeof f.h);
+    std::uint64_t sum = 0;
+    std::memcpy(&sum, bytes.data() + bytes.size() - sizeof sum, sizeof sum);
+    if (sum != f.h) throw bad(path, "its checksum does not match (a truncated or damaged file)");
+    bytes.resize(bytes.size() - sizeof sum);
+    auto block = [&] {
+        std::uint64_t n = 0;
+        take(&n, sizeof n);
+        if (n > bytes.size() - at) throw bad(path, "the checkpoint ends early (a truncated or damaged file)");
+        std::string b = bytes.substr(at, n);
+        at += n;
+        return b;
+    };
+    Checkpoint k;
+    try {
+        const json header = json::parse(block());
+        k.identity = header.at("identity");
+        k.steps_done = header.at("steps_done").get<long>();
+        k.seconds = header.at("seconds").get<double>();
+        k.rows = header.at("rows");
+    } catch (const json::exception& e) {
+        throw bad(path, std::string("its header is damaged (") + e.what() + ")");
+    }
+    std::uint64_t count = 0;
+    take(&count, sizeof count);
+    if (count != 2) throw bad(path, "holds " + std::to_string(count) + " chains, a run has 2");
+    for (std::uint64_t i = 0; i < count; ++i) k.states.push_back(block());
+    if (at != bytes.size()) throw bad(path, "bytes after the last chain (a damaged file)");
+    return k;
+}
+
+void require_same_run(const std::string& path, const json& saved, const json& now) {
+    const std::string prefix = "made by another run: ";
+    if (saved.value("version", "") != now["version"])
+        throw bad(path, prefix + "raybundle " + saved.value("version", "?") + ", this is " +
+                            now["version"].get<std::string>());
+    const json& a = saved.value("scene", json::object());
+    const json& b = now["scene"];
+    if (a != b)
+        throw bad(path, prefix + "the scene differs (" + a.value("name", "?") + ", " +
+                            std::to_string(a.value("patches", 0)) + " patches, hash " + a.value("hash", "?") +
+                            "; now " + b["name"].get<std::string>() + ", " +
+                            std::to_string(b["patches"].get<std::size_t>()) + " patches, hash " +
+                            b["hash"].get<std::string>() + ")");
+    const json& was = saved.value("options", json::object());
+    const json& is = now["options"];
+    auto shown = [](const json& v) {
+        std::string s;
+        for (const auto& x : v) s += (s.empty() ? "" : " ") + x.get<std::string>();
+        return s;
+    };
+    for (const auto& [name, value] : is.items())
+        if (!was.contains(name))
+            throw bad(path, prefix + name + " " + shown(value) + " is given now, not then");
+        else if (was[name] != value)
+            throw bad(path, prefix + name + " was " + shown(was[name]) + ", now " + shown(value));
+    for (const auto& [name, value] : was.items())
+        if (!is.contains(name)) throw bad(path, prefix + name + " " + shown(value) + " was given then, not now");
+}
+
+}  // namespace raybundle::apps

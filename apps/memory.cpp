@@ -1,0 +1,68 @@
+#include "memory.h"
+
+#include "visibility/backend.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+namespace raybundle::apps {
+
+namespace {
+
+std::string gigabytes(double bytes) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
+    return text;
+}
+
+}  // namespace
+
+MemoryNeed memory_need(const Command& c, const scenes::Scene& scene) {
+    MemoryNeed need;
+    const double threads = std::max(1, c.run.threads);
+    const bool traced = c.solver.method == "pathtrace";
+    need.patches = static_cast<double>(scene.patch_count()) * (600.0 + (traced ? 0.0 : 700.0 * threads));
+    const double per_pixel = traced ? 100.0 : c.gather_rays > 0 ? 340.0 : 230.0;
+    need.pixels = per_pixel * static_cast<double>(scene.camera.width) * static_cast<double>(scene.camera.height);
+    if (!traced) {
+        const std::string& v = c.solver.visibility;
+        const double per_map_pixel = v == "global-zbuffer" ? 58.0 : (v == "painter" || v == "zbuffer") ? 14.0 : 0.0;
+        const double side = c.solver.map.resolution > 0 ? c.solver.map.resolution : visibility::default_resolution(scene);
+        need.maps = per_map_pixel * side * side * threads;
+    }
+    need.bytes = 30e6 + need.patches + need.pixels + need.maps;
+    return need;
+}
+
+std::uint64_t memory_available() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+    std::uint64_t total = pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
+    // cgroup v2, then v1: "max" or a huge number when unlimited.
+    for (const char* file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+        std::ifstream in(file);
+        unsigned long long limit = 0;
+        if (in >> limit && limit > 0 && (total == 0 || limit < total)) total = limit;
+    }
+    return total;
+}
+
+void require_memory(const Command& c, const scenes::Scene& scene) {
+    const std::uint64_t available = memory_available();
+    const MemoryNeed need = memory_need(c, scene);
+    if (available == 0 || need.bytes <= static_cast<double>(available)) return;
+    const std::string largest = need.pixels >= std::max(need.patches, need.maps)
+                                    ? "a smaller image (--width, --height)"
+                                : need.patches >= need.maps ? "larger patches (--patch-size)"
+                                                            : "a smaller --resolution or another --visibility";
+    throw UsageError(scene.name + ": " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
+                     " pixels and " + std::to_string(scene.patch_count()) + " patches need about " +
+                     gigabytes(need.bytes) + " (pixels " + gigabytes(need.pixels) + ", patches " +
+                     gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), this machine has " +
+                     gigabytes(static_cast<double>(available)) + ": try " + largest);
+}
+
+}  // namespace raybundle::apps

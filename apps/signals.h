@@ -1,0 +1,30 @@
+#pragma once
+// The run's signals: SIGINT, SIGTERM and SIGHUP.
+//
+// While the run can stop cleanly (set_stoppable(true): `solve` from its solve on), the
+// first such signal asks it to stop: stop_requested() returns it from then on, and a
+// line on stderr says what happens (the solve stops after its current steps, the
+// image is made from the steps done, the outputs are written, marked partial; exit
+// 128 + the signal: 130, 143, 129). A second signal, or the first one while the run
+// cannot stop cleanly (loading, path tracing), removes the temporaries registered
+// here and ends the process by the signal, leaving every output as it was before.
+//
+// Call order: install_signal_handlers() once, before the first temporary; track a
+// temporary before creating it, untrack it once renamed or removed.
+#include <string>
+
+namespace raybundle::apps {
+
+void install_signal_handlers();
+void set_stoppable(bool stoppable);
+// 0, or the first signal received while stoppable.
+int stop_requested();
+// "SIGINT", "SIGTERM", "SIGHUP" (or "signal N").
+std::string signal_name(int sig);
+
+// A file to remove if a signal ends the process: a slot for untrack_temporary(), or -1
+// when all slots are taken (the file is then removed on failures only).
+int track_temporary(const std::string& path);
+void untrack_temporary(int slot);
+
+}  // namespace raybundle::apps
