@@ -95,8 +95,8 @@ void add_scene_options(CLI::App& cmd, Command& c) {
             ->check(check);
     };
     shortcut("--patch-size", "patch_size", "refine until no patch edge is longer (-D patch_size=L)", kPositive);
-    shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::PositiveNumber);
-    shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::PositiveNumber);
+    shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384));
+    shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384));
     shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);
     cmd.add_option("--threads", c.run.threads, "threads (default: all cores; the same result for any count)")
         ->check(CLI::Range(1, 1024));

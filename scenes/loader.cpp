@@ -443,8 +443,23 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             std::vector<Vec3> v;
             for (std::size_t k = 0; k < want; ++k)
                 v.push_back(obj.vec3(pts[k], obj.at(key) + "[" + std::to_string(k) + "]"));
-            const std::vector<std::array<int, 3>> tris =
-                quad ? std::vector<std::array<int, 3>>{{0, 1, 2}, {0, 2, 3}} : std::vector<std::array<int, 3>>{{0, 1, 2}};
+            // A quad is one flat surface of four corners: corners that coincide or three
+            // on one line (a triangle or a line), a bend (past 1e-6 of its size: hand-typed
+            // coordinates are flat to rounding) or a crossing are mistakes, not surfaces.
+            std::vector<std::array<int, 3>> tris = {{0, 1, 2}};
+            if (quad) {
+                double size = 0.0;
+                for (const auto& a : v)
+                    for (const auto& b : v) size = std::max(size, (a - b).norm());
+                for (std::size_t k = 0; k < 4; ++k) {
+                    const Vec3 &a = v[(k + 3) % 4], &b = v[k], &c = v[(k + 1) % 4];
+                    if (!((b - a).norm() > 1e-9 * size) || !((c - b).cross(a - b).norm() > 1e-9 * size * size))
+                        obj.fail(key, "is degenerate: its points " + std::to_string((k + 3) % 4) + ", " +
+                                          std::to_string(k) + ", " + std::to_string((k + 1) % 4) +
+                                          " coincide or lie on one line (a triangle is a \"triangle\")");
+                }
+                tris = triangulate_polygon(v, 1e-6, shown, obj.at(key));
+            }
             const int id = scene.add_object(v, tris, mat, !given.empty() ? given : obj.path() + " (" + key + ")");
             if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);
             scene.crease_angles[id] = obj_crease;

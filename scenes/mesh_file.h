@@ -24,12 +24,27 @@ struct MeshData {
 // Reads `path` (shown as `shown` in errors). Throws SceneError naming the file and
 // the offending line or count: missing or unreadable file, not a regular file (a
 // directory, FIFO or device), unknown extension, a malformed header or count, a face
-// with fewer than 3 corners, a face index out of range, a file shorter than its header
+// with fewer than 3 corners, a polygon that crosses itself or is not planar
+// (triangulate_polygon), a face index out of range, a file shorter than its header
 // promises, non-finite coordinates, a bad normal (non-finite, zero length, an OBJ
 // normal index out of range, an OBJ face with normals at some corners only, a PLY
 // vertex with some of nx, ny, nz).
 // Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
+
+// A polygon's triangles, as triples of positions in `corners` (counter-clockwise
+// seen from the side its corners turn counter-clockwise around, as the fan keeps
+// them): a fan from the first corner when the polygon is convex, ear clipping when it
+// is concave (a fan would fold over). Throws SceneError(shown, where) for a polygon
+// that crosses itself, or whose corners lie off its plane (the least-squares plane's
+// normal by Newell's method) by more than `max_bend` times its longest edge: its
+// surface would depend on how it is cut. A polygon of (nearly) zero area is fanned:
+// its triangles are dropped on load with the other zero-area ones.
+std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& corners, double max_bend,
+                                                    const std::string& shown, const std::string& where);
+// The bend mesh files' polygons may have: a tenth of the longest edge (quads of
+// organic models bend a few percent; a corner of the wrong vertex bends by ~1).
+inline constexpr double kMeshPolygonBend = 0.1;
 
 // The largest mesh file read (4 GiB: some 100 million triangles, five times what the
 // patch limit lets through) and the largest scene file (64 MiB).

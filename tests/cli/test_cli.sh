@@ -127,6 +127,18 @@ expect_bad "linear basis with another backend" "--visibility: the linear basis u
 expect_bad "diffuse shot in a glossy scene" "--diffuse-shot: supports diffuse scenes only" solve albedo-ok.json --diffuse-shot
 expect_bad "linear basis with walks" "--basis: linear works with the method 'iteration', not 'walk'" solve good.json --basis linear --method walk
 expect_bad "negative seed" "--seed: '-1' is not an integer in 0..2^64-1" solve good.json --seed -1
+expect_bad "seed 2^64" "--seed: '18446744073709551616' is not an integer in 0..2^64-1" solve good.json \
+  --seed 18446744073709551616
+for v in 0 16385 -4 1.5; do
+  expect_bad "--width $v" "--width: Value $v not in range 1 to 16384" solve good.json --width "$v"
+done
+printf '{%s, %s, "objects": [%s], "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [1, 1, 1]}]}\n' \
+  "$camera" "$materials" "$quad" >lit.json
+expect_bad "NaN light intensity (-D)" "point_lights[0].intensity: expected [x, y, z], got [\"nan\",1,1]" \
+  solve lit.json -D "point_lights[0].intensity[0]=nan"
+printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "up": [0, 0, 0]}, %s, "objects": [%s]}\n' \
+  "$materials" "$quad" >up.json
+expect_bad "zero camera up" "camera.up: is zero or parallel to the viewing direction" solve up.json
 expect_bad "exposure nan" "--exposure: 'nan' is not a finite number" solve good.json --exposure nan
 expect_bad "eps inf" "--eps-depth: 'inf' is not a finite number" solve good.json --gather 2 --eps-depth inf
 # Outputs that collide or are directories (expect_bad names every output itself).

@@ -268,3 +268,105 @@ TEST_CASE("scene JSON: nesting bounded, keys once, integers of any size", "[scen
                                 "s.json", ".");
     CHECK(s.patch_count() >= 2);
 }
+
+namespace {
+
+// Twice the area of each triangle, its normal's z, over a mesh in the z = 0 plane (or
+// any plane: the normal along `up`).
+struct Cut {
+    double area = 0.0;
+    bool folded = false;  // a triangle turned against the polygon
+};
+Cut cut_of(const MeshData& m, const Vec3& up) {
+    Cut c;
+    for (const auto& t : m.triangles) {
+        const Vec3 n = (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]);
+        c.area += n.norm() / 2.0;
+        c.folded = c.folded || n.dot(up) < 0.0;
+    }
+    return c;
+}
+
+}  // namespace
+
+TEST_CASE("polygons: convex fanned, concave cut into ears, bent or crossing ones refused", "[scenes][mesh]") {
+    TempDir dir;
+    auto read = [&](const std::string& name, const std::string& content) {
+        return read_mesh_file(dir.write(name, content), name);
+    };
+    auto fails_with = [&](const std::string& name, const std::string& content, const std::string& needle) {
+        INFO(name);
+        REQUIRE_THROWS_WITH(read(name, content), Contains(name + ": ") && Contains(needle));
+    };
+    SECTION("a convex polygon is the fan from its first corner, as before") {
+        const MeshData m = read("pentagon.obj", "v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n");
+        REQUIRE(m.triangles.size() == 3);
+        CHECK(m.triangles[0] == std::array<int, 3>{0, 1, 2});
+        CHECK(m.triangles[2] == std::array<int, 3>{0, 3, 4});
+    }
+    SECTION("a concave polygon whose fan would fold: ears, no fold, its exact area") {
+        // An arrowhead from a back corner (the fan's first triangle would turn over at
+        // the notch, corner 1) and an L-shaped hexagon from a corner whose fan would leave
+        // the polygon.
+        const MeshData arrow = read("arrow.obj", "v 2 -1 0\nv 1 0.2 0\nv 2 1 0\nv 0 0 0\nf 1 2 3 4\n");
+        const Cut a = cut_of(arrow, Vec3::UnitZ());
+        CHECK_FALSE(a.folded);
+        CHECK(a.area == Approx(1.0));
+        const MeshData ell =
+            read("ell.off", "OFF\n6 1 0\n0 2 0\n0 0 0\n2 0 0\n2 1 0\n1 1 0\n1 2 0\n6 0 1 2 3 4 5\n");
+        const Cut l = cut_of(ell, Vec3::UnitZ());
+        CHECK(ell.triangles.size() == 4);
+        CHECK_FALSE(l.folded);
+        CHECK(l.area == Approx(3.0));
+    }
+    SECTION("the corner normals follow the ears") {
+        const std::string ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                                "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "2 -1 0 0 -0.1 1\n1 0.2 0 0.2 0 1\n2 1 0 0 0.1 1\n0 0 0 0 0 1\n4 0 1 2 3\n";
+        const MeshData m = read("arrow.ply", ply);
+        REQUIRE(m.normals.size() == m.triangles.size());
+        for (std::size_t t = 0; t < m.triangles.size(); ++t)
+            for (int k = 0; k < 3; ++k) {
+                const int v = m.triangles[t][k];
+                const Vec3 expected = v == 0 ? Vec3(0, -0.1, 1) : v == 1 ? Vec3(0.2, 0, 1) : v == 2 ? Vec3(0, 0.1, 1)
+                                                                                                   : Vec3(0, 0, 1);
+                CHECK((m.normals[t][k] - expected.normalized()).norm() < 1e-6);
+            }
+    }
+    SECTION("a corner repeated next to itself is no crossing") {
+        const MeshData m = read("repeat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2 3\n");
+        CHECK(cut_of(m, Vec3::UnitZ()).area == Approx(0.5));
+    }
+    SECTION("slightly bent quads (a few percent, as organic models have) are accepted") {
+        const MeshData m = read("bent.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0.05\nv 0 1 0\nf 1 2 3 4\n");
+        CHECK(m.triangles.size() == 2);
+    }
+    SECTION("a bow tie, a pentagram, a strongly bent quad: one line each") {
+        fails_with("bowtie.obj", "v 0 0 0\nv 1 1 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 4\n", "line 5: a polygon of 4 corners crosses itself");
+        fails_with("star.off",
+                   "OFF\n5 1 0\n0 1 0\n0.588 -0.809 0\n-0.951 0.309 0\n0.951 0.309 0\n-0.588 -0.809 0\n5 0 1 2 3 4\n",
+                   "face 0: a polygon of 5 corners crosses itself");
+        fails_with("twisted.obj", "v 0 0 0\nv 1 0 0\nv 1 1 1\nv 0 1 0\nf 1 2 3 4\n",
+                   "line 5: a polygon of 4 corners is not planar: corner");
+    }
+}
+
+TEST_CASE("scene quads: degenerate, bent or crossing quads are refused; concave ones cut right", "[scenes][errors]") {
+    auto quad = [](const std::string& points) {
+        return std::string(R"({"camera": {"eye": [0, 0, 5], "target": [0, 0, 0]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, )") +
+               R"("objects": [{"quad": )" + points + R"(, "material": "w"}]})";
+    };
+    auto fails_with = [&](const std::string& points, const std::string& needle) {
+        INFO(points);
+        REQUIRE_THROWS_WITH(parse_scene(quad(points), "s.json", "."),
+                            Contains("s.json") && Contains("objects[0].quad") && Contains(needle));
+    };
+    fails_with("[[0,0,0], [1,0,0], [1,0,0], [0,1,0]]", "is degenerate: its points");
+    fails_with("[[0,0,0], [1,0,0], [2,0,0], [0,1,0]]", "coincide or lie on one line");
+    fails_with("[[0,0,0], [1,0,0], [1,1,0.001], [0,1,0]]", "is not planar");
+    fails_with("[[0,0,0], [1,1,0], [1,0,0], [0,1,0]]", "crosses itself");
+    const Scene arrow = parse_scene(quad("[[2,-1,0], [1,0.2,0], [2,1,0], [0,0,0]]"), "s.json", ".");
+    CHECK(arrow.total_area() == Approx(1.0));
+    CHECK(arrow.patch_count() == 2);
+}
