@@ -336,7 +336,7 @@ std::string dir_of(const std::string& path) {
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
-                  const Overrides& overrides) {
+                  const Overrides& overrides, const LoadLimits& limits) {
     json doc;
     try {
         doc = parse_json(text, shown);
@@ -480,7 +480,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     scene.finalize();
     if (root.has("patch_size")) {
         const double ps = root.number("patch_size");
-        check_refinement(scene, ps, shown);
+        check_refinement(scene, ps, shown, limits.max_patches);
         subdivide(scene, ps);
     }
     if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene);

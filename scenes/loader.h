@@ -1,6 +1,7 @@
 #pragma once
 // The JSON scene loader (format: docs/scene-format.md).
 #include "scenes/scene.h"
+#include "scenes/subdivide.h"
 
 #include <string>
 #include <vector>
@@ -21,9 +22,15 @@ using Overrides = std::vector<Override>;
 // throws SceneError with one line naming the file, the object and the value.
 Scene load_scene(const std::string& path, const Overrides& overrides = {});
 
+// Bounds on what a scene may grow to on load (the fuzzing harnesses lower them so that
+// every input stays within their memory and time limits: tests/fuzz/).
+struct LoadLimits {
+    double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
+};
+
 // The same from JSON text; mesh paths resolve against base_dir, errors name `shown`.
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
-                  const Overrides& overrides = {});
+                  const Overrides& overrides = {}, const LoadLimits& limits = {});
 
 // A built-in scene (scenes/builtin.h) with overrides of its camera ("camera.*") and
 // "patch_size", validated as in a file.

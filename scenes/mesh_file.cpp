@@ -220,6 +220,17 @@ public:
             if (!std::isfinite(v)) throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not finite");
             if (!type.real && v != std::floor(v))
                 throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not a whole number");
+            if (!type.real) {
+                // Within its declared type, as a binary file's value is by construction.
+                const int bits = 8 * type.bytes;
+                const double low = type.is_signed ? -std::ldexp(1.0, bits - 1) : 0.0;
+                const double high = type.is_signed ? std::ldexp(1.0, bits - 1) - 1.0 : std::ldexp(1.0, bits) - 1.0;
+                if (v < low || v > high)
+                    throw SceneError(shown_, where(),
+                                     "value '" + std::string(token) + "' is outside its type's range (" +
+                                         std::to_string(static_cast<long long>(low)) + " to " +
+                                         std::to_string(static_cast<long long>(high)) + ")");
+            }
             return v;
         }
         if (body_.size() - pos_ < static_cast<std::size_t>(type.bytes)) throw truncated(where());
@@ -305,7 +316,7 @@ private:
     std::size_t pos_ = 0;
 };
 
-MeshData read_off(const std::string& content, const std::string& shown) {
+MeshData read_off(std::string_view content, const std::string& shown) {
     TextLines lines(content);
     std::string line;
     if (!lines.next(line)) throw SceneError(shown, "header", "empty file");
@@ -438,7 +449,7 @@ struct PlyElement {
     }
 };
 
-MeshData read_ply(const std::string& content, const std::string& shown) {
+MeshData read_ply(std::string_view content, const std::string& shown) {
     // The header: lines up to end_header.
     std::size_t pos = 0;
     long line_no = 0;
@@ -763,15 +774,20 @@ MeshData read_mesh_file(const std::string& path, const std::string& shown) {
     const std::string ext = lower_extension(path);
     if (ext != "obj" && ext != "off" && ext != "ply")
         throw SceneError(shown, "", "unknown mesh format '." + ext + "' (known: .obj, .ply, .off)");
-    const std::string content = read_input_file(path, shown, "mesh file", kMaxMeshFileBytes);
+    return parse_mesh(read_input_file(path, shown, "mesh file", kMaxMeshFileBytes), ext, shown);
+}
+
+MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown) {
     MeshData data;
-    if (ext == "obj") {
-        std::istringstream in(content);
+    if (format == "obj") {
+        std::istringstream in{std::string(content)};
         data = read_obj(in, shown);
-    } else if (ext == "off") {
+    } else if (format == "off") {
         data = read_off(content, shown);
-    } else {
+    } else if (format == "ply") {
         data = read_ply(content, shown);
+    } else {
+        throw SceneError(shown, "", "unknown mesh format '" + format + "' (known: obj, ply, off)");
     }
     if (data.triangles.empty()) throw SceneError(shown, "", "the mesh has no faces");
     if (data.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace raybundle::scenes {
@@ -31,6 +32,8 @@ struct MeshData {
 // vertex with some of nx, ny, nz).
 // Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
+// The same from the file's bytes, `format` "obj", "ply" or "off".
+MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown);
 
 // A polygon's triangles, as triples of positions in `corners` (counter-clockwise
 // seen from the side its corners turn counter-clockwise around, as the fan keeps

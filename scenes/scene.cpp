@@ -16,9 +16,9 @@ Scene::Scene() {
 }
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                      int material, const std::string& name, int object,
+                      int material, const std::string& object_name, int object,
                       const std::vector<std::array<Vec3, 3>>& normals) {
-    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), name, object, normals);
+    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), object_name, object, normals);
 }
 
 int Scene::add_material(Material m) {
@@ -33,14 +33,14 @@ int Scene::find_material(const std::string& material_name) const {
 }
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                      const std::vector<int>& triangle_materials, const std::string& name, int object,
+                      const std::vector<int>& triangle_materials, const std::string& object_name, int object,
                       const std::vector<std::array<Vec3, 3>>& normals) {
     if (!normals.empty() && normals.size() != triangles.size())
         throw std::invalid_argument("add_object: " + std::to_string(normals.size()) + " corner normal triples for " +
                                     std::to_string(triangles.size()) + " triangles");
     if (object < 0) {
         object = static_cast<int>(object_names.size());
-        object_names.push_back(name.empty() ? "object " + std::to_string(object) : name);
+        object_names.push_back(object_name.empty() ? "object " + std::to_string(object) : object_name);
     }
     if (crease_angles.size() < object_names.size()) crease_angles.resize(object_names.size(), default_crease_angle);
     std::vector<TriMesh::VertexHandle> handles;

@@ -3,6 +3,7 @@
 #include "scenes/errors.h"
 
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 #include <algorithm>
@@ -97,7 +98,7 @@ std::size_t subdivide(Scene& scene, double max_edge) {
     return splits;
 }
 
-void check_refinement(const Scene& scene, double max_edge, const std::string& shown) {
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown, double max_patches) {
     std::ostringstream size;
     size << max_edge;
     if (!(max_edge > 0.0) || !std::isfinite(max_edge))
@@ -111,11 +112,15 @@ void check_refinement(const Scene& scene, double max_edge, const std::string& sh
         for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[p.v[k]] - pos[p.v[(k + 1) % 3]]).norm());
         estimate += std::max({1.0, p.area / (0.25 * max_edge * max_edge), longest / max_edge});
     }
-    if (estimate > 2e7) {
-        std::ostringstream count;
+    if (estimate > max_patches) {
+        std::ostringstream count, limit;
         count << estimate;
+        limit.imbue(std::locale::classic());
+        limit << std::fixed << std::setprecision(0) << max_patches;
+        std::string digits = limit.str();
+        for (int k = static_cast<int>(digits.size()) - 3; k > 0; k -= 3) digits.insert(static_cast<std::size_t>(k), ",");
         throw SceneError(shown, "patch_size",
-                         size.str() + " would make about " + count.str() + " patches (limit 20,000,000)");
+                         size.str() + " would make about " + count.str() + " patches (limit " + digits + ")");
     }
 }
 

@@ -24,8 +24,10 @@ TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double
 
 // Refinement to max_edge leaves triangles of at least about max_edge^2 / 4 area, and
 // cuts a sliver along all of its longest edge: throws SceneError (naming `shown`) when
-// the larger of the two counts, summed over the triangles, passes 20 million patches,
-// more than any run can hold, or when max_edge is not a positive number.
-void check_refinement(const Scene& scene, double max_edge, const std::string& shown);
+// the larger of the two counts, summed over the triangles, passes `max_patches` (20
+// million by default: more than any run can hold), or when max_edge is not a positive
+// number.
+inline constexpr double kMaxPatches = 2e7;
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown, double max_patches = kMaxPatches);
 
 }  // namespace raybundle::scenes

@@ -2,10 +2,11 @@
 # Installs raybundle's build dependencies from Debian 12 packages (apt-get only).
 # Idempotent: packages already present are not touched, and apt-get runs only
 # when something is missing.
-# Usage: scripts/setup-deps.sh [--tests]
+# Usage: scripts/setup-deps.sh [--tests] [--fuzz]
 #   --tests   also the packages only the tests and benchmarks use: OpenCV with its
 #             contrib modules (the guided filter is compared with
 #             cv::ximgproc::guidedFilter). scripts/test.sh passes it.
+#   --fuzz    also clang and its libFuzzer runtime (scripts/fuzz.sh passes it).
 set -euo pipefail
 
 packages=(
@@ -16,11 +17,13 @@ packages=(
   nlohmann-json3-dev libcli11-dev libtbb-dev
 )
 test_packages=(libopencv-dev libopencv-contrib-dev)
+fuzz_packages=(clang libclang-rt-dev)
 
 for arg in "$@"; do
   case "$arg" in
     --tests) packages+=("${test_packages[@]}") ;;
-    *) echo "setup-deps: unknown option '$arg' (known: --tests)" >&2; exit 2 ;;
+    --fuzz) packages+=("${fuzz_packages[@]}") ;;
+    *) echo "setup-deps: unknown option '$arg' (known: --tests, --fuzz)" >&2; exit 2 ;;
   esac
 done
 

@@ -86,13 +86,13 @@ TEST_CASE("contacts: a partition on a floor, against a wall and a ceiling cuts t
         CHECK(area_of(scene, "wall") == Approx(24.0));
         if (extra.empty()) {
             CHECK(area_of(scene, "partition") == Approx(2 * 4.5));  // both sides
-            int partition = 0, lamp = 0;
+            int partition = 0, lamps = 0;
             for (const auto& p : scene.patch_list()) {
                 partition += scene.object_names[p.object] == "partition";
-                lamp += scene.object_names[p.object] == "lamp";
+                lamps += scene.object_names[p.object] == "lamp";
             }
             CHECK(partition == 4);  // two triangles, and their twins
-            CHECK(lamp == 2);
+            CHECK(lamps == 2);
         }
     }
     // Without the cut, a floor patch runs on under the partition.

@@ -146,6 +146,16 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
         fails_with("ni.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
                                  "element face 1\nproperty list uchar int corners\nend_header\n" + tri,
                    "the face element has no integer list vertex_indices");
+        // Found by the fuzzer (scripts/fuzz.sh): an ASCII list count of 2e120 for a
+        // uchar count type was converted to a long (undefined behaviour).
+        fails_with("huge-count.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
+                                         "element edge 1\nproperty list uchar short ends\n" + faces +
+                                         "end_header\n0 0 0\n1 0 0\n0 1 0\n2.22222e+120 0 1\n3 0 1 2\n",
+                   "edge 0: value '2.22222e+120' is outside its type's range (0 to 255)");
+        fails_with("short-range.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
+                                          "element face 1\nproperty list uchar short vertex_indices\nend_header\n"
+                                          "0 0 0\n1 0 0\n0 1 0\n3 0 1 40000\n",
+                   "face 0: value '40000' is outside its type's range (-32768 to 32767)");
         fails_with("nofaces.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz + "end_header\n0 0 0\n1 0 0\n0 1 0\n",
                    "the mesh has no faces");
     }
