@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 namespace raybundle::apps {
 
@@ -66,7 +67,7 @@ const CLI::Validator kEvery(
 // The library's option names and the flags that set them.
 const std::map<std::string, std::string> kFlags = {
     {"method", "--method"},       {"basis", "--basis"},
-    {"steps", "--iterations"},    {"both_ways", "--one-way"}, {"ambient", "--ambient"},
+    {"steps", "--iterations"},    {"both_ways", "--one-way"}, {"ambient", "--ambient"}, {"frame", "--frame"},
     {"depth", "--depth"},         {"unbiased", "--unbiased"},
     {"sampler", "--sampler"},     {"visibility", "--visibility"},
     {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
@@ -123,9 +124,16 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         ->check(CLI::IsMember({"random", "halton", "sobol"}));
     cmd.add_flag("--both-ways,!--one-way", s.both_ways,
                  "iteration: every geometry matrix serves w and -w (default), or w only");
-    cmd.add_flag("--ambient,!--no-ambient", s.ambient,
-                 "iteration: the ambient control variate and start (high albedo; experimental, docs/stability.md), "
-                 "or the paper's estimator as it is (default)");
+    auto on_off = [&cmd](const char* on, const char* off, std::optional<bool>& value, const std::string& help) {
+        cmd.add_flag_callback(on, [&value] { value = true; }, help);
+        cmd.add_flag_callback(off, [&value] { value = false; }, "not " + std::string(on));
+    };
+    on_off("--ambient", "--no-ambient", s.ambient,
+           "iteration: the ambient control variate and start (default: on where an albedo passes sqrt(3)/2, "
+           "docs/stability.md)");
+    on_off("--frame", "--no-frame", s.frame,
+           "iteration: every step along the three axes of a random orthogonal frame (default: on where an albedo "
+           "passes sqrt(3)/2; diffuse scenes)");
     cmd.add_option("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)")->capture_default_str();
     cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
     cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
@@ -232,8 +240,10 @@ void check_command(const CLI::App& cmd, Command& c) {
     c.overrides.insert(c.overrides.end(), shortcuts.begin(), shortcuts.end());
     if (cmd.get_name() != "solve") return;
 
-    if (cmd.count("--diffuse-shot") > 0 && cmd.count("--no-diffuse-shot") > 0)
-        throw UsageError("give one of --diffuse-shot and --no-diffuse-shot");
+    for (const auto& [on, off] : {std::pair{"--diffuse-shot", "--no-diffuse-shot"}, {"--ambient", "--no-ambient"},
+                                  {"--frame", "--no-frame"}})
+        if (cmd.count(on) > 0 && cmd.count(off) > 0)
+            throw UsageError(std::string("give one of ") + on + " and " + off);
     if (c.solver.method != "pathtrace") {
         const auto& names = solver::method_names();
         if (std::find(names.begin(), names.end(), c.solver.method) == names.end()) {
@@ -246,7 +256,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
-                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--csv-every", "--patches", "--ply", "--shading"})
+                                 "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
         c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;

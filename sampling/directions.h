@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 
@@ -38,6 +39,18 @@ public:
         const double u1 = rng_.uniform();
         const double u2 = rng_.uniform();
         return uniform_sphere(u1, u2);
+    }
+    // A uniformly random orthonormal frame (a random rotation's axes): the first axis
+    // uniform on the sphere, the second uniform on its great circle, the third their
+    // cross product; each axis alone is uniform on the sphere.
+    std::array<Eigen::Vector3d, 3> next_frame() {
+        const Eigen::Vector3d a = next();
+        const Eigen::Vector3d u =
+            (std::abs(a.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(a).normalized();
+        const Eigen::Vector3d v = a.cross(u);
+        const double phi = 2.0 * M_PI * rng_.uniform();
+        const Eigen::Vector3d b = std::cos(phi) * u + std::sin(phi) * v;
+        return {a, b, a.cross(b)};
     }
     // Its generator, to save and restore (checkpoints).
     Rng& generator() { return rng_; }

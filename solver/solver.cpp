@@ -25,6 +25,21 @@ VisibilityUsed describe(visibility::BackendSet& backends) {
     return {b.name(), b.details(), visibility::backend_info(b.name()).exact, b.resolution(), backends.threads()};
 }
 
+SolverOptions decided(const SolverOptions& options, const Transport& transport) {
+    SolverOptions o = options;
+    const bool applies = o.method == "iteration" && o.basis == "constant";
+    double rho = 0.0;
+    const auto& scene = transport.scene();
+    for (std::size_t j = 0; j < transport.patches(); ++j) {
+        const auto& m = scene.material_of(j);
+        rho = std::max(rho, (m.albedo + m.specular).maxCoeff());
+    }
+    const bool high = applies && rho > kStableAlbedo;
+    if (!o.ambient) o.ambient = high;
+    if (!o.frame) o.frame = high && !transport.glossy();
+    return o;
+}
+
 void save_counters(StateWriter& out, const SolverReport& r) {
     out.tag("counters");
     out.put(r.steps);
@@ -63,13 +78,19 @@ std::unique_ptr<Solver> make_solver(const Transport& transport, const SolverOpti
     if (!iteration && !options.both_ways)
         throw scenes::OptionError("both_ways", "applies to stochastic iteration (the walk method 'bidirectional' "
                                                "uses w and -w)");
-    if ((!iteration || options.basis == "linear") && options.ambient)
+    if ((!iteration || options.basis == "linear") && options.ambient.value_or(false))
         throw scenes::OptionError("ambient", "applies to stochastic iteration with the constant basis");
+    if ((!iteration || options.basis == "linear") && options.frame.value_or(false))
+        throw scenes::OptionError("frame", "applies to stochastic iteration with the constant basis");
+    if (options.frame.value_or(false) && transport.glossy())
+        throw scenes::OptionError("frame", "needs a purely diffuse scene (glossy patches reflect the light of one "
+                                           "direction per step)");
+    const SolverOptions chosen = decided(options, transport);
     visibility::BackendOptions map = options.map;
     // Sky entries for a scene with sky; without one, the void's entries only for the
     // ambient control variate (solver/stochastic_iteration.h), when the backend has them.
     map.sky = transport.scene().sky.has_value() ||
-              (iteration && options.basis == "constant" && options.ambient && visibility::backend_info(options.visibility).sky);
+              (iteration && options.basis == "constant" && *chosen.ambient && visibility::backend_info(options.visibility).sky);
     if (options.basis == "linear") {
         if (!iteration) throw scenes::OptionError("basis", "linear works with the method 'iteration', not '" + options.method + "'");
         if (options.visibility != visibility::kDefaultBackend && options.visibility != "painter")

@@ -36,6 +36,7 @@
 #include <nlohmann/json.hpp>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,11 +51,13 @@ struct SolverOptions {
     // a step moves light for every patch instead of about half of them: on the
     // homogeneous box the error at equal steps falls about 4x for 10 % more time.
     bool both_ways = true;
-    // Iteration: the ambient control variate and start (solver/stochastic_iteration.h,
-    // docs/stability.md). Off by default: at albedo 0.99 with a pixel backend its chain
-    // can still swing far in long runs (measured there); on, a closed box of albedo
-    // 0.99 is within 0.2 % after 1,000 steps where the paper's estimator is 100 % off.
-    bool ambient = false;
+    // Iteration, for high albedo (solver/stochastic_iteration.h, docs/stability.md): the
+    // ambient control variate and start, and frames: every step moves the light along
+    // the three axes of a random orthogonal frame (weight 1/3 each; three times the
+    // visibility per step; diffuse scenes) instead of one direction. Unset: decided per
+    // scene (decided()): both on where an albedo passes kStableAlbedo, else off.
+    std::optional<bool> ambient;
+    std::optional<bool> frame;
     int depth = 5;          // walks: directions (bounces) per walk
     bool unbiased = false;  // walks: each walk's last bounce corrects the next one's emission (4.3)
     sampling::SamplerKind sampler = sampling::SamplerKind::random;  // walks: their directions
@@ -118,6 +121,18 @@ private:
 // the rest of a report is fixed when the solver is made.
 void save_counters(StateWriter& out, const SolverReport& report);
 void restore_counters(StateReader& in, SolverReport& report);
+
+// The largest albedo (diffuse plus specular, in any channel) at which stochastic
+// iteration with one direction per step keeps a finite variance: a patch's exposure
+// to one direction, 4 T in units of its mean, has E[(4 T)^2] = 4/3, so an error the
+// chain carries is multiplied by albedo x 4 T per step and its mean square grows once
+// albedo^2 4/3 > 1. Over a frame's three axes E[(4 T)^2] = 1.0104: stable to 0.995.
+inline constexpr double kStableAlbedo = 0.8660254037844386;  // sqrt(3) / 2
+
+// `options` with `ambient` and `frame` decided for the scene where they are unset: on
+// for stochastic iteration with the constant basis when the largest albedo passes
+// kStableAlbedo (frames only in a purely diffuse scene), off otherwise.
+SolverOptions decided(const SolverOptions& options, const Transport& transport);
 
 // The methods make_solver knows.
 std::vector<std::string> method_names();

@@ -2,6 +2,7 @@
 
 #include "sampling/directions.h"
 #include "sampling/streams.h"
+#include "scenes/errors.h"
 #include "scenes/brdf.h"
 
 #include <algorithm>
@@ -19,12 +20,12 @@ StochasticIteration::StochasticIteration(const Transport& transport, visibility:
     : Solver(options.steps),
       transport_(transport),
       backends_(backends),
-      options_(options),
+      options_(decided(options, transport_)),
       run_(run),
       glossy_(transport.glossy()),
       directions_(run.seed, run.chain),
       jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
-    init();
+    init(options);
 }
 
 StochasticIteration::StochasticIteration(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends,
@@ -33,12 +34,12 @@ StochasticIteration::StochasticIteration(const Transport& transport, std::unique
       transport_(transport),
       own_set_(std::move(backends)),
       backends_(*own_set_),
-      options_(options),
+      options_(decided(options, transport_)),
       run_(run),
       glossy_(transport.glossy()),
       directions_(run.seed, run.chain),
       jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
-    init();
+    init(options);
 }
 
 StochasticIteration::StochasticIteration(const Transport& transport, visibility::Backend& backend,
@@ -52,15 +53,15 @@ StochasticIteration::StochasticIteration(const scenes::Scene& scene, visibility:
       transport_(*own_),
       own_set_(std::make_unique<visibility::BackendSet>(backend)),
       backends_(*own_set_),
-      options_(options),
+      options_(decided(options, transport_)),
       run_(run),
       glossy_(scene.has_glossy()),
       directions_(run.seed, run.chain),
       jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
-    init();
+    init(options);
 }
 
-void StochasticIteration::init() {
+void StochasticIteration::init(const SolverOptions& options) {
     const std::size_t n = transport_.patches();
     irradiance_.assign(n + 2, Rgb::Zero());
     next_.assign(n + 2, Rgb::Zero());
@@ -95,7 +96,18 @@ void StochasticIteration::init() {
     report_.decisions["burn_in"] = std::to_string(burn_in_) + " steps left out of the average (largest reflectance " +
                                    std::to_string(rho) + ": its start-up deficit below 1e-4 after " +
                                    std::to_string(wanted) + " steps; at most a tenth of the steps)";
-    if (options_.ambient) {
+    if (*options_.frame && glossy_)
+        throw scenes::OptionError("frame", "needs a purely diffuse scene (glossy patches reflect the light of one "
+                                           "direction per step)");
+    // High albedo (solver.h, kStableAlbedo): what was decided, and why.
+    const std::string why = rho > kStableAlbedo
+                                ? "the largest albedo, " + std::to_string(rho) +
+                                      ", passes sqrt(3)/2: with one direction per step the chain's variance grows "
+                                      "without bound (docs/stability.md)"
+                                : "the largest albedo, " + std::to_string(rho) + ", is below sqrt(3)/2";
+    report_.details["frame"] = *options_.frame;
+    report_.details["ambient"] = *options_.ambient;
+    if (*options_.ambient) {
         const Rgb ambient = transport_.mean_emitted() / (Rgb::Ones() - transport_.mean_albedo());
         window_sum_.assign(n, Rgb::Zero());
         c_.assign(n, ambient);
@@ -112,12 +124,17 @@ void StochasticIteration::init() {
         report_.decisions["ambient"] =
             "control variate on every diffuse patch: sum_j A_ij (L_j - c_i) + c_i T_i f_i + c_i (1/4 - T_i) g_i, c_i "
             "its mean incoming radiance over the last window of steps, f_i the lit share of its entries, g_i its mean; "
-            "the chain starts from the ambient radiance (mean emission / (1 - mean albedo))";
+            "the chain starts from the ambient radiance (mean emission / (1 - mean albedo)); " +
+            (options.ambient ? std::string("--ambient given") : why);
     } else {
-        report_.decisions["ambient"] = "off: the estimator of 004 section 4.4.1 as it is, from no reflected light";
+        report_.decisions["ambient"] = "off: the estimator of 004 section 4.4.1 as it is, from no reflected light; " +
+                                       (options.ambient ? std::string("--no-ambient given") : why);
     }
-    report_.decisions["directions_per_step"] = options_.both_ways ? "w and -w from one geometry matrix (weight 1/2 each)"
-                                                                  : "w only";
+    const std::string per_direction = options_.both_ways ? "w and -w from one geometry matrix (weight 1/2 each)" : "w only";
+    report_.decisions["directions_per_step"] =
+        *options_.frame ? "the three axes of a random orthogonal frame (weight 1/3 each), each " + per_direction + "; " +
+                              (options.frame ? std::string("--frame given") : why)
+                        : "one, " + per_direction;
 }
 
 void StochasticIteration::close_window(bool take_mean) {
@@ -127,33 +144,41 @@ void StochasticIteration::close_window(bool take_mean) {
     window_steps_ = 0;
 }
 
-void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& matrix) {
+void StochasticIteration::step(const Vec3* ws, const visibility::GeometryMatrix* matrices, int count) {
     const Transport& t = transport_;
     const std::size_t n = t.patches();
     const bool both = options_.both_ways;
-    // Radiance every patch sends along w (with both directions: along whichever of +-w
-    // it faces): emission plus the reflection of the irradiance of the previous step,
-    // which arrived along w_prev (or whichever of +-w_prev the patch faced).
-    for (std::size_t j = 0; j < n; ++j) {
-        if (t.is_glossy(j)) {
-            const Vec3 out = t.departure(j, w, both);
-            outgoing_[j] = t.emitted(j, out);
-            if (steps_ > 0) outgoing_[j] += t.reflected(j, t.arrival(j, previous_, both), out, irradiance_[j]);
-        } else {
-            outgoing_[j] = t.emitted(j, w) + t.diffuse_reflectance(j) * irradiance_[j];
-        }
-    }
-    t.set_sky(w, outgoing_);
-    std::fill(next_.begin(), next_.end(), Rgb::Zero());
     // With both directions, every entry also carries light along -w. Each patch faces
     // exactly one of +-w, so it receives once; weight 1/2 keeps the expectation: the
-    // pair (w, -w) is sampled with twice the density of w alone.
-    t.gather(matrix, outgoing_, next_, both, both ? 0.5 : 1.0);
-    if (options_.ambient) {
-        // c_i and g_i from the start and the steps before this one; f_i this step's.
+    // pair (w, -w) is sampled with twice the density of w alone. A frame's three
+    // directions weigh a third each.
+    const double weight = (both ? 0.5 : 1.0) / count;
+    std::fill(next_.begin(), next_.end(), Rgb::Zero());
+    if (*options_.ambient) {
         std::fill(lit_.begin(), lit_.end(), 0.0);
         std::fill(seen_.begin(), seen_.end(), 0.0);
-        t.exposure(matrix, lit_, seen_, both, both ? 0.5 : 1.0);
+    }
+    for (int d = 0; d < count; ++d) {
+        const Vec3& w = ws[d];
+        // Radiance every patch sends along w (with both directions: along whichever of
+        // +-w it faces): emission plus the reflection of the irradiance of the previous
+        // step, which arrived along w_prev (or whichever of +-w_prev the patch faced).
+        for (std::size_t j = 0; j < n; ++j) {
+            if (t.is_glossy(j)) {
+                const Vec3 out = t.departure(j, w, both);
+                outgoing_[j] = t.emitted(j, out);
+                if (steps_ > 0) outgoing_[j] += t.reflected(j, t.arrival(j, previous_, both), out, irradiance_[j]);
+            } else {
+                outgoing_[j] = t.emitted(j, w) + t.diffuse_reflectance(j) * irradiance_[j];
+            }
+        }
+        t.set_sky(w, outgoing_);
+        t.gather(matrices[d], outgoing_, next_, both, weight);
+        if (*options_.ambient) t.exposure(matrices[d], lit_, seen_, both, weight);
+    }
+    const Vec3& w = ws[count - 1];
+    if (*options_.ambient) {
+        // c_i and g_i from the start and the steps before this one; f_i this step's.
         if (steps_ == burn_in_ && burn_in_ > 0) {
             // The first averaged step: c_i from the burn-in's last steps (those of the
             // window under way, when there are enough), then windows anew, so that
@@ -163,7 +188,8 @@ void StochasticIteration::step(const Vec3& w, const visibility::GeometryMatrix& 
         }
         for (std::size_t i = 0; i < n; ++i) {
             if (t.is_glossy(i)) continue;
-            const double T = t.receiving_share(i, w, both);
+            double T = 0.0;
+            for (int d = 0; d < count; ++d) T += t.receiving_share(i, ws[d], both) / count;
             const double g = covered_sum_[i] / exposed_sum_[i];
             const double f = voids_ ? (seen_[i] > 0.0 ? lit_[i] / seen_[i] : g) : (T > 0.0 ? lit_[i] / T : g);
             // The departure's entries scaled from the pixels' exposure to the exact one
@@ -205,6 +231,7 @@ void StochasticIteration::advance(long total) {
     // steps are split into calls.
     const int threads = backends_.threads();
     const long batch = threads == 1 ? 1 : 4L * threads;
+    const int per_step = *options_.frame ? 3 : 1;
     std::vector<Vec3> ws;
     std::vector<Eigen::Vector2d> offsets;
     const auto start = Clock::now();
@@ -213,18 +240,22 @@ void StochasticIteration::advance(long total) {
         ws.clear();
         offsets.clear();
         for (long b = 0; b < count; ++b) {
-            ws.push_back(directions_.next());
-            offsets.emplace_back(jitter_.uniform(), jitter_.uniform());
+            if (*options_.frame) {
+                for (const Vec3& axis : directions_.next_frame()) ws.push_back(axis);
+            } else {
+                ws.push_back(directions_.next());
+            }
+            for (int d = 0; d < per_step; ++d) offsets.emplace_back(jitter_.uniform(), jitter_.uniform());
         }
         const auto t0 = Clock::now();
         backends_.transfer_batch(ws, offsets, matrices_);
         report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
         for (long b = 0; b < count; ++b, ++m) {
             const auto t1 = Clock::now();
-            step(ws[b], matrices_[b]);
+            step(&ws[b * per_step], &matrices_[b * per_step], per_step);
             report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
-            report_.entries_total += matrices_[b].entries.size();
-            ++report_.directions;
+            for (int d = 0; d < per_step; ++d) report_.entries_total += matrices_[b * per_step + d].entries.size();
+            report_.directions += per_step;
             ++report_.steps;
             run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
         }
@@ -239,8 +270,9 @@ void StochasticIteration::save(StateWriter& out) const {
     out.put(previous_);
     out.put(directions_.generator());
     out.put(jitter_);
-    out.put(options_.ambient);
-    if (options_.ambient) {
+    out.put(*options_.ambient);
+    out.put(*options_.frame);
+    if (*options_.ambient) {
         out.put(c_);
         out.put(window_sum_);
         out.put(window_steps_);
@@ -259,8 +291,10 @@ void StochasticIteration::restore(StateReader& in) {
     in.get(previous_);
     in.get(directions_.generator());
     in.get(jitter_);
-    if (in.flag() != options_.ambient) throw StateError("saved with the ambient variate " + std::string(options_.ambient ? "off" : "on"));
-    if (options_.ambient) {
+    if (in.flag() != *options_.ambient)
+        throw StateError("saved with the ambient variate " + std::string(*options_.ambient ? "off" : "on"));
+    if (in.flag() != *options_.frame) throw StateError("saved with frames " + std::string(*options_.frame ? "off" : "on"));
+    if (*options_.ambient) {
         in.get(c_);
         in.get(window_sum_);
         in.get(window_steps_);

@@ -12,7 +12,22 @@
 // shades once at the end (L = Le + 4 albedo <I>); only a scene with glossy materials
 // evaluates the view-dependent radiance towards the eye in every step.
 //
-// The ambient control variate (options.ambient; off by default, docs/stability.md).
+// High albedo (docs/stability.md). An error the chain carries in a patch's irradiance
+// comes back next step multiplied by its albedo times 4 T_i(w), T_i its exposure to
+// the direction (mean 1/4); E[(4 T)^2] = 4/3 for one direction, so above an albedo of
+// sqrt(3)/2 (kStableAlbedo) the error's mean square grows from step to step: the mean
+// still converges, but through rare excursions of the whole scene's light (at 0.99
+// the box's mean went to -1.2 and back within 100 steps). Two remedies, chosen by
+// default above kStableAlbedo (solver.h, decided()):
+//   - frames (options.frame): each step moves the light along the three axes of a
+//     random orthogonal frame, weight 1/3 each (unbiased: each axis is uniform). A
+//     patch's exposure over the three scatters far less: E[(4 T)^2] = 1.0104, stable
+//     to an albedo of 0.995. Three times the visibility per step. Diffuse scenes
+//     (glossy patches reflect the light of one arrival direction).
+//   - the ambient control variate and start, below: it takes the exposure's scatter
+//     out of the light's mean level, which frames alone leave swinging.
+//
+// The ambient control variate (options.ambient).
 // One direction exposes patch i to a cosine share T_i(w) of its incoming light
 // (Transport::receiving_share), whose mean over directions is exactly 1/4 but which
 // scatters between 0 and 1/2: in a closed scene of uniform radiance c the estimate is
@@ -45,7 +60,8 @@
 // term: the mean emission over 1 - the mean albedo, per channel), not from no light,
 // which high albedo would take ~1/(1 - albedo) steps to fill in.
 //
-// Options read: steps, both_ways, ambient. Call order: see solver.h.
+// Options read: steps, both_ways, ambient, frame (unset: decided()). Call order: see
+// solver.h.
 #include "solver/solver.h"
 #include "visibility/parallel.h"
 
@@ -81,8 +97,9 @@ public:
     void restore(StateReader& in) override;
 
 private:
-    void init();
-    void step(const scenes::Vec3& direction, const visibility::GeometryMatrix& matrix);
+    void init(const SolverOptions& options);  // the options as given, before decided()
+    // One step along `count` directions (1, or a frame's 3) with their matrices.
+    void step(const scenes::Vec3* directions, const visibility::GeometryMatrix* matrices, int count);
     // Ambient: c_i from the window's mean (take_mean), and a new window begun.
     void close_window(bool take_mean);
 

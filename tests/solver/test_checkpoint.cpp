@@ -47,6 +47,10 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
     };
     add("iteration", box, [](auto&) {});
     add("iteration, ambient", box, [](auto& o) { o.ambient = true; });
+    add("iteration, ambient and frames", box, [](auto& o) {
+        o.ambient = true;
+        o.frame = true;
+    });
     add("iteration, glossy", glossy, [](auto&) {});
     add("iteration, linear basis", box, [](auto& o) { o.basis = "linear"; });
     add("walk, unbiased", box, [](auto& o) {
