@@ -547,6 +547,9 @@ check $? "SIGINT: exit $rc, or no partial image and stats, or temporaries left: 
 check $? "--resume after SIGINT failed"
 cmp -s ck-full.exr ck-int.exr && cmp -s ck-full.csv ck-int.csv
 check $? "interrupted by SIGINT and resumed (on one thread): outputs differ from the uninterrupted run's"
+interrupt TERM ck-term.bin -o ck-term.exr --stats ck-term.json
+[ "$rc" -eq 143 ] && [ -s ck-term.exr ] && grep -q '"interrupted_by": "SIGTERM"' ck-term.json
+check $? "SIGTERM: exit $rc (143 expected), or no partial image: $(cat signal-err.txt)"
 head -c 2000 ck-kill.bin >ck-cut.bin
 expect_bad "--resume of a cut checkpoint" "--resume ck-cut.bin: its checksum does not match" "${ck[@]}" --resume ck-cut.bin
 expect_bad "--resume of an image" "--resume ck-full.exr: not a raybundle checkpoint" "${ck[@]}" --resume ck-full.exr
