@@ -17,6 +17,7 @@
 #include "render/shade.h"
 #include "scenes/ray_caster.h"
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -242,6 +243,85 @@ void add_image_columns(Row& row, const render::Snapshot& s, const std::optional<
     }
 }
 
+// The chains restored from a checkpoint, checked against the run: a state of another
+// method or option set, or more steps than the run's, is a wrong --resume file.
+void resume_chains(const std::string& file, const Checkpoint& k, const std::array<solver::Solver*, 2>& chains,
+                   long steps_per_chain) {
+    for (std::size_t h = 0; h < 2; ++h) {
+        try {
+            solver::StateReader in(k.states[h]);
+            chains[h]->restore(in);
+            in.finish();
+        } catch (const solver::StateError& e) {
+            throw UsageError("--resume " + file + ": chain " + std::to_string(h) + ": " + e.what());
+        }
+    }
+    if (k.steps_done < 0 || k.steps_done > steps_per_chain || chains[0]->report().steps != k.steps_done)
+        throw UsageError("--resume " + file + ": " + std::to_string(k.steps_done) + " steps done does not fit the run's " +
+                         std::to_string(steps_per_chain));
+}
+
+std::vector<Row> rows_from(const std::string& file, const json& saved) {
+    std::vector<Row> rows;
+    try {
+        for (const auto& r : saved) rows.push_back(row_from(r));
+    } catch (const json::exception& e) {
+        throw UsageError("--resume " + file + ": its convergence rows are damaged (" + e.what() + ")");
+    }
+    return rows;
+}
+
+// What happens between steps (render::FieldImageOptions::pause): a checkpoint when one
+// is due (every --checkpoint-every steps or seconds, and when a signal stops the run),
+// and false once a signal asked the run to stop (apps/signals.h). The seconds in a
+// checkpoint are the solve's, a resumed run's before included.
+class Pauses {
+public:
+    Pauses(const Command& c, json identity, std::array<solver::Solver*, 2> chains, const std::vector<Row>& rows,
+           long resumed_steps, double seconds_before)
+        : c_(c), identity_(std::move(identity)), chains_(chains), rows_(rows), seconds_before_(seconds_before),
+          next_(c.checkpoint_steps > 0 ? (2 * resumed_steps / c.checkpoint_steps + 1) * c.checkpoint_steps : 0) {}
+
+    bool operator()(long done) {
+        const int sig = stop_requested();
+        if (!c_.checkpoint.empty()) {
+            const bool due = sig != 0 || (c_.checkpoint_steps > 0 && 2 * done >= next_) ||
+                             (c_.checkpoint_seconds > 0.0 && since(last_) >= c_.checkpoint_seconds);
+            if (due && done != checkpointed_) save(done);
+        }
+        return sig == 0;
+    }
+    // The steps per chain of the last checkpoint written (-1: none).
+    long checkpointed() const { return checkpointed_; }
+
+private:
+    void save(long done) {
+        Checkpoint k;
+        k.identity = identity_;
+        k.steps_done = done;
+        k.seconds = seconds_before_ + since(start_);
+        for (const auto& r : rows_) k.rows.push_back(to_json(r));
+        for (const solver::Solver* chain : chains_) {
+            solver::StateWriter out;
+            chain->save(out);
+            k.states.push_back(out.bytes());
+        }
+        write_checkpoint(c_.checkpoint, k);
+        checkpointed_ = done;
+        last_ = Clock::now();
+        while (c_.checkpoint_steps > 0 && next_ <= 2 * done) next_ += c_.checkpoint_steps;
+    }
+
+    const Command& c_;
+    json identity_;
+    std::array<solver::Solver*, 2> chains_;
+    const std::vector<Row>& rows_;
+    double seconds_before_;
+    long next_;  // the step count (both chains) of the next checkpoint by steps
+    Clock::time_point start_ = Clock::now(), last_ = start_;
+    long checkpointed_ = -1;
+};
+
 // `--method pathtrace`: the reference image, no radiance field.
 int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCaster& caster,
                const sampling::RunOptions& run, ProgressBar& bar, Clock::time_point t_start,
@@ -363,63 +443,15 @@ int solve(const Command& c) {
         if (s.image) add_image_columns(row, s, reference);
         rows.push_back(row);
     };
-    // Going on from a checkpoint: the chains' states, the steps done, the rows so far.
+    // Going on from a checkpoint; checkpoints and stops between steps.
     if (resumed) {
-        for (int h = 0; h < 2; ++h) {
-            SolverChain& chain = h == 0 ? chain_a : chain_b;
-            try {
-                solver::StateReader in(resumed->states[static_cast<std::size_t>(h)]);
-                chain.solver().restore(in);
-                in.finish();
-            } catch (const solver::StateError& e) {
-                throw UsageError("--resume " + c.resume + ": chain " + std::to_string(h) + ": " + e.what());
-            }
-        }
-        if (resumed->steps_done < 0 || resumed->steps_done > per_chain.steps ||
-            chain_a.solver().report().steps != resumed->steps_done)
-            throw UsageError("--resume " + c.resume + ": " + std::to_string(resumed->steps_done) +
-                             " steps done does not fit the run's " + std::to_string(per_chain.steps));
+        resume_chains(c.resume, *resumed, {&chain_a.solver(), &chain_b.solver()}, per_chain.steps);
         image_options.resume_steps = resumed->steps_done;
         seconds_before = resumed->seconds;
-        try {
-            for (const auto& r : resumed->rows) rows.push_back(row_from(r));
-        } catch (const json::exception& e) {
-            throw UsageError("--resume " + c.resume + ": its convergence rows are damaged (" + e.what() + ")");
-        }
+        rows = rows_from(c.resume, resumed->rows);
     }
-    // Between steps: a checkpoint when one is due, and a stop when a signal asked for one
-    // (apps/signals.h). The seconds are the solve's, the resumed run's before included.
-    const auto t_solve = Clock::now();
-    long next_checkpoint = c.checkpoint_steps > 0 ? (image_options.resume_steps * 2 / c.checkpoint_steps + 1) * c.checkpoint_steps : 0;
-    auto last_checkpoint = t_solve;
-    long checkpointed = -1;
-    auto save = [&](long done) {
-        Checkpoint k;
-        k.identity = identity;
-        k.steps_done = done;
-        k.seconds = seconds_before + since(t_solve);
-        for (const auto& r : rows) k.rows.push_back(to_json(r));
-        for (const SolverChain* chain : {&chain_a, &chain_b}) {
-            solver::StateWriter out;
-            chain->solver().save(out);
-            k.states.push_back(out.bytes());
-        }
-        write_checkpoint(c.checkpoint, k);
-        checkpointed = done;
-    };
-    image_options.pause = [&](long done) {
-        const int sig = stop_requested();
-        if (!c.checkpoint.empty()) {
-            const bool due = sig != 0 || (c.checkpoint_steps > 0 && 2 * done >= next_checkpoint) ||
-                             (c.checkpoint_seconds > 0.0 && since(last_checkpoint) >= c.checkpoint_seconds);
-            if (due && done != checkpointed) {
-                save(done);
-                last_checkpoint = Clock::now();
-                while (c.checkpoint_steps > 0 && next_checkpoint <= 2 * done) next_checkpoint += c.checkpoint_steps;
-            }
-        }
-        return sig == 0;
-    };
+    Pauses pauses(c, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps, seconds_before);
+    image_options.pause = [&pauses](long done) { return pauses(done); };
     // From here a first signal stops the solve and makes the image of the steps done.
     set_stoppable(true);
     const render::PinholeCamera camera(scene.camera);
@@ -430,7 +462,8 @@ int solve(const Command& c) {
         bar.clear();
         const int sig = stop_requested();
         std::cerr << "raybundle: " << signal_name(sig) << ": " << e.what() << ", nothing written"
-                  << (checkpointed >= 0 ? "; the checkpoint " + c.checkpoint + " holds the steps done" : "") << "\n";
+                  << (pauses.checkpointed() >= 0 ? "; the checkpoint " + c.checkpoint + " holds the steps done" : "")
+                  << "\n";
         return 128 + sig;
     }
     const render::FieldImage& made = *made_or_none;
@@ -485,7 +518,8 @@ int solve(const Command& c) {
     stats["steps_planned"] = 2 * per_chain.steps;
     if (resumed)
         stats["resumed"] = {{"checkpoint", c.resume}, {"steps_done", 2 * resumed->steps_done}, {"seconds_before", seconds_before}};
-    if (!c.checkpoint.empty()) stats["checkpoint"] = {{"file", c.checkpoint}, {"steps", 2 * std::max(0L, checkpointed)}};
+    if (!c.checkpoint.empty())
+        stats["checkpoint"] = {{"file", c.checkpoint}, {"steps", 2 * std::max(0L, pauses.checkpointed())}};
     std::optional<double> error;
     if (exact) {
         error = field.relative_l1_error(scene, *exact);
@@ -516,7 +550,7 @@ int solve(const Command& c) {
                                                     std::to_string(2 * per_chain.steps) +
                                                     " steps; the outputs are of the steps done (\"partial\" in the stats)"
                                               : "the run was complete; its outputs are written")
-                  << (checkpointed >= 0 ? "; go on with --resume " + c.checkpoint : "") << "\n";
+                  << (pauses.checkpointed() >= 0 ? "; go on with --resume " + c.checkpoint : "") << "\n";
         return 128 + sig;
     }
     return 0;
