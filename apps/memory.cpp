@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -29,7 +30,8 @@ MemoryNeed memory_need(const Command& c, const scenes::Scene& scene) {
     const double per_pixel = traced ? 100.0 : c.gather_rays > 0 ? 340.0 : 230.0;
     need.pixels = per_pixel * static_cast<double>(scene.camera.width) * static_cast<double>(scene.camera.height);
     if (!traced) {
-        const std::string& v = c.solver.visibility;
+        // The linear basis rasterises with the centre-sorted painter (its own map).
+        const std::string& v = c.solver.basis == "linear" ? std::string("painter") : c.solver.visibility;
         const double per_map_pixel = v == "global-zbuffer" ? 58.0 : (v == "painter" || v == "zbuffer") ? 14.0 : 0.0;
         const double side = c.solver.map.resolution > 0 ? c.solver.map.resolution : visibility::default_resolution(scene);
         need.maps = per_map_pixel * side * side * threads;
@@ -41,12 +43,36 @@ MemoryNeed memory_need(const Command& c, const scenes::Scene& scene) {
 std::uint64_t memory_available() {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
     std::uint64_t total = pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
-    // cgroup v2, then v1: "max" or a huge number when unlimited.
-    for (const char* file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+    auto consider = [&total](const std::string& file) {
         std::ifstream in(file);
-        unsigned long long limit = 0;
+        unsigned long long limit = 0;  // "max" (unlimited) does not parse
         if (in >> limit && limit > 0 && (total == 0 || limit < total)) total = limit;
+    };
+    // The process's control group and every group above it (a limit set by systemd or a
+    // batch system sits below the top): "0::/path" for cgroup v2, "N:...memory...:/path"
+    // for v1. Paths outside this mount namespace do not exist and are skipped; the top
+    // level is read in any case.
+    std::ifstream groups("/proc/self/cgroup");
+    std::string line;
+    while (std::getline(groups, line)) {
+        const auto a = line.find(':'), b = a == std::string::npos ? a : line.find(':', a + 1);
+        if (b == std::string::npos) continue;
+        const std::string controllers = "," + line.substr(a + 1, b - a - 1) + ",";
+        std::string base, file;
+        if (controllers == ",,") {
+            base = "/sys/fs/cgroup", file = "memory.max";
+        } else if (controllers.find(",memory,") != std::string::npos) {
+            base = "/sys/fs/cgroup/memory", file = "memory.limit_in_bytes";
+        } else {
+            continue;
+        }
+        for (std::filesystem::path p = line.substr(b + 1);; p = p.parent_path()) {
+            consider(base + (p.string() == "/" ? "" : p.string()) + "/" + file);
+            if (!p.has_relative_path()) break;
+        }
     }
+    consider("/sys/fs/cgroup/memory.max");
+    consider("/sys/fs/cgroup/memory/memory.limit_in_bytes");
     return total;
 }
 

@@ -24,8 +24,8 @@ struct MemoryNeed {
 };
 MemoryNeed memory_need(const Command& c, const scenes::Scene& scene);
 
-// The physical memory, or the control group's limit where that is lower (bytes; 0
-// when neither can be read).
+// The physical memory, or the lowest limit of the process's control group and the
+// groups above it where that is lower (bytes; 0 when none can be read).
 std::uint64_t memory_available();
 
 // Throws UsageError naming the scene, the patches and the pixels when the run needs

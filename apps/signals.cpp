@@ -1,5 +1,6 @@
 #include "signals.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -41,7 +42,13 @@ extern "C" void on_signal(int sig) {
 
 void install_signal_handlers() {
     static const bool installed = [] {
-        for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_signal);
+        // A signal the process was started ignoring stays ignored (nohup, a background
+        // job of a script): no handler for it.
+        for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+            struct sigaction old {};
+            if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+            std::signal(sig, on_signal);
+        }
         return true;
     }();
     (void)installed;

@@ -9,6 +9,8 @@
 // cannot stop cleanly (loading, path tracing), removes the temporaries registered
 // here and ends the process by the signal, leaving every output as it was before.
 //
+// A signal the process was started ignoring (nohup: SIGHUP) stays ignored.
+//
 // Call order: install_signal_handlers() once, before the first temporary; track a
 // temporary before creating it, untrack it once renamed or removed.
 #include <string>

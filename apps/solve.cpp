@@ -287,7 +287,17 @@ public:
         if (!c_.checkpoint.empty()) {
             const bool due = sig != 0 || (c_.checkpoint_steps > 0 && 2 * done >= next_) ||
                              (c_.checkpoint_seconds > 0.0 && since(last_) >= c_.checkpoint_seconds);
-            if (due && done != checkpointed_) save(done);
+            if (due && done != checkpointed_) {
+                try {
+                    save(done);
+                } catch (const std::exception& e) {
+                    // A full disk must not end the run: the previous checkpoint stays, and
+                    // the next one is tried when due.
+                    std::cerr << "\nraybundle: warning: " << e.what() << "; the run goes on\n";
+                }
+                last_ = Clock::now();
+                while (c_.checkpoint_steps > 0 && next_ <= 2 * done) next_ += c_.checkpoint_steps;
+            }
         }
         return sig == 0;
     }
@@ -308,8 +318,6 @@ private:
         }
         write_checkpoint(c_.checkpoint, k);
         checkpointed_ = done;
-        last_ = Clock::now();
-        while (c_.checkpoint_steps > 0 && next_ <= 2 * done) next_ += c_.checkpoint_steps;
     }
 
     const Command& c_;
@@ -452,6 +460,8 @@ int solve(const Command& c) {
     }
     Pauses pauses(c, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps, seconds_before);
     image_options.pause = [&pauses](long done) { return pauses(done); };
+    // Pauses no shorter than the solver's batches of directions (4 per thread).
+    image_options.pause_every = std::max(16L, 4L * c.run.threads);
     // From here a first signal stops the solve and makes the image of the steps done.
     set_stoppable(true);
     const render::PinholeCamera camera(scene.camera);
@@ -500,8 +510,11 @@ int solve(const Command& c) {
     stats["seconds_total"] = since(t_start);
     stats["seconds_solve"] = seconds_solve;
     stats["seconds_render"] = seconds_render;
-    stats["seconds_per_iteration"] = report.steps > 0 ? seconds_solve / report.steps : 0.0;
-    stats["seconds_per_direction"] = report.directions > 0 ? seconds_solve / report.directions : 0.0;
+    // This run's steps only (a resumed run's solver counts the steps before it too).
+    const long steps_here = made.steps - 2 * image_options.resume_steps;
+    const double directions_per_step = report.steps > 0 ? static_cast<double>(report.directions) / report.steps : 1.0;
+    stats["seconds_per_iteration"] = steps_here > 0 ? seconds_solve / steps_here : 0.0;
+    stats["seconds_per_direction"] = steps_here > 0 ? seconds_solve / (steps_here * directions_per_step) : 0.0;
     stats["mean_radiance"] = mean;
     if (made.gather) stats["final_gather"] = gather_record(c, *made.gather);
     json estimate = rounds_record(made.rounds, c.rounds);
@@ -550,7 +563,9 @@ int solve(const Command& c) {
                                                     std::to_string(2 * per_chain.steps) +
                                                     " steps; the outputs are of the steps done (\"partial\" in the stats)"
                                               : "the run was complete; its outputs are written")
-                  << (pauses.checkpointed() >= 0 ? "; go on with --resume " + c.checkpoint : "") << "\n";
+                  << (made.rounds.interrupted && pauses.checkpointed() >= 0 ? "; go on with --resume " + c.checkpoint
+                                                                             : "")
+                  << "\n";
         return 128 + sig;
     }
     return 0;

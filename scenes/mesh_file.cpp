@@ -210,16 +210,16 @@ public:
             if (pos_ == body_.size()) throw truncated(where());
             std::size_t end = pos_;
             while (end < body_.size() && !std::isspace(static_cast<unsigned char>(body_[end]))) ++end;
-            // The body is a view of a std::string, so strtod stops at its end at the latest.
+            // strtod on a copy: the body need not end in a NUL (parse_mesh takes a view).
+            const std::string token(body_.substr(pos_, end - pos_));
             char* stop = nullptr;
-            const double v = std::strtod(body_.data() + pos_, &stop);
-            const std::string_view token = body_.substr(pos_, end - pos_);
-            const bool whole = stop == body_.data() + end;
+            const double v = std::strtod(token.c_str(), &stop);
+            const bool whole = stop == token.c_str() + token.size();
             pos_ = end;
-            if (!whole) throw SceneError(shown_, where(), "malformed value '" + std::string(token) + "'");
-            if (!std::isfinite(v)) throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not finite");
+            if (!whole) throw SceneError(shown_, where(), "malformed value '" + token + "'");
+            if (!std::isfinite(v)) throw SceneError(shown_, where(), "value '" + token + "' is not finite");
             if (!type.real && v != std::floor(v))
-                throw SceneError(shown_, where(), "value '" + std::string(token) + "' is not a whole number");
+                throw SceneError(shown_, where(), "value '" + token + "' is not a whole number");
             if (!type.real) {
                 // Within its declared type, as a binary file's value is by construction.
                 const int bits = 8 * type.bytes;
@@ -227,7 +227,7 @@ public:
                 const double high = type.is_signed ? std::ldexp(1.0, bits - 1) - 1.0 : std::ldexp(1.0, bits) - 1.0;
                 if (v < low || v > high)
                     throw SceneError(shown_, where(),
-                                     "value '" + std::string(token) + "' is outside its type's range (" +
+                                     "value '" + token + "' is outside its type's range (" +
                                          std::to_string(static_cast<long long>(low)) + " to " +
                                          std::to_string(static_cast<long long>(high)) + ")");
             }
@@ -716,7 +716,7 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& cor
             if (segments_meet(q[i], q[(i + 1) % n], q[j], q[(j + 1) % n], eps))
                 throw SceneError(shown, where,
                                  "a polygon of " + std::to_string(corners.size()) +
-                                     " corners crosses itself (its edges from corners " + std::to_string(index[i]) +
+                                     " corners crosses or touches itself (its edges from corners " + std::to_string(index[i]) +
                                      " and " + std::to_string(index[j]) + " meet)");
         }
     bool convex = true;

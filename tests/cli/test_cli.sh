@@ -524,7 +524,9 @@ check $? "checkpoint: the uninterrupted run failed"
 interrupt() {
   local sig=$1 file=$2
   shift 2
-  "$bin" "${ck[@]}" --checkpoint "$file" --checkpoint-every 1000 "$@" 2>signal-err.txt &
+  # A background job of a script starts with SIGINT ignored, which raybundle respects
+  # (as under nohup): give it the default back.
+  env --default-signal=INT "$bin" "${ck[@]}" --checkpoint "$file" --checkpoint-every 1000 "$@" 2>signal-err.txt &
   local pid=$!
   for _ in $(seq 1 1200); do [ -f "$file" ] && break; sleep 0.05; done
   kill "-$sig" "$pid"
@@ -550,6 +552,20 @@ check $? "interrupted by SIGINT and resumed (on one thread): outputs differ from
 interrupt TERM ck-term.bin -o ck-term.exr --stats ck-term.json
 [ "$rc" -eq 143 ] && [ -s ck-term.exr ] && grep -q '"interrupted_by": "SIGTERM"' ck-term.json
 check $? "SIGTERM: exit $rc (143 expected), or no partial image: $(cat signal-err.txt)"
+# A signal the run was started ignoring stays ignored (nohup: SIGHUP).
+nohup "$bin" "${ck[@]}" -o ck-hup.exr >/dev/null 2>&1 &
+pid=$!
+sleep 0.5
+kill -HUP "$pid"
+wait "$pid"
+rc=$?
+[ "$rc" -eq 0 ] && cmp -s ck-full.exr ck-hup.exr
+check $? "SIGHUP under nohup: exit $rc, or the run did not complete"
+# The same scene given by another path resumes: ./s.json is s.json.
+scene "$quad" > same.json
+"$bin" solve same.json --gather 0 --iterations 100 --checkpoint same.bin --checkpoint-every 20 -q &&
+  "$bin" solve ./same.json --gather 0 --iterations 100 --resume same.bin -q
+check $? "--resume with the scene named ./same.json refused"
 head -c 2000 ck-kill.bin >ck-cut.bin
 expect_bad "--resume of a cut checkpoint" "--resume ck-cut.bin: its checksum does not match" "${ck[@]}" --resume ck-cut.bin
 expect_bad "--resume of an image" "--resume ck-full.exr: not a raybundle checkpoint" "${ck[@]}" --resume ck-full.exr
