@@ -28,13 +28,7 @@ VisibilityUsed describe(visibility::BackendSet& backends) {
 SolverOptions decided(const SolverOptions& options, const Transport& transport) {
     SolverOptions o = options;
     const bool applies = o.method == "iteration" && o.basis == "constant";
-    double rho = 0.0;
-    const auto& scene = transport.scene();
-    for (std::size_t j = 0; j < transport.patches(); ++j) {
-        const auto& m = scene.material_of(j);
-        rho = std::max(rho, (m.albedo + m.specular).maxCoeff());
-    }
-    const bool high = applies && rho > kStableAlbedo;
+    const bool high = applies && transport.max_reflectance() > kStableAlbedo;
     if (!o.ambient) o.ambient = high;
     if (!o.frame) o.frame = high && !transport.glossy();
     return o;

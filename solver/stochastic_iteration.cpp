@@ -84,12 +84,7 @@ void StochasticIteration::init(const SolverOptions& options) {
     // first B steps, with rho^B <= 1e-4, are left out of the average; at most a tenth
     // of the steps. (On the Cornell box the bias is below the noise: the image mean
     // varies by +-1.5 % between seeds at 4,000 steps either way.)
-    double rho = 0.0;
-    for (std::size_t j = 0; j < n; ++j) {
-        const auto& m = transport_.scene().material_of(j);
-        rho = std::max(rho, (m.albedo + m.specular).maxCoeff());
-    }
-    rho = std::min(rho, 0.9999);
+    const double rho = std::min(transport_.max_reflectance(), 0.9999);
     const long wanted = rho > 0.0 ? static_cast<long>(std::ceil(std::log(1e-4) / std::log(rho))) : 0;
     burn_in_ = std::min(wanted, options_.steps / 10);
     report_.details["burn_in_steps"] = burn_in_;

@@ -145,6 +145,15 @@ Rgb Transport::mean_albedo() const {
     return area > 0.0 ? Rgb(sum / area) : Rgb::Zero();
 }
 
+double Transport::max_reflectance() const {
+    double rho = 0.0;
+    for (std::size_t j = 0; j < n_; ++j) {
+        const auto& m = scene_.material_of(j);
+        rho = std::max(rho, (m.albedo + m.specular).maxCoeff());
+    }
+    return rho;
+}
+
 void Transport::set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const {
     if (scene_.sky) {
         outgoing[n_] = scene_.sky->arriving_along(w);

@@ -125,6 +125,9 @@ public:
     // channel (the ambient term's inputs).
     Rgb mean_emitted() const;
     Rgb mean_albedo() const;
+    // The largest reflectance (diffuse albedo plus specular) of any patch in any channel:
+    // what sets the burn-in and the high-albedo estimators (solver.h, kStableAlbedo).
+    double max_reflectance() const;
 
     // next += weight * A(w) outgoing; with `both` also along -w (each entry carries
     // light from the receiver back to the source). Vectors have slots() entries.

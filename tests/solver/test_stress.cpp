@@ -12,6 +12,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <memory>
 #include <vector>
 
 using namespace raybundle;
@@ -46,6 +47,16 @@ solver::RadianceField iterate(const scenes::Scene& scene, long steps, std::uint6
     solver::StochasticIteration it(scene, *backend, opt, run);
     it.run();
     return it.field();
+}
+
+// The solver make_solver gives for `steps` with every other option left to decide (the
+// transport must outlive it).
+std::unique_ptr<solver::Solver> with_defaults(const solver::Transport& transport, long steps, std::uint64_t seed) {
+    solver::SolverOptions opt;
+    opt.steps = steps;
+    sampling::RunOptions run;
+    run.seed = seed;
+    return solver::make_solver(transport, opt, run);
 }
 
 // Per channel: the area-weighted mean's relative error against 1, and the worst patch's.
@@ -125,11 +136,11 @@ TEST_CASE("high albedo, uneven light: unbiased against a radiosity solve, and le
 
     // K seeds each way: the mean's bias in standard errors, and the error of one run.
     const int K = 8;
-    auto study = [&](bool high, double& l1_single, double& chi2) {
+    auto study = [&](bool high_albedo, double& l1_single, double& chi2) {
         std::vector<Rgb> sum(n, Rgb::Zero()), sum2(n, Rgb::Zero());
         double l1 = 0.0, l1_ref = 0.0;
         for (int k = 0; k < K; ++k) {
-            const auto field = iterate(scene, 2000, 500 + k, high);
+            const auto field = iterate(scene, 2000, 500 + k, high_albedo);
             for (std::size_t i = 0; i < n; ++i) {
                 sum[i] += field.radiance[i];
                 sum2[i] += field.radiance[i].square();
@@ -266,11 +277,7 @@ TEST_CASE("high albedo by default: 0.99 stays within 1 % of 1 over 20,000 steps,
     // must stay within 1 %, every patch within 5 %.
     const auto scene = uniform_box(Rgb(0.99, 0.95, 0.9), 0.25);
     const solver::Transport transport(scene);
-    solver::SolverOptions opt;
-    opt.steps = 20000;
-    sampling::RunOptions run;
-    run.seed = 1;
-    auto it = solver::make_solver(transport, opt, run);
+    auto it = with_defaults(transport, 20000, 1);
     const auto report = it->report();
     CHECK(report.details.at("ambient") == true);
     CHECK(report.details.at("frame") == true);
@@ -370,11 +377,7 @@ TEST_CASE("no drift at albedo 0.99: 100,000 steps with the defaults stay within 
     // first 10^4 steps and the whole 10^5 agree, and both are within 1 % of 1.
     const auto scene = uniform_box(Rgb(0.99, 0.95, 0.9), 0.5);
     const solver::Transport transport(scene);
-    solver::SolverOptions opt;
-    opt.steps = 100000;
-    sampling::RunOptions run;
-    run.seed = 13;
-    auto it = solver::make_solver(transport, opt, run);
+    auto it = with_defaults(transport, 100000, 13);
     it->advance(10000);
     const Deviation at_1e4 = against_one(scene, it->field());
     it->advance(90000);
