@@ -26,6 +26,8 @@ struct UsageError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+class Ranks;  // apps/ranks.h
+
 struct Command {
     // The scene.
     std::string scene_file, builtin;
@@ -65,8 +67,8 @@ void add_solve_options(CLI::App& cmd, Command& c);
 void check_command(const CLI::App& cmd, Command& c);
 
 scenes::Scene load_scene(const Command& c);
-// `raybundle solve` and `raybundle check`: exit codes.
-int solve(const Command& c);
+// `raybundle solve` (on every rank of `ranks`) and `raybundle check`: exit codes.
+int solve(const Command& c, Ranks& ranks);
 int check_scene(const Command& c);
 
 // The flag that sets a library option (OptionError::option()), or the name itself.

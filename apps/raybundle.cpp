@@ -3,6 +3,7 @@
 //   2  the user's input is wrong (flags, scene file, meshes, an option a library refuses)
 //   1  anything else (an output that cannot be written, a missing run-time library, a bug)
 #include "cli.h"
+#include "ranks.h"
 
 #include "scenes/builtin.h"
 #include "scenes/errors.h"
@@ -11,6 +12,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 namespace rb = raybundle;
 
@@ -34,16 +36,12 @@ void print_version() {
     for (const auto& b : rb::visibility::backend_infos()) backends += (backends.empty() ? "" : ", ") + b.name;
     std::printf("backends   %s (default %s)\n", backends.c_str(), rb::visibility::kDefaultBackend);
     std::printf("kernels    %s (exact painter spans)\n", rb::visibility::best_span_kernels().name);
+    std::printf("ranks      %s\n", rb::apps::Ranks::library().c_str());
 }
 
-int fail(const std::string& what, int code) {
-    std::cerr << "raybundle: error: " << what << "\n";
-    return code;
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv, rb::apps::Ranks& ranks) {
+    // One line for the user, on rank 0, whichever rank failed (apps/ranks.h).
+    auto fail = [&ranks](const std::string& what, int code) { return ranks.fail(what, code); };
     CLI::App app{"raybundle: global ray-bundle radiance solver (see `raybundle help`)"};
     app.set_version_flag("--version", [] {
         print_version();
@@ -98,7 +96,10 @@ int main(int argc, char** argv) {
         }
         CLI::App* cmd = solve->parsed() ? solve : check;
         rb::apps::check_command(*cmd, c);
-        return solve->parsed() ? rb::apps::solve(c) : rb::apps::check_scene(c);
+        return solve->parsed() ? rb::apps::solve(c, ranks) : rb::apps::check_scene(c);
+    } catch (const rb::apps::RankFailed& e) {
+        if (ranks.leader()) std::cerr << "raybundle: error: " << e.what() << "\n";
+        return e.code;
     } catch (const rb::apps::UsageError& e) {
         return fail(e.what(), kExitBadInput);
     } catch (const rb::scenes::SceneError& e) {
@@ -108,4 +109,17 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
         return fail(e.what(), kExitFailure);
     }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::optional<rb::apps::Ranks> ranks;
+    try {
+        ranks.emplace(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "raybundle: error: " << e.what() << "\n";
+        return kExitBadInput;
+    }
+    return run(argc, argv, *ranks);
 }

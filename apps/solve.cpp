@@ -5,6 +5,7 @@
 #include "outputs.h"
 #include "signals.h"
 #include "progress.h"
+#include "ranks.h"
 #include "stats.h"
 
 #include "render/camera.h"
@@ -15,6 +16,7 @@
 #include "render/progressive.h"
 #include "render/scene_check.h"
 #include "render/shade.h"
+#include "sampling/streams.h"
 #include "scenes/ray_caster.h"
 
 #include <array>
@@ -160,6 +162,74 @@ private:
     sampling::ProgressCallback forward_;
 };
 
+// Of the first `total` steps of a chain of the run, those of rank `rank`: steps rank,
+// rank + ranks, rank + 2 ranks, ... (apps/ranks.h).
+long steps_of(long total, int rank, int ranks) { return (total + ranks - 1 - rank) / ranks; }
+
+// Chain h of a run spread over ranks: chain h of every rank, its steps dealt out in
+// turn, its field their mean weighted by the steps each averages. Every rank calls
+// advance(), field() and averaged() at the same points (the pipeline's control flow
+// depends on their results alone, which every rank shares).
+class RankedChain final : public render::FieldChain {
+public:
+    RankedChain(SolverChain& mine, const Ranks& ranks) : mine_(mine), ranks_(ranks) {}
+    void advance(long steps, const sampling::ProgressCallback& progress) override {
+        const long before = steps_of(total_, ranks_.rank(), ranks_.size());
+        total_ += steps;
+        mine_.advance(steps_of(total_, ranks_.rank(), ranks_.size()) - before, progress);
+        averaged_ = ranks_.sum(mine_.averaged());
+    }
+    solver::RadianceField field() const override {
+        solver::RadianceField f = mine_.field();
+        std::vector<double> values;
+        values.reserve(3 * f.radiance.size() + 9 * f.corners.size());
+        for (const auto& rgb : f.radiance) values.insert(values.end(), rgb.data(), rgb.data() + 3);
+        for (const auto& corners : f.corners)
+            for (const auto& rgb : corners) values.insert(values.end(), rgb.data(), rgb.data() + 3);
+        ranks_.weighted_mean(values, mine_.averaged());
+        const double* v = values.data();
+        for (auto& rgb : f.radiance) rgb = {v[0], v[1], v[2]}, v += 3;
+        for (auto& corners : f.corners)
+            for (auto& rgb : corners) rgb = {v[0], v[1], v[2]}, v += 3;
+        return f;
+    }
+    long averaged() const override { return averaged_; }
+
+private:
+    SolverChain& mine_;
+    const Ranks& ranks_;
+    long total_ = 0, averaged_ = 0;
+};
+
+// What a run spread over ranks cannot do: one line, before any work.
+void require_spreadable(const Command& c, const Ranks& ranks) {
+    const std::string n = std::to_string(ranks.size());
+    if (c.solver.method == "pathtrace")
+        throw UsageError("--method pathtrace runs in one process: it is the reference, not spread over " + n + " ranks");
+    if (c.rounds.time_budget > 0.0)
+        throw UsageError("--time-budget on " + n + " ranks: how far the rounds go would depend on the machines' speed; "
+                         "give --iterations or --target-error");
+    if (!c.checkpoint.empty() || !c.resume.empty())
+        throw UsageError(std::string(c.checkpoint.empty() ? "--resume" : "--checkpoint") +
+                         " works in one process, not on " + n + " ranks");
+    if (2 * static_cast<std::uint64_t>(ranks.size()) > sampling::streams::kMaxChains)
+        throw UsageError(n + " ranks: at most " + std::to_string(sampling::streams::kMaxChains / 2) +
+                         " (two independent chains each)");
+}
+
+// Every rank must solve the same scene with the same options (the scene files of
+// every node the same): a hash of the run's identity, compared with rank 0's.
+void require_same_everywhere(const json& identity, const Ranks& ranks) {
+    const std::string bytes = identity.dump();
+    std::uint64_t h = 1469598103934665603ull;  // FNV-1a
+    for (const char ch : bytes) h = (h ^ static_cast<unsigned char>(ch)) * 1099511628211ull;
+    if (ranks.from_leader(h) != h)
+        throw UsageError("the scene " + identity["scene"]["name"].get<std::string>() + " (" +
+                         std::to_string(identity["scene"]["patches"].get<std::size_t>()) +
+                         " patches) or the options differ from rank 0's: every node must read the same scene file "
+                         "and be given the same options");
+}
+
 // Both chains' work in one report: counts and seconds added, the rest from chain 0.
 solver::SolverReport combined(const solver::SolverReport& a, const solver::SolverReport& b) {
     solver::SolverReport r = a;
@@ -277,13 +347,16 @@ std::vector<Row> rows_from(const std::string& file, const json& saved) {
 // checkpoint are the solve's, a resumed run's before included.
 class Pauses {
 public:
-    Pauses(const Command& c, json identity, std::array<solver::Solver*, 2> chains, const std::vector<Row>& rows,
-           long resumed_steps, double seconds_before)
-        : c_(c), identity_(std::move(identity)), chains_(chains), rows_(rows), seconds_before_(seconds_before),
+    Pauses(const Command& c, const Ranks& ranks, json identity, std::array<solver::Solver*, 2> chains,
+           const std::vector<Row>& rows, long resumed_steps, double seconds_before)
+        : c_(c), ranks_(ranks), identity_(std::move(identity)), chains_(chains), rows_(rows),
+          seconds_before_(seconds_before),
           next_(c.checkpoint_steps > 0 ? (2 * resumed_steps / c.checkpoint_steps + 1) * c.checkpoint_steps : 0) {}
 
     bool operator()(long done) {
-        const int sig = stop_requested();
+        // Spread over ranks, they stop together: at the first pause where any has a signal.
+        const int sig = ranks_.spread() ? ranks_.max(stop_requested()) : stop_requested();
+        signal_ = sig;
         if (!c_.checkpoint.empty()) {
             const bool due = sig != 0 || (c_.checkpoint_steps > 0 && 2 * done >= next_) ||
                              (c_.checkpoint_seconds > 0.0 && since(last_) >= c_.checkpoint_seconds);
@@ -303,6 +376,8 @@ public:
     }
     // The steps per chain of the last checkpoint written (-1: none).
     long checkpointed() const { return checkpointed_; }
+    // The signal that stopped the run, as of the last pause (every rank's).
+    int signal() const { return signal_; }
 
 private:
     void save(long done) {
@@ -321,6 +396,7 @@ private:
     }
 
     const Command& c_;
+    const Ranks& ranks_;
     json identity_;
     std::array<solver::Solver*, 2> chains_;
     const std::vector<Row>& rows_;
@@ -328,6 +404,7 @@ private:
     long next_;  // the step count (both chains) of the next checkpoint by steps
     Clock::time_point start_ = Clock::now(), last_ = start_;
     long checkpointed_ = -1;
+    int signal_ = 0;
 };
 
 // `--method pathtrace`: the reference image, no radiance field.
@@ -383,12 +460,14 @@ int path_trace(const Command& c, const scenes::Scene& scene, const scenes::RayCa
 
 }  // namespace
 
-int solve(const Command& c) {
+int solve(const Command& c, Ranks& ranks) {
     const auto t_start = Clock::now();
     install_signal_handlers();
-    ProgressBar bar(c.quiet);
+    if (ranks.spread()) require_spreadable(c, ranks);
+    ProgressBar bar(c.quiet || !ranks.leader());
     sampling::RunOptions run = c.run;
     run.progress = [&](const sampling::Progress& p) { bar(p); };
+    if (ranks.spread()) run.team = &ranks;
 
     // The checkpoint to go on from: read first (a wrong file stops the run at once), its
     // run checked against this one once the scene is loaded.
@@ -398,6 +477,7 @@ int solve(const Command& c) {
     require_memory(c, scene);
     const json identity = run_identity(c, scene);
     if (resumed) require_same_run(c.resume, resumed->identity, identity);
+    if (ranks.spread()) require_same_everywhere(identity, ranks);
     const scenes::RayCaster caster(scene);
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
     const render::SceneSummary summary = render::summarize(scene, caster, run.threads, 128 * 128);
@@ -421,9 +501,16 @@ int solve(const Command& c) {
     }
     const solver::Transport transport(scene, shots, run);
     // Two independent chains, whose difference estimates the error (render/progressive.h).
+    // Spread over ranks, each runs its share of both (RankedChain).
     solver::SolverOptions per_chain = c.solver;
     per_chain.steps = render::chain_steps(c.solver.steps, c.rounds);
-    SolverChain chain_a(transport, per_chain, run, 0), chain_b(transport, per_chain, run, 1);
+    solver::SolverOptions mine = per_chain;
+    mine.steps = std::max(1L, steps_of(per_chain.steps, ranks.rank(), ranks.size()));
+    const auto first_chain = 2 * static_cast<std::uint64_t>(ranks.rank());
+    SolverChain chain_a(transport, mine, run, first_chain), chain_b(transport, mine, run, first_chain + 1);
+    RankedChain ranked_a(chain_a, ranks), ranked_b(chain_b, ranks);
+    render::FieldChain& run_a = ranks.spread() ? static_cast<render::FieldChain&>(ranked_a) : chain_a;
+    render::FieldChain& run_b = ranks.spread() ? static_cast<render::FieldChain&>(ranked_b) : chain_b;
     // What the method converges to on a scene with a known answer (walks truncated at D
     // bounces: a known fraction of it on a homogeneous scene).
     std::optional<double> exact;
@@ -458,7 +545,8 @@ int solve(const Command& c) {
         seconds_before = resumed->seconds;
         rows = rows_from(c.resume, resumed->rows);
     }
-    Pauses pauses(c, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps, seconds_before);
+    Pauses pauses(c, ranks, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps,
+                  seconds_before);
     image_options.pause = [&pauses](long done) { return pauses(done); };
     // Pauses no shorter than the solver's batches of directions (4 per thread).
     image_options.pause_every = std::max(16L, 4L * c.run.threads);
@@ -467,10 +555,10 @@ int solve(const Command& c) {
     const render::PinholeCamera camera(scene.camera);
     std::optional<render::FieldImage> made_or_none;
     try {
-        made_or_none = render::field_image(scene, caster, camera, chain_a, chain_b, image_options, c.rounds, run, observe);
+        made_or_none = render::field_image(scene, caster, camera, run_a, run_b, image_options, c.rounds, run, observe);
     } catch (const render::Interrupted& e) {
         bar.clear();
-        const int sig = stop_requested();
+        const int sig = ranks.spread() ? pauses.signal() : stop_requested();
         std::cerr << "raybundle: " << signal_name(sig) << ": " << e.what() << ", nothing written"
                   << (pauses.checkpointed() >= 0 ? "; the checkpoint " + c.checkpoint + " holds the steps done" : "")
                   << "\n";
@@ -484,6 +572,18 @@ int solve(const Command& c) {
 
     require_finite(field, scene);
     require_finite(image, "the image");
+    // Every rank's work in the report; then rank 0 alone writes.
+    solver::SolverReport report = combined(chain_a.solver().report(), chain_b.solver().report());
+    if (ranks.spread()) {
+        report.steps = ranks.sum(report.steps);
+        report.directions = ranks.sum(report.directions);
+        report.entries_total = static_cast<std::size_t>(ranks.sum(static_cast<long>(report.entries_total)));
+        report.seconds_visibility = ranks.sum(report.seconds_visibility);
+        report.seconds_transport = ranks.sum(report.seconds_transport);
+    }
+    ranks.finish();
+    const int sig = ranks.spread() ? pauses.signal() : stop_requested();
+    if (!ranks.leader()) return sig != 0 ? 128 + sig : 0;
     // The outputs asked for, all written or none (apps/outputs.h).
     OutputSet outputs;
     for (const auto& path : c.images)
@@ -502,11 +602,11 @@ int solve(const Command& c) {
         outputs.stage(c.ply, [&](const std::string& tmp) { render::write_patch_ply(tmp, scene, field, c.exposure); });
     if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { write_csv(tmp, rows); });
 
-    const solver::SolverReport report = combined(chain_a.solver().report(), chain_b.solver().report());
     const double mean = field.mean_radiance(scene);
     json stats = run_record(scene, c, report, transport, summary.overlaps.pairs);
     const double seconds_solve = made.rounds.seconds_solve, seconds_render = made.rounds.seconds_render;
-    stats["chains"] = 2;
+    stats["chains"] = 2 * ranks.size();
+    stats["ranks"] = ranks.size();
     stats["seconds_total"] = since(t_start);
     stats["seconds_solve"] = seconds_solve;
     stats["seconds_render"] = seconds_render;
@@ -525,7 +625,6 @@ int solve(const Command& c) {
                                                     std::string(render::filter_name(c.gather.filter.filter)) + " filter"
                                               : "the patch radiance (" + c.shading + " shading); --gather N for a final gather";
     stats["decisions"]["rounds"] = made.rounds.stopped;
-    const int sig = stop_requested();
     stats["partial"] = made.rounds.interrupted;
     if (sig != 0) stats["interrupted_by"] = signal_name(sig);
     stats["steps_planned"] = 2 * per_chain.steps;

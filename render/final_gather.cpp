@@ -386,6 +386,28 @@ Rgb get(const Image& img, int x, int y) {
     return {p[0], p[1], p[2]};
 }
 
+// The rows this process computes: all of them, or its share where the run is spread
+// over a team (sampling::Team: rows rank, rank + size, ...); share() then hands every
+// member the others' rows of per-row data (H rows of equal size).
+class RowShare {
+public:
+    RowShare(const sampling::Team* team, int rows)
+        : team_(team && team->size() > 1 ? team : nullptr), rows_(rows), first_(team_ ? team_->rank() : 0),
+          stride_(team_ ? team_->size() : 1), count_(team_ ? team_->rows_of(team_->rank(), rows) : rows) {}
+    int count() const { return count_; }
+    // The i-th of this process's rows.
+    int row(int i) const { return first_ + i * stride_; }
+    template <class T>
+    void share(std::vector<T>& rows) const {
+        if (team_) team_->share_rows(rows.data(), sizeof(T) * (rows.size() / static_cast<std::size_t>(rows_)), rows_);
+    }
+    void share(Image& image) const { share(image.rgb); }
+
+private:
+    const sampling::Team* team_;
+    int rows_, first_, stride_, count_;
+};
+
 }  // namespace
 
 GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& caster,
@@ -411,6 +433,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     r.position = Image(W, H);
     std::vector<int> guide_patch(static_cast<std::size_t>(W) * H, -1);
     std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), lookups(H, 0), across(H, 0);
+    // Spread over a team, this process computes its rows in passes 1 and 3, and they
+    // are shared after each: every member filters the whole image.
+    const RowShare block(run.team, H);
 
     // Pass 1: the guide sample of every pixel: G-buffer, indirect light, and with
     // spp = 1 (where the guide is the pixel's only sample) direct light.
@@ -421,9 +446,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     auto row_done = [&](const char* phase, const Clock::time_point& start) {
         if (!run.progress) return;
         const std::lock_guard<std::mutex> lock(progress_lock);
-        run.report(phase, ++rows_done, H, std::chrono::duration<double>(Clock::now() - start).count());
+        run.report(phase, ++rows_done, block.count(), std::chrono::duration<double>(Clock::now() - start).count());
     };
-    parallel_rows(H, run.threads, [&](int y) {
+    parallel_rows(block.count(), run.threads, [&](int row) {
+        const int y = block.row(row);
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
             ++camera_rays[y];
@@ -448,6 +474,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         }
         row_done("final gather", t0);
     });
+    for (Image* image : {&r.direct, &r.indirect, &r.normal, &r.depth, &r.position}) block.share(*image);
+    block.share(guide_patch);
     const auto t1 = Clock::now();
 
     // Pass 2: filter the incident indirect light.
@@ -470,7 +498,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     rows_done = 0;
     const sampling::Strata strata(o.spp), emission_strata(std::max(1, o.emission_samples));
     const bool emission_apart = o.emission_samples > 0;
-    parallel_rows(H, run.threads, [&](int y) {
+    parallel_rows(block.count(), run.threads, [&](int row) {
+        const int y = block.row(row);
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
         std::vector<std::pair<int, int>> cand_xy;
@@ -547,6 +576,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         }
         if (o.spp > 1) row_done("final gather (samples)", t2);
     });
+    block.share(r.image);
+    block.share(r.direct);
+    for (auto* counts : {&camera_rays, &shadow_rays, &gather_rays, &lookups, &across}) block.share(*counts);
     const auto t3 = Clock::now();
     for (int y = 0; y < H; ++y) {
         r.camera_rays += camera_rays[y];

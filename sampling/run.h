@@ -2,6 +2,7 @@
 // What every long computation of a run shares (the solvers, the diffuse shot, the
 // final gather): its seed and random streams, its threads, and how it reports
 // progress. Passed down, never re-declared.
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 
@@ -19,6 +20,23 @@ struct Progress {
 };
 using ProgressCallback = std::function<void(const Progress&)>;
 
+// The processes a run is spread over (MPI ranks, apps/ranks.h), as the computations
+// that split their work by rows see them (the final gather). Member k owns the rows
+// k, k + size, k + 2 size, ... (dealt out in turn: neighbouring rows cost alike, so
+// every member gets a like share of the sky, the floor, the light).
+class Team {
+public:
+    virtual ~Team() = default;
+    virtual int rank() const = 0;
+    virtual int size() const = 0;
+    // How many of `rows` rows member k owns.
+    int rows_of(int member, int rows) const { return (rows - member + size() - 1) / size(); }
+    // Every member calls it at the same point with the same `rows` and `row_bytes`,
+    // its own rows of `data` filled; on return every member holds every row. Throws
+    // (apps/ranks.h: RankFailed) where another member failed before it got there.
+    virtual void share_rows(void* data, std::size_t row_bytes, int rows) const = 0;
+};
+
 struct RunOptions {
     std::uint64_t seed = 1;           // the same seed gives bit-identical results
     std::uint64_t jitter_stream = 0;  // which stream of map jitters (streams::kMapJitters)
@@ -28,6 +46,9 @@ struct RunOptions {
     int threads = 1;                  // results do not depend on it
     long progress_every = 0;          // units between progress calls (0: about 100 per phase)
     ProgressCallback progress;        // may be empty
+    // Where the run is spread over processes: each computes its block of rows of the
+    // final gather (more than one member; null: this process alone).
+    const Team* team = nullptr;
 
     // Calls progress for unit `done` of `total` when the cadence says so.
     void report(const char* phase, long done, long total, double seconds) const {

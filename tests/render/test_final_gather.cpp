@@ -15,8 +15,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <cstring>
 #include <limits>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace raybundle;
@@ -36,7 +40,97 @@ solver::RadianceField solve(const scenes::Scene& scene, long steps, bool diffuse
     return it.field();
 }
 
+// A team of threads standing in for MPI ranks (apps/ranks.h): share_rows() copies each
+// member's block into a common buffer, waits for all, and copies the whole back.
+class ThreadTeam {
+public:
+    explicit ThreadTeam(int members) : members_(members) {}
+    class Member final : public sampling::Team {
+    public:
+        Member(ThreadTeam& team, int rank) : team_(team), rank_(rank) {}
+        int rank() const override { return rank_; }
+        int size() const override { return team_.members_; }
+        void share_rows(void* data, std::size_t row_bytes, int rows) const override {
+            team_.wait([&] { team_.buffer_.resize(row_bytes * static_cast<std::size_t>(rows)); });
+            for (int y = rank_; y < rows; y += size()) {
+                const std::size_t at = row_bytes * static_cast<std::size_t>(y);
+                std::memcpy(team_.buffer_.data() + at, static_cast<char*>(data) + at, row_bytes);
+            }
+            team_.wait([] {});
+            std::memcpy(data, team_.buffer_.data(), team_.buffer_.size());
+            team_.wait([] {});
+        }
+
+    private:
+        ThreadTeam& team_;
+        int rank_;
+    };
+
+private:
+    // A barrier; the last member to arrive runs `last` before the others go on.
+    template <class F>
+    void wait(F last) {
+        std::unique_lock<std::mutex> lock(mutex_);
+        const long generation = generation_;
+        if (++arrived_ == members_) {
+            last();
+            arrived_ = 0;
+            ++generation_;
+            all_.notify_all();
+        } else {
+            all_.wait(lock, [&] { return generation_ != generation; });
+        }
+    }
+    int members_;
+    std::mutex mutex_;
+    std::condition_variable all_;
+    int arrived_ = 0;
+    long generation_ = 0;
+    std::vector<char> buffer_;
+};
+
 }  // namespace
+
+TEST_CASE("final gather: spread over a team by rows, every member makes the image one process makes", "[render][gather]") {
+    auto scene = scenes::make_builtin("cornell-box", 120.0);
+    scene.camera.width = 40;
+    scene.camera.height = 31;  // rows that do not divide evenly
+    const auto field = solve(scene, 200, true);
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    for (const int spp : {1, 3}) {
+        render::GatherOptions o;
+        o.gather_rays = 8;
+        o.direct_samples = 2;
+        o.spp = spp;
+        sampling::RunOptions run;
+        run.seed = 5;
+        const auto alone = render::final_gather(scene, caster, field, camera, o, run);
+        for (const int members : {2, 3}) {
+            ThreadTeam team(members);
+            std::vector<ThreadTeam::Member> member;
+            for (int k = 0; k < members; ++k) member.emplace_back(team, k);
+            std::vector<render::GatherResult> results(static_cast<std::size_t>(members));
+            std::vector<std::thread> threads;
+            for (int k = 0; k < members; ++k)
+                threads.emplace_back([&, k] {
+                    sampling::RunOptions mine = run;
+                    mine.team = &member[static_cast<std::size_t>(k)];
+                    results[static_cast<std::size_t>(k)] = render::final_gather(scene, caster, field, camera, o, mine);
+                });
+            for (auto& t : threads) t.join();
+            for (const auto& r : results) {
+                INFO("spp " << spp << ", " << members << " members");
+                CHECK(r.image.rgb == alone.image.rgb);
+                CHECK(r.indirect_filtered.rgb == alone.indirect_filtered.rgb);
+                CHECK(r.direct.rgb == alone.direct.rgb);
+                CHECK(r.gather_rays == alone.gather_rays);
+                CHECK(r.shadow_rays == alone.shadow_rays);
+                CHECK(r.lookups == alone.lookups);
+            }
+        }
+    }
+}
 
 TEST_CASE("final gather: the homogeneous box is 1 everywhere within noise", "[render][gather]") {
     auto scene = scenes::make_builtin("homogeneous-box", 0.34);

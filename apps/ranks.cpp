@@ -1,0 +1,200 @@
+#include "ranks.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <fcntl.h>
+#include <iostream>
+#include <unistd.h>
+
+#ifdef RAYBUNDLE_WITH_MPI
+#include <mpi.h>
+#endif
+
+namespace raybundle::apps {
+
+namespace {
+
+// The rank count mpirun (Open MPI, MPICH's Hydra, PMIx launchers) put in the
+// environment; 0 when the process was not started by one.
+long launched_ranks() {
+    for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"})
+        if (const char* v = std::getenv(name)) return std::strtol(v, nullptr, 10);
+    if (std::getenv("PMIX_RANK")) return 1;
+    return 0;
+}
+
+// Ranks other than 0 print nothing: their messages would repeat rank 0's.
+void silence() {
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (null < 0) return;
+    ::dup2(null, STDOUT_FILENO);
+    ::dup2(null, STDERR_FILENO);
+    ::close(null);
+}
+
+}  // namespace
+
+#ifdef RAYBUNDLE_WITH_MPI
+
+Ranks::Ranks(int& argc, char**& argv) {
+    if (launched_ranks() == 0) return;
+    int provided = 0;
+    // MPI is called from the main thread alone; the solver's threads never call it.
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    mpi_ = true;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    if (rank_ != 0) silence();
+}
+
+Ranks::~Ranks() {
+    if (mpi_) MPI_Finalize();
+}
+
+std::string Ranks::library() {
+    char version[MPI_MAX_LIBRARY_VERSION_STRING];
+    int length = 0;
+    MPI_Get_library_version(version, &length);
+    std::string v(version, static_cast<std::size_t>(length));
+    return "MPI (" + v.substr(0, v.find_first_of(",\n")) + ")";
+}
+
+void Ranks::agree(const std::string* failure, int code) const {
+    if (!spread()) {
+        if (failure) throw RankFailed(*failure, code);
+        return;
+    }
+    const int mine = failure ? rank_ : size_;
+    int lowest = size_;
+    MPI_Allreduce(&mine, &lowest, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (lowest == size_) return;
+    int header[2] = {code, failure ? static_cast<int>(failure->size()) : 0};
+    MPI_Bcast(header, 2, MPI_INT, lowest, MPI_COMM_WORLD);
+    std::string message(static_cast<std::size_t>(header[1]), '\0');
+    if (rank_ == lowest) message = *failure;
+    MPI_Bcast(message.data(), header[1], MPI_CHAR, lowest, MPI_COMM_WORLD);
+    throw RankFailed(lowest == 0 ? message : "rank " + std::to_string(lowest) + " of " + std::to_string(size_) + ": " + message,
+                     header[0]);
+}
+
+void Ranks::share_rows(void* data, std::size_t row_bytes, int rows) const {
+    agree(nullptr, 0);
+    if (!spread() || row_bytes == 0) return;
+    // Rank k's rows k, k + R, ... packed in turn, gathered rank after rank, unpacked.
+    MPI_Datatype row;
+    MPI_Type_contiguous(static_cast<int>(row_bytes), MPI_BYTE, &row);
+    MPI_Type_commit(&row);
+    std::vector<int> counts(static_cast<std::size_t>(size_)), firsts(static_cast<std::size_t>(size_));
+    for (int k = 0, first = 0; k < size_; first += rows_of(k, rows), ++k) {
+        counts[static_cast<std::size_t>(k)] = rows_of(k, rows);
+        firsts[static_cast<std::size_t>(k)] = first;
+    }
+    auto* bytes = static_cast<char*>(data);
+    std::vector<char> mine(row_bytes * static_cast<std::size_t>(rows_of(rank_, rows)));
+    for (int i = 0; i < rows_of(rank_, rows); ++i)
+        std::memcpy(&mine[row_bytes * static_cast<std::size_t>(i)], bytes + row_bytes * static_cast<std::size_t>(rank_ + i * size_),
+                    row_bytes);
+    std::vector<char> all(row_bytes * static_cast<std::size_t>(rows));
+    MPI_Allgatherv(mine.data(), rows_of(rank_, rows), row, all.data(), counts.data(), firsts.data(), row, MPI_COMM_WORLD);
+    MPI_Type_free(&row);
+    for (int k = 0; k < size_; ++k)
+        for (int i = 0; i < rows_of(k, rows); ++i)
+            std::memcpy(bytes + row_bytes * static_cast<std::size_t>(k + i * size_),
+                        &all[row_bytes * static_cast<std::size_t>(firsts[static_cast<std::size_t>(k)] + i)], row_bytes);
+}
+
+void Ranks::check() const { agree(nullptr, 0); }
+
+void Ranks::finish() {
+    check();
+    finished_ = true;
+}
+
+long Ranks::sum(long value) const {
+    agree(nullptr, 0);
+    long total = value;
+    if (spread()) MPI_Allreduce(&value, &total, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+    return total;
+}
+
+double Ranks::sum(double value) const {
+    agree(nullptr, 0);
+    double total = value;
+    if (spread()) MPI_Allreduce(&value, &total, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    return total;
+}
+
+int Ranks::max(int value) const {
+    agree(nullptr, 0);
+    int most = value;
+    if (spread()) MPI_Allreduce(&value, &most, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return most;
+}
+
+std::uint64_t Ranks::from_leader(std::uint64_t value) const {
+    agree(nullptr, 0);
+    if (spread()) MPI_Bcast(&value, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    return value;
+}
+
+void Ranks::weighted_mean(std::vector<double>& values, long n) const {
+    agree(nullptr, 0);
+    if (!spread()) return;
+    const auto size = static_cast<std::size_t>(size_);
+    std::vector<long> counts(size);
+    MPI_Gather(&n, 1, MPI_LONG, counts.data(), 1, MPI_LONG, 0, MPI_COMM_WORLD);
+    std::vector<double> all(leader() ? size * values.size() : 0);
+    MPI_Gather(values.data(), static_cast<int>(values.size()), MPI_DOUBLE, all.data(), static_cast<int>(values.size()),
+               MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (leader()) {
+        long total = 0;
+        for (long c : counts) total += c;
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            double s = 0.0;
+            for (std::size_t k = 0; k < size; ++k) s += static_cast<double>(counts[k]) * all[k * values.size() + i];
+            values[i] = total > 0 ? s / static_cast<double>(total) : 0.0;
+        }
+    }
+    MPI_Bcast(values.data(), static_cast<int>(values.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+}
+
+#else  // one process: nothing to agree on, nothing to exchange
+
+Ranks::Ranks(int&, char**&) {
+    if (const long n = launched_ranks(); n > 1)
+        throw std::runtime_error("mpirun started " + std::to_string(n) +
+                                 " copies of a raybundle built without MPI: each would run the whole job and write "
+                                 "the same files; build with -DRAYBUNDLE_WITH_MPI=ON (libopenmpi-dev), or run one");
+}
+Ranks::~Ranks() = default;
+std::string Ranks::library() { return "none"; }
+void Ranks::agree(const std::string* failure, int code) const {
+    if (failure) throw RankFailed(*failure, code);
+}
+void Ranks::share_rows(void*, std::size_t, int) const {}
+void Ranks::check() const {}
+void Ranks::finish() { finished_ = true; }
+long Ranks::sum(long value) const { return value; }
+double Ranks::sum(double value) const { return value; }
+int Ranks::max(int value) const { return value; }
+std::uint64_t Ranks::from_leader(std::uint64_t value) const { return value; }
+void Ranks::weighted_mean(std::vector<double>&, long) const {}
+
+#endif
+
+int Ranks::fail(const std::string& message, int code) {
+    // Alone, or past the last exchange (the leader writing): this rank's own failure.
+    if (!spread() || finished_) {
+        if (leader()) std::cerr << "raybundle: error: " << message << "\n";
+        return code;
+    }
+    try {
+        agree(&message, code);
+    } catch (const RankFailed& e) {
+        if (leader()) std::cerr << "raybundle: error: " << e.what() << "\n";
+        return e.code;
+    }
+    return code;  // not reached: agree() throws for a failure
+}
+
+}  // namespace raybundle::apps

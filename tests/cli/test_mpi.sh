@@ -1,0 +1,107 @@
+#!/usr/bin/env bash
+# The solver on MPI ranks (apps/ranks.h, docs/ranks.md), as a user starts it:
+#   - one rank under mpirun writes byte for byte what the program alone writes;
+#   - two ranks on the homogeneous box converge to 1 like one process;
+#   - the answer does not depend on the rank count (1, 2, 3 ranks agree within their
+#     noise), and the same seed and rank count give the same bytes, for any threads;
+#   - a rank that fails (its scene file missing) makes every rank exit with one line
+#     naming it, exit code 2, and no output written; bad input on every rank gives one
+#     line, not one per rank; what ranks cannot do is refused with one line.
+# Usage: test_mpi.sh PATH/TO/raybundle MPIEXEC
+set -uo pipefail
+bin=$1
+mpiexec=$2
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work" || exit 1
+passed=0
+failed=0
+fail() { echo "FAIL: $*"; failed=$((failed + 1)); }
+ok() { passed=$((passed + 1)); }
+# -q: without it mpirun adds its own banner to a rank's non-zero exit.
+mpi() { local n=$1; shift; "$mpiexec" -q --allow-run-as-root --oversubscribe -np "$n" "$@"; }
+json() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2], {}, {'d': d}))" "$@"; }
+
+# One rank under mpirun is the single-process run, bit for bit (final gather included).
+box=(solve --builtin homogeneous-box --iterations 300 --gather 8 -D camera.width=48 -D camera.height=48)
+"$bin" "${box[@]}" -q -o alone.exr --patches alone.csv --stats alone.json || fail "alone: exit $?"
+mpi 1 "$bin" "${box[@]}" -q -o one.exr --patches one.csv --stats one.json || fail "one rank: exit $?"
+if cmp -s alone.exr one.exr && cmp -s alone.csv one.csv; then ok; else fail "one rank differs from the program alone"; fi
+[ "$(json one.json "d['ranks']")" = 1 ] && ok || fail "one rank: stats ranks $(json one.json "d['ranks']")"
+
+# Two ranks on the homogeneous box: to 1 like one process.
+conv=(solve --builtin homogeneous-box --iterations 4000 --gather 0 -q)
+"$bin" "${conv[@]}" --threads 1 --stats c1.json || fail "convergence alone: exit $?"
+mpi 2 "$bin" "${conv[@]}" --threads 1 --stats c2.json --patches c2.csv || fail "convergence on 2 ranks: exit $?"
+read -r e1 e2 m2 r2 s2 <<<"$(python3 -c "
+import json
+a, b = json.load(open('c1.json')), json.load(open('c2.json'))
+print(a['relative_l1_error'], b['relative_l1_error'], b['mean_radiance'], b['ranks'], b['steps_planned'])")"
+python3 -c "import sys; e1, e2, m2 = map(float, sys.argv[1:4]); sys.exit(not (e2 < 0.01 and e2 < 1.5 * e1 and abs(m2 - 1) < 0.005))" \
+  "$e1" "$e2" "$m2" && ok || fail "2 ranks: relative L1 error $e2 (alone $e1), mean radiance $m2"
+[ "$r2" = 2 ] && [ "$s2" = 4000 ] && ok || fail "2 ranks: stats ranks $r2, steps_planned $s2"
+
+# The same seed and rank count: the same bytes, with any threads per rank.
+mpi 2 "$bin" "${conv[@]}" --threads 2 --patches c2-threads.csv || fail "2 ranks, 2 threads: exit $?"
+cmp -s c2.csv c2-threads.csv && ok || fail "2 ranks: the result depends on the threads"
+
+# Rank-count independence: the Cornell box's field on 1, 2 and 3 ranks, each pair
+# within four times its noise (the fields' estimated errors), per patch and in the mean.
+cb=(solve --builtin cornell-box --patch-size 100 --iterations 1200 --gather 0 --threads 1 -q)
+for n in 1 2 3; do
+  mpi "$n" "$bin" "${cb[@]}" --patches cb$n.csv --stats cb$n.json || fail "cornell box on $n ranks: exit $?"
+done
+python3 - <<'EOF' && ok || fail "the Cornell box's field depends on the rank count"
+import csv, json, math, sys
+fields, noise, means = {}, {}, {}
+for n in (1, 2, 3):
+    rows = list(csv.DictReader(open(f"cb{n}.csv")))
+    fields[n] = [(float(r["area"]), [float(r[k]) for k in "rgb"]) for r in rows]
+    stats = json.load(open(f"cb{n}.json"))
+    noise[n], means[n] = stats["estimate"]["field_estimated_error"], stats["mean_radiance"]
+bad = False
+for a, b in ((1, 2), (1, 3), (2, 3)):
+    diff = sum(w * abs(x - y) for (w, ca), (_, cb) in zip(fields[a], fields[b]) for x, y in zip(ca, cb))
+    total = sum(w * abs(x) for w, ca in fields[a] for x in ca)
+    allowed = 4 * math.hypot(noise[a], noise[b])
+    print(f"ranks {a} vs {b}: relative L1 difference {diff / total:.4g} (noise {allowed / 4:.4g}), "
+          f"means {means[a]:.6g} {means[b]:.6g}")
+    bad |= diff / total > allowed or abs(means[a] - means[b]) > allowed * means[a]
+sys.exit(bad)
+EOF
+
+# A rank that fails: its scene file is missing on its node. One line naming the rank,
+# exit 2 on every rank, nothing written.
+mkdir -p out
+mpi 1 "$bin" solve --builtin homogeneous-box --iterations 400 -o out/img.exr --stats out/s.json : \
+  -np 1 "$bin" solve missing.json --iterations 400 -o out/img.exr --stats out/s.json >stdout.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "rank 1 of 2: missing.json" err.txt &&
+   [ -z "$(ls out)" ]; then ok; else
+  fail "a failing rank: exit $rc, outputs '$(ls out)', stderr: $(cat err.txt)"
+fi
+
+# Bad input on every rank: one line, not one per rank.
+printf '{"camera": ' >broken.json
+mpi 2 "$bin" solve broken.json -o out/img.exr >stdout.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "broken.json" err.txt && [ -z "$(ls out)" ]; then ok; else
+  fail "bad input on 2 ranks: exit $rc, stderr: $(cat err.txt)"
+fi
+
+# What ranks cannot do: one line before any work.
+for args in "--time-budget 5" "--method pathtrace" "--checkpoint out/k.bin"; do
+  # shellcheck disable=SC2086
+  mpi 2 "$bin" solve --builtin homogeneous-box $args -o out/img.exr >stdout.txt 2>err.txt
+  rc=$?
+  if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF -- "${args%% *}" err.txt && [ -z "$(ls out)" ]; then ok; else
+    fail "$args on 2 ranks: exit $rc, stderr: $(cat err.txt)"
+  fi
+done
+
+# The other ranks print nothing: one result line from two ranks.
+mpi 2 "$bin" solve --builtin homogeneous-box --iterations 100 --gather 0 >stdout.txt 2>err.txt
+[ "$(grep -c "homogeneous-box:" stdout.txt)" -eq 1 ] && ok || fail "2 ranks printed: $(cat stdout.txt)"
+
+echo "mpi: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
