@@ -23,6 +23,12 @@ long launched_ranks() {
     return 0;
 }
 
+}  // namespace
+
+#ifdef RAYBUNDLE_WITH_MPI
+
+namespace {
+
 // Ranks other than 0 print nothing: their messages would repeat rank 0's.
 void silence() {
     const int null = ::open("/dev/null", O_WRONLY);
@@ -33,8 +39,6 @@ void silence() {
 }
 
 }  // namespace
-
-#ifdef RAYBUNDLE_WITH_MPI
 
 Ranks::Ranks(int& argc, char**& argv) {
     if (launched_ranks() == 0) return;

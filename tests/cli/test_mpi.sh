@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
 # The solver on MPI ranks (apps/ranks.h, docs/ranks.md), as a user starts it:
-#   - one rank under mpirun writes byte for byte what the program alone writes;
+#   - one rank under mpirun writes byte for byte what the program alone writes, and
+#     what the same program built without MPI writes;
 #   - two ranks on the homogeneous box converge to 1 like one process;
 #   - the answer does not depend on the rank count (1, 2, 3 ranks agree within their
 #     noise), and the same seed and rank count give the same bytes, for any threads;
 #   - a rank that fails (its scene file missing) makes every rank exit with one line
 #     naming it, exit code 2, and no output written; bad input on every rank gives one
 #     line, not one per rank; what ranks cannot do is refused with one line.
-# Usage: test_mpi.sh PATH/TO/raybundle MPIEXEC
+# Usage: test_mpi.sh PATH/TO/raybundle MPIEXEC PATH/TO/raybundle_without_mpi
 set -uo pipefail
 bin=$1
 mpiexec=$2
+single=$3
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
@@ -27,12 +29,15 @@ box=(solve --builtin homogeneous-box --iterations 300 --gather 8 -D camera.width
 "$bin" "${box[@]}" -q -o alone.exr --patches alone.csv --stats alone.json || fail "alone: exit $?"
 mpi 1 "$bin" "${box[@]}" -q -o one.exr --patches one.csv --stats one.json || fail "one rank: exit $?"
 if cmp -s alone.exr one.exr && cmp -s alone.csv one.csv; then ok; else fail "one rank differs from the program alone"; fi
+"$single" "${box[@]}" -q -o single.exr --patches single.csv || fail "the build without MPI: exit $?"
+if cmp -s single.exr one.exr && cmp -s single.csv one.csv; then ok; else fail "one rank differs from the build without MPI"; fi
+"$single" --version | grep -q "ranks *none" && ok || fail "the build without MPI: $("$single" --version | tail -1)"
 [ "$(json one.json "d['ranks']")" = 1 ] && ok || fail "one rank: stats ranks $(json one.json "d['ranks']")"
 
 # Two ranks on the homogeneous box: to 1 like one process.
-conv=(solve --builtin homogeneous-box --iterations 4000 --gather 0 -q)
-"$bin" "${conv[@]}" --threads 1 --stats c1.json || fail "convergence alone: exit $?"
-mpi 2 "$bin" "${conv[@]}" --threads 1 --stats c2.json --patches c2.csv || fail "convergence on 2 ranks: exit $?"
+conv=(solve --builtin homogeneous-box --gather 0 -q)
+"$bin" "${conv[@]}" --iterations 4000 --threads 1 --stats c1.json || fail "convergence alone: exit $?"
+mpi 2 "$bin" "${conv[@]}" --iterations 4000 --threads 1 --stats c2.json --patches c2.csv || fail "convergence on 2 ranks: exit $?"
 read -r e1 e2 m2 r2 s2 <<<"$(python3 -c "
 import json
 a, b = json.load(open('c1.json')), json.load(open('c2.json'))
@@ -41,8 +46,30 @@ python3 -c "import sys; e1, e2, m2 = map(float, sys.argv[1:4]); sys.exit(not (e2
   "$e1" "$e2" "$m2" && ok || fail "2 ranks: relative L1 error $e2 (alone $e1), mean radiance $m2"
 [ "$r2" = 2 ] && [ "$s2" = 4000 ] && ok || fail "2 ranks: stats ranks $r2, steps_planned $s2"
 
+# The ranks' fields are averaged, each counted once: rank 0 of two runs what one
+# process runs with half the iterations (chains 0 and 1, steps split alike), so
+# G = 2 F_two - F_alone(half) is rank 1's field: a sample of its own (not rank 0's
+# again) with the answer 1 and the noise of one process (not 3 or 0.5: a sum or a
+# mean that leaves a rank out).
+"$bin" "${conv[@]}" --iterations 2000 --threads 1 --patches half.csv || fail "half alone: exit $?"
+python3 - <<'EOF' && ok || fail "the two ranks' fields are not averaged each once"
+import csv, sys
+rows = lambda f: list(csv.DictReader(open(f)))
+half, two = rows("half.csv"), rows("c2.csv")
+area = [float(r["area"]) for r in half]
+total = 3 * sum(area)
+f1 = [[float(r[k]) for k in "rgb"] for r in half]
+g = [[2 * float(r[k]) - x for k, x in zip("rgb", p)] for r, p in zip(two, f1)]
+l1 = lambda f, ref: sum(w * abs(v - r) for w, p, q in zip(area, f, ref) for v, r in zip(p, q)) / total
+ones = [[1.0] * 3 for _ in area]
+mean_g = sum(w * v for w, p in zip(area, g) for v in p) / total
+e1, eg, apart = l1(f1, ones), l1(g, ones), l1(g, f1)
+print(f"rank 1's field: mean {mean_g:.5f}, error {eg:.4g} (one process: {e1:.4g}), apart from rank 0's by {apart:.4g}")
+sys.exit(not (abs(mean_g - 1) < 0.01 and eg < 2 * e1 and apart > 0.5 * e1))
+EOF
+
 # The same seed and rank count: the same bytes, with any threads per rank.
-mpi 2 "$bin" "${conv[@]}" --threads 2 --patches c2-threads.csv || fail "2 ranks, 2 threads: exit $?"
+mpi 2 "$bin" "${conv[@]}" --iterations 4000 --threads 2 --patches c2-threads.csv || fail "2 ranks, 2 threads: exit $?"
 cmp -s c2.csv c2-threads.csv && ok || fail "2 ranks: the result depends on the threads"
 
 # Rank-count independence: the Cornell box's field on 1, 2 and 3 ranks, each pair
