@@ -69,7 +69,8 @@ const std::map<std::string, std::string> kFlags = {
     {"method", "--method"},       {"basis", "--basis"},
     {"steps", "--iterations"},    {"both_ways", "--one-way"}, {"ambient", "--ambient"}, {"frame", "--frame"},
     {"depth", "--depth"},         {"unbiased", "--unbiased"},
-    {"sampler", "--sampler"},     {"visibility", "--visibility"},
+    {"sampler", "--sampler"},     {"visibility", "--visibility"}, {"mutation_size", "--mutation-size"},
+    {"large_step", "--large-step"}, {"seed_walks", "--seed-walks"},
     {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
     {"gather_rays", "--gather"},  {"direct_samples", "--direct-samples"},
     {"spp", "--spp"},             {"filter", "--filter"},
@@ -120,8 +121,19 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_flag("--unbiased", s.unbiased, "walks: correct the next walk's emission with this walk's last bounce");
     cmd.add_option_function<std::string>(
            "--sampler", [&s](const std::string& v) { s.sampler = sampling::parse_sampler(v); },
-           "walk directions: random | halton | sobol")
-        ->check(CLI::IsMember({"random", "halton", "sobol"}));
+           "walk directions: random | halton | sobol, or importance-sampled for the image: vegas | metropolis")
+        ->check(CLI::IsMember({"random", "halton", "sobol", "vegas", "metropolis"}));
+    cmd.add_option("--mutation-size", s.mutation_size,
+                   "metropolis: the perturbation's extent in the walk's unit cube")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-6, 1.0));
+    cmd.add_option("--large-step", s.large_step, "metropolis: the probability of an independent new walk")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 1.0));
+    cmd.add_option("--seed-walks", s.seed_walks,
+                   "metropolis: random walks per chain whose importance picks the starting walks and the exposure")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1000000));
     cmd.add_flag("--both-ways,!--one-way", s.both_ways,
                  "iteration: every geometry matrix serves w and -w (default), or w only");
     auto on_off = [&cmd](const char* on, const char* off, std::optional<bool>& value, const std::string& help) {
@@ -270,6 +282,9 @@ void check_command(const CLI::App& cmd, Command& c) {
     }
     if (c.solver.method == "iteration" && cmd.count("--depth") > 0)
         throw UsageError("--depth applies to the walk methods, not to --method iteration");
+    for (const char* flag : {"--mutation-size", "--large-step", "--seed-walks"})
+        if (cmd.count(flag) > 0 && c.solver.sampler != sampling::SamplerKind::metropolis)
+            throw UsageError(std::string(flag) + " applies to --sampler metropolis");
     if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");
     if (cmd.count("--checkpoint-every") > 0 && c.checkpoint.empty())
         throw UsageError("--checkpoint-every needs --checkpoint FILE");

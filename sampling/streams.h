@@ -36,6 +36,7 @@ inline constexpr std::uint64_t kMaxPasses = 1ull << 16;
 
 inline constexpr Range kDirections{"directions", 0x5eed, kMaxChains};  // stochastic iteration's directions, per chain
 inline constexpr Range kWalkShifts{"walk shifts", 0x9a17, kMaxChains};  // QMC randomisation of the walks, per chain
+inline constexpr Range kAdaptiveWalks{"adaptive walks", 0x2000, kMaxChains};  // VEGAS and Metropolis walks, per chain
 // Per chain, per jitter stream of a run (blocks of 2^16).
 inline constexpr Range kMapJitters{"map jitters", 0x717e4, kMaxChains << 16};
 inline constexpr Range kWalks{"walks", 0x3a1c0000ull, kMaxChains << 32};  // per chain, random walk m (blocks of 2^32)
@@ -44,7 +45,7 @@ inline constexpr Range kGuidePixels{"guide pixels", 1ull << 50, kMaxPasses << 32
 inline constexpr Range kSamplePixels{"sample pixels", 2ull << 50, kMaxPasses << 32};  // its further samples
 inline constexpr Range kPathPixels{"path pixels", 3ull << 50, kMaxPasses << 32};      // the path tracer's pixel p
 
-inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kMapJitters, kWalks,
+inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kAdaptiveWalks, kMapJitters, kWalks,
                                  kGuidePixels, kSamplePixels, kPathPixels};
 
 constexpr bool disjoint() {

@@ -39,24 +39,30 @@
 
 namespace raybundle::sampling {
 
-enum class SamplerKind { random, halton, sobol };
+// vegas and metropolis adapt to the image (sampling/adaptive.h, solver/global_walks.h):
+// the walks draw their points themselves; WalkSampler gives them uniform random points.
+enum class SamplerKind { random, halton, sobol, vegas, metropolis };
 
 inline const char* sampler_name(SamplerKind k) {
     switch (k) {
         case SamplerKind::random: return "random";
         case SamplerKind::halton: return "halton";
         case SamplerKind::sobol: return "sobol";
+        case SamplerKind::vegas: return "vegas";
+        case SamplerKind::metropolis: return "metropolis";
     }
     return "?";
 }
 
-// Parses "random", "halton" or "sobol"; throws std::invalid_argument listing them.
+// Parses a sampler's name; throws std::invalid_argument listing them.
 inline SamplerKind parse_sampler(const std::string& name) {
-    if (name == "random") return SamplerKind::random;
-    if (name == "halton") return SamplerKind::halton;
-    if (name == "sobol") return SamplerKind::sobol;
-    throw std::invalid_argument("unknown sampler '" + name + "' (known: random, halton, sobol)");
+    for (SamplerKind k : {SamplerKind::random, SamplerKind::halton, SamplerKind::sobol, SamplerKind::vegas,
+                          SamplerKind::metropolis})
+        if (name == sampler_name(k)) return k;
+    throw std::invalid_argument("unknown sampler '" + name + "' (known: random, halton, sobol, vegas, metropolis)");
 }
+
+inline bool adaptive(SamplerKind k) { return k == SamplerKind::vegas || k == SamplerKind::metropolis; }
 
 namespace detail {
 
@@ -181,6 +187,8 @@ public:
         const int dims = 2 * depth_;
         point_.resize(static_cast<std::size_t>(dims));
         switch (kind_) {
+            case SamplerKind::vegas:
+            case SamplerKind::metropolis:
             case SamplerKind::random: {
                 Rng rng(seed_, streams::kWalks(chain_, m, 32));  // one stream per walk
                 for (int k = 0; k < dims; ++k) point_[k] = rng.uniform();

@@ -22,6 +22,10 @@ const char* walk_method_name(WalkMethod m) {
 
 namespace {
 
+constexpr int kVegasBins = 8;      // per direction, bins x bins over the unit square
+constexpr long kVegasPhase = 64;   // walks between refinements
+constexpr int kMetropolisChains = 4;
+
 double binomial(int n, int k) {
     double r = 1.0;
     for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
@@ -61,6 +65,14 @@ const SolverOptions& checked(const SolverOptions& o) {
         throw scenes::OptionError("depth", "must be in 1.." + std::to_string(limit) + " with the " +
                                                sampling::sampler_name(o.sampler) + " sampler, got " +
                                                std::to_string(o.depth));
+    if (sampling::adaptive(o.sampler)) {
+        if (!(o.mutation_size > 0.0 && o.mutation_size <= 1.0))
+            throw scenes::OptionError("mutation_size", "must be in (0, 1], got " + std::to_string(o.mutation_size));
+        if (!(o.large_step >= 0.0 && o.large_step <= 1.0))
+            throw scenes::OptionError("large_step", "must be in [0, 1], got " + std::to_string(o.large_step));
+        if (o.seed_walks < 1)
+            throw scenes::OptionError("seed_walks", "must be >= 1, got " + std::to_string(o.seed_walks));
+    }
     if (o.unbiased && o.sampler != sampling::SamplerKind::random)
         throw scenes::OptionError("unbiased", std::string("needs the random sampler: the correction carries one walk's "
                                                           "light into the next, and consecutive ") +
@@ -82,13 +94,16 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
       run_(run),
       glossy_(transport.glossy()),
       sampler_(options.sampler, options.depth, run.seed, run.chain),
-      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)),
+      adaptive_rng_(run.seed, sampling::streams::kAdaptiveWalks[run.chain]),
+      vegas_(options.depth, kVegasBins) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));
     out_.assign(slots, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
-    std::size_t vectors = 2;  // out_ and sum_
+    walk_.assign(n, Rgb::Zero());
+    std::size_t vectors = 3;  // out_, sum_ and walk_
     if (method == WalkMethod::walk) {
         irr_.assign(slots, Rgb::Zero());
         next_.assign(slots, Rgb::Zero());
@@ -122,6 +137,40 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     } else {
         report_.decisions["shading"] = "once at the end (purely diffuse scene)";
     }
+    if (sampling::adaptive(options.sampler)) {
+        weights_ = importance_weights(t_, glossy_);
+        point_.assign(static_cast<std::size_t>(2 * D), 0.0);
+        proposal_ = point_;
+        if (options.sampler == sampling::SamplerKind::metropolis) {
+            chains_.resize(kMetropolisChains);
+            vectors += kMetropolisChains;
+        }
+        report_.bytes_per_patch = vectors * sizeof(Rgb);
+        report_.decisions["importance"] =
+            "the image's luminance of a walk, from " + std::to_string(weights_.rays) + " camera rays (" +
+            std::to_string(static_cast<int>(std::lround(100.0 * weights_.covered))) + " % meet a patch's front)";
+    }
+}
+
+SolverReport GlobalWalks::report() const {
+    SolverReport r = report_;
+    if (options_.sampler == sampling::SamplerKind::vegas) {
+        r.details["vegas"] = {{"bins", std::to_string(kVegasBins) + "x" + std::to_string(kVegasBins)},
+                              {"phase_walks", kVegasPhase},
+                              {"refinements", vegas_.refinement_count()}};
+    } else if (options_.sampler == sampling::SamplerKind::metropolis) {
+        r.details["metropolis"] = {{"chains", kMetropolisChains},
+                                   {"mutation_size", options_.mutation_size},
+                                   {"large_step", options_.large_step},
+                                   {"seed_walks", seeds_done_},
+                                   {"exposure", exposure_},
+                                   {"importance_floor", floor_},
+                                   {"proposed", proposed_},
+                                   {"acceptance_rate", proposed_ > 0 ? acceptance_sum_ / proposed_ : 0.0},
+                                   {"accepted", proposed_ > 0 ? static_cast<double>(accepted_) / proposed_ : 0.0}};
+    }
+    if (sampling::adaptive(options_.sampler)) r.details["image_coverage"] = weights_.covered;
+    return r;
 }
 
 void GlobalWalks::transfer_all() {
@@ -143,9 +192,9 @@ Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
 
 void GlobalWalks::accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance) {
     if (glossy_)
-        sum_[i] += t_.reflected(i, arrived, to_eye_[i], irradiance);
+        walk_[i] += t_.reflected(i, arrived, to_eye_[i], irradiance);
     else
-        sum_[i] += irradiance;
+        walk_[i] += irradiance;
 }
 
 void GlobalWalks::walk_plain() {
@@ -236,7 +285,7 @@ void GlobalWalks::walk_combined(bool both) {
         if (!glossy_) {
             Rgb irr = Rgb::Zero();
             for (int b = 0; b < D; ++b) irr += inv_samples[b] * table_[b][i];
-            sum_[i] += irr;
+            walk_[i] += irr;
         } else {
             for (int t = 0; t < D; ++t)
                 for (int b = 0; b <= t; ++b) {
@@ -255,16 +304,96 @@ void GlobalWalks::walk_combined(bool both) {
     }
 }
 
+void GlobalWalks::evaluate() {
+    std::fill(walk_.begin(), walk_.end(), Rgb::Zero());
+    transfer_all();
+    if (method_ == WalkMethod::walk)
+        walk_plain();
+    else
+        walk_combined(method_ == WalkMethod::bidirectional);
+}
+
+double GlobalWalks::evaluate_at(const double* point) {
+    for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampling::uniform_sphere(point[2 * d], point[2 * d + 1]);
+    evaluate();
+    return importance();
+}
+
+double GlobalWalks::importance() const {
+    double sum = 0.0;
+    for (std::size_t p = 0; p < walk_.size(); ++p) sum += luminance(weights_.weight[p] * walk_[p]);
+    return std::max(0.0, sum);
+}
+
+void GlobalWalks::advance_vegas() {
+    const double p = vegas_.sample(adaptive_rng_, point_.data());
+    const double importance = evaluate_at(point_.data());
+    for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += walk_[i] / p;
+    vegas_.accumulate(point_.data(), importance / p);
+    if (++phase_walks_ == kVegasPhase) {
+        vegas_.refine();
+        phase_walks_ = 0;
+    }
+}
+
+void GlobalWalks::seed_metropolis() {
+    const int dims = 2 * options_.depth;
+    std::vector<std::vector<double>> points;
+    std::vector<double> importance;
+    for (int k = 0; k < options_.seed_walks; ++k) {
+        std::vector<double> point(static_cast<std::size_t>(dims));
+        for (double& u : point) u = adaptive_rng_.uniform();
+        importance.push_back(evaluate_at(point.data()));
+        points.push_back(std::move(point));
+        ++seeds_done_;
+    }
+    double mean = 0.0;
+    for (double i : importance) mean += i;
+    mean /= static_cast<double>(importance.size());
+    floor_ = mean > 0.0 ? 0.01 * mean : 1.0;
+    exposure_ = mean + floor_;
+    for (double& i : importance) i += floor_;
+    for (Chain& c : chains_) {
+        c.point = points[sampling::pick_in_proportion(importance, adaptive_rng_.uniform())];
+        c.importance = evaluate_at(c.point.data()) + floor_;
+        c.estimate = walk_;
+        ++seeds_done_;
+    }
+}
+
+void GlobalWalks::advance_metropolis() {
+    if (seeds_done_ == 0) seed_metropolis();
+    Chain& c = chains_[static_cast<std::size_t>(walks_done_ % kMetropolisChains)];
+    const sampling::Mutation mutate{options_.mutation_size, options_.large_step};
+    mutate(c.point.data(), proposal_.data(), 2 * options_.depth, adaptive_rng_);
+    const double importance = evaluate_at(proposal_.data()) + floor_;
+    const double a = std::min(1.0, importance / c.importance);
+    // The expected value of the step (004 section 8.2): both walks, weighed by a.
+    const double new_weight = exposure_ * a / importance, old_weight = exposure_ * (1.0 - a) / c.importance;
+    for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += new_weight * walk_[i] + old_weight * c.estimate[i];
+    ++proposed_;
+    acceptance_sum_ += a;
+    if (adaptive_rng_.uniform() < a) {
+        c.point = proposal_;
+        c.estimate.swap(walk_);
+        c.importance = importance;
+        ++accepted_;
+    }
+}
+
 void GlobalWalks::advance(long total) {
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
-        sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
-        for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
-        transfer_all();
-        if (method_ == WalkMethod::walk)
-            walk_plain();
-        else
-            walk_combined(method_ == WalkMethod::bidirectional);
+        if (options_.sampler == sampling::SamplerKind::vegas) {
+            advance_vegas();
+        } else if (options_.sampler == sampling::SamplerKind::metropolis) {
+            advance_metropolis();
+        } else {
+            sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
+            for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
+            evaluate();
+            for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += walk_[i];
+        }
         ++walks_done_;
         ++report_.steps;
         run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
@@ -282,6 +411,25 @@ void GlobalWalks::save(StateWriter& out) const {
     out.put(correction_dir_);
     out.put(correction_both_);
     out.put(correction_scale_);
+    if (sampling::adaptive(options_.sampler)) {
+        out.tag(sampling::sampler_name(options_.sampler));
+        out.put(adaptive_rng_);
+        out.put(floor_);
+        out.put(vegas_.weights());
+        out.put(vegas_.sums());
+        out.put(vegas_.refinement_count());
+        out.put(phase_walks_);
+        out.put(seeds_done_);
+        for (const Chain& c : chains_) {
+            out.put(c.point);
+            out.put(c.estimate);
+            out.put(c.importance);
+        }
+        out.put(exposure_);
+        out.put(proposed_);
+        out.put(accepted_);
+        out.put(acceptance_sum_);
+    }
     save_counters(out, report_);
 }
 
@@ -294,6 +442,32 @@ void GlobalWalks::restore(StateReader& in) {
     in.get(correction_dir_);
     in.get(correction_both_);
     in.get(correction_scale_);
+    if (sampling::adaptive(options_.sampler)) {
+        in.expect(sampling::sampler_name(options_.sampler));
+        in.get(adaptive_rng_);
+        in.get(floor_);
+        const std::size_t cells = vegas_.weights().size();
+        in.get(vegas_.weights());
+        in.get(vegas_.sums());
+        if (vegas_.weights().size() != cells || vegas_.sums().size() != cells)
+            throw StateError("VEGAS tables of another depth");
+        in.get(vegas_.refinement_count());
+        vegas_.update_cdf();
+        in.get(phase_walks_);
+        in.get(seeds_done_);
+        for (Chain& c : chains_) {
+            // Seeded chains hold a walk: its point and estimate (the reader checks the sizes).
+            c.point.assign(seeds_done_ > 0 ? point_.size() : 0, 0.0);
+            c.estimate.assign(seeds_done_ > 0 ? walk_.size() : 0, Rgb::Zero());
+            in.get(c.point);
+            in.get(c.estimate);
+            in.get(c.importance);
+        }
+        in.get(exposure_);
+        in.get(proposed_);
+        in.get(accepted_);
+        in.get(acceptance_sum_);
+    }
     restore_counters(in, report_);
 }
 

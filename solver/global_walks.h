@@ -31,8 +31,36 @@
 // scenes keep the whole table, each entry with the direction it arrived along, and
 // evaluate the radiance towards the eye per walk.
 //
-// Options read: steps (walks), depth, unbiased, sampler. Call order: see solver.h.
+// Importance sampling for the image (004 sections 7-8; sampler vegas or metropolis):
+// every walk's estimate X(z) is a vector over patches, and its importance
+// I(z) = sum_p Y(w_p X_p(z)) is the luminance it adds to the image
+// (solver/importance.h).
+//
+//   vegas       the walk's point is drawn from the separable tables of
+//               sampling/adaptive.h (an 8 x 8 table per direction), its estimate is
+//               X(z) / p(z) (eq. 33, unbiased for any tables), and the tables are
+//               refined from the importance after every phase of 64 walks. The
+//               tables' floor keeps p > 0 where the camera sees nothing, so that the
+//               light of unseen patches is still estimated.
+//   metropolis  (eq. 37-41) 4 chains per solver chain, taking steps in turn (a fixed
+//               count: the result does not depend on the threads). First `seed_walks`
+//               uniform walks: their mean importance is the exposure b (8.1.3), and each
+//               chain's first walk is one of them, picked in proportion to its
+//               importance (8.1.2: the chains start in the stationary distribution).
+//               The importance gets a floor f, 1 % of the seeds' mean (the light of
+//               walks the camera does not see keeps a chance). Then every step mutates the chain's walk (sampling::Mutation: delta =
+//               mutation_size, large steps with probability large_step), accepts with
+//               a = min(1, I(z') / I(z)), and adds the expected value of both (8.2):
+//               b (a X(z') / I(z') + (1 - a) X(z) / I(z)). The seed walks cost
+//               visibility but add no estimate; averaged() counts the chain's steps.
+//               Consistent, not unbiased: b is estimated, and 004 section 8.4 bounds
+//               the start-up bias (tests/solver/test_importance_sampling.cpp).
+//
+// Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
+// seed_walks. Call order: see solver.h.
+#include "sampling/adaptive.h"
 #include "sampling/walk_sampler.h"
+#include "solver/importance.h"
 #include "solver/solver.h"
 #include "visibility/parallel.h"
 
@@ -63,7 +91,7 @@ public:
     void advance(long walks) override;
     RadianceField field() const override;
     long averaged() const override { return walks_done_; }
-    SolverReport report() const override { return report_; }
+    SolverReport report() const override;
     void save(StateWriter& out) const override;
     void restore(StateReader& in) override;
     // (The diffuse shot adds the first bounce exactly: D + 1 bounces in all.)
@@ -81,6 +109,14 @@ private:
                 const sampling::RunOptions& run);
     void walk_plain();
     void walk_combined(bool both);
+    // One walk along dirs_ (computes the matrices): its estimate into walk_.
+    void evaluate();
+    // The walk at `point` (2 depth coordinates), into walk_; its importance.
+    double evaluate_at(const double* point);
+    double importance() const;  // of walk_, without the floor
+    void advance_vegas();
+    void advance_metropolis();
+    void seed_metropolis();
     // The geometry matrices of the walk's directions, dirs_ -> matrices_.
     void transfer_all();
     // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
@@ -115,9 +151,27 @@ private:
     bool correction_both_ = false;
     double correction_scale_ = 0.0;  // 0: none yet
 
-    std::vector<Rgb> sum_;  // per patch: sum over walks of the reflected-radiance estimate
+    std::vector<Rgb> sum_;   // per patch: sum over walks of the reflected-radiance estimate
+    std::vector<Rgb> walk_;  // per patch: the current walk's estimate
     long walks_done_ = 0;
     SolverReport report_;
+
+    // Importance sampling (vegas, metropolis).
+    ImportanceWeights weights_;
+    sampling::Rng adaptive_rng_;
+    std::vector<double> point_, proposal_;
+    double floor_ = 0.0;
+    sampling::VegasTables vegas_;
+    long phase_walks_ = 0;
+    struct Chain {
+        std::vector<double> point;
+        std::vector<Rgb> estimate;
+        double importance = 0.0;  // with the floor
+    };
+    std::vector<Chain> chains_;
+    double exposure_ = 0.0;  // b
+    long seeds_done_ = 0, proposed_ = 0, accepted_ = 0;
+    double acceptance_sum_ = 0.0;
 };
 
 }  // namespace raybundle::solver

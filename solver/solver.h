@@ -61,6 +61,12 @@ struct SolverOptions {
     int depth = 5;          // walks: directions (bounces) per walk
     bool unbiased = false;  // walks: each walk's last bounce corrects the next one's emission (4.3)
     sampling::SamplerKind sampler = sampling::SamplerKind::random;  // walks: their directions
+    // Walks with the vegas and metropolis samplers (solver/global_walks.h): the
+    // Metropolis perturbation's extent (delta, in the unit cube of the walk's 2D
+    // coordinates), its probability of a large step, and its seed walks per chain.
+    double mutation_size = 0.1;
+    double large_step = 0.1;
+    int seed_walks = 64;
     std::string visibility = visibility::kDefaultBackend;  // the backend (the linear basis brings its own painter)
     visibility::BackendOptions map;  // its resolution and jitter (make_solver adds the sky when the scene has one)
 };

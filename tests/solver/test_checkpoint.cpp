@@ -62,6 +62,17 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
         o.method = "combined";
         o.depth = 3;
     });
+    add("walk, vegas", box, [](auto& o) {
+        o.method = "walk";
+        o.depth = 3;
+        o.sampler = sampling::SamplerKind::vegas;
+    });
+    add("combined, metropolis, glossy", glossy, [](auto& o) {
+        o.method = "combined";
+        o.depth = 3;
+        o.sampler = sampling::SamplerKind::metropolis;
+        o.seed_walks = 8;
+    });
     add("bidirectional, sobol", box, [](auto& o) {
         o.method = "bidirectional";
         o.depth = 4;
