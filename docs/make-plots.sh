@@ -140,3 +140,29 @@ plot for [it in "250 1000 4000"] "< awk -F, -v it=".it." '$1==it && $3==\"none\"
        using 6:7 with linespoints lw 2 title it." steps, guided filter"
 GP
 fi
+
+if [ -f bench-importance-mean.csv ]; then
+gnuplot <<'GP'
+set datafile separator ","
+set terminal pngcairo size 1200,900 font ",10"
+set output "bench-importance.png"
+set multiplot layout 2,2 title "Importance sampling of global walks (D = 3, patch image): relative L1 against a reference, mean of 6 seeds (cf. 004 Fig. 24)"
+set logscale xy
+set grid
+set key top right
+configs = "random sobol vegas metropolis_0.03 metropolis_0.1 metropolis_0.3"
+label(c) = c[1:strlen(c)] eq "" ? c : c
+do for [scene in "partition cornell-box"] {
+  set title scene.": error against global directions"
+  set xlabel "global directions (seed walks included)"
+  set ylabel "relative L1 error"
+  plot for [c in configs] sprintf("< awk -F, '$1==\"%s\" && $2==\"%s\"' bench-importance-mean.csv", scene, system("echo ".c." | tr _ ' '")) \
+       using 4:6 with linespoints lw 2 title system("echo ".c." | tr _ ' '")
+  set title scene.": error against seconds (2 threads)"
+  set xlabel "seconds of solve"
+  plot for [c in configs] sprintf("< awk -F, '$1==\"%s\" && $2==\"%s\"' bench-importance-mean.csv", scene, system("echo ".c." | tr _ ' '")) \
+       using 5:6 with linespoints lw 2 title system("echo ".c." | tr _ ' '")
+}
+unset multiplot
+GP
+fi

@@ -33,14 +33,19 @@ public:
     // Refinement, after Lepage (J. Comput. Phys. 27, 1978): a bin's target weight is the
     // square root of its share of sum (I/p)^2 p_d (eq. 35: the optimal g_d is the root
     // of the integral of I^2 / (the other factors) over the other directions; eq. 36 its
-    // estimate from the samples so far), smoothed over its 3 x 3 neighbours (wrapping
-    // around in phi, as Lepage smooths over neighbouring intervals); damped: the new
+    // estimate from the samples so far), smoothed over its 3 x 3 neighbours with
+    // Lepage's weights (1, 6, 1) / 8 in each coordinate (wrapping around in phi); damped: the new
     // table is the mean of the old one and the target (Lepage damps the rebinning so
     // that one phase's noise cannot empty a region; this is the same for fixed bins);
-    // and floored: mixed with the uniform density, every bin keeps `kFloor` of its
-    // uniform weight, so p > 0 everywhere and 1/p stays bounded.
+    // and floored: every bin keeps `kFloor` of its uniform weight, so that a region
+    // the samples have not yet shown to matter can still be found.
+    // The density is the tables' product mixed with the uniform density, a share
+    // kDefensive of the samples uniform (Hesterberg's defensive importance sampling):
+    // 1/p stays below 1/kDefensive however the tables concentrate, where a floor per
+    // table would compound over the D factors (0.1^D).
     static constexpr double kDamping = 0.5;
-    static constexpr double kFloor = 0.1;
+    static constexpr double kFloor = 0.02;
+    static constexpr double kDefensive = 0.2;
 
     VegasTables(int factors, int bins) : factors_(factors), bins_(bins) {
         if (factors < 1 || bins < 1) throw std::invalid_argument("VegasTables: factors and bins must be >= 1");
@@ -57,31 +62,28 @@ public:
 
     // Draws z (2 factors() coordinates into `point`) from the density; returns p(z).
     double sample(Rng& rng, double* point) const {
-        double p = 1.0;
+        const bool uniform = rng.uniform() < kDefensive;
         const std::size_t per = cells_per_factor();
         for (int d = 0; d < factors_; ++d) {
             const double* cdf = &cdf_[d * per];
             const double r = rng.uniform();
             const std::size_t cell =
-                std::min<std::size_t>(per - 1, static_cast<std::size_t>(std::upper_bound(cdf, cdf + per, r) - cdf));
+                uniform ? std::min<std::size_t>(per - 1, static_cast<std::size_t>(r * static_cast<double>(per)))
+                        : std::min<std::size_t>(per - 1, static_cast<std::size_t>(std::upper_bound(cdf, cdf + per, r) - cdf));
             const double a = rng.uniform(), b = rng.uniform();
             point[2 * d] = (static_cast<double>(cell / bins_) + a) / bins_;
             point[2 * d + 1] = (static_cast<double>(cell % bins_) + b) / bins_;
-            p *= factor_density(d, cell);
         }
-        return p;
+        return density(point);
     }
 
-    // p(z) of a point.
-    double density(const double* point) const {
-        double p = 1.0;
-        for (int d = 0; d < factors_; ++d) p *= factor_density(d, cell_of(point + 2 * d));
-        return p;
-    }
+    // p(z) of a point: the tables' product, mixed with the uniform density.
+    double density(const double* point) const { return (1.0 - kDefensive) * product(point) + kDefensive; }
 
     // A sample: its point and importance / density; (importance / density)^2 times the
     // factor's density is the summand of the refinement (eq. 36).
     void accumulate(const double* point, double importance_over_density) {
+        // The product's share of the density (eq. 35 is about the product's factors).
         const double w = importance_over_density * importance_over_density;
         if (!(w > 0.0) || !std::isfinite(w)) return;
         for (int d = 0; d < factors_; ++d) {
@@ -103,14 +105,19 @@ public:
             double total = 0.0;
             for (std::size_t c = 0; c < per; ++c) total += sums[c];
             if (total > 0.0) {
+                // Lepage's (1, 6, 1) / 8 in each of the two coordinates.
+                constexpr double kWeight[3] = {1.0, 6.0, 1.0};
                 for (int i = 0; i < bins_; ++i)
                     for (int j = 0; j < bins_; ++j) {
-                        double s = 0.0;
-                        int n = 0;
+                        double s = 0.0, n = 0.0;
                         for (int di = -1; di <= 1; ++di) {
                             const int ii = i + di;
                             if (ii < 0 || ii >= bins_) continue;  // theta: no wrap at the poles
-                            for (int dj = -1; dj <= 1; ++dj, ++n) s += std::sqrt(sums[ii * bins_ + (j + dj + bins_) % bins_]);
+                            for (int dj = -1; dj <= 1; ++dj) {
+                                const double w = kWeight[di + 1] * kWeight[dj + 1];
+                                s += w * std::sqrt(sums[ii * bins_ + (j + dj + bins_) % bins_]);
+                                n += w;
+                            }
                         }
                         smooth[static_cast<std::size_t>(i) * bins_ + j] = s / n;
                     }
@@ -145,6 +152,11 @@ public:
     }
 
 private:
+    double product(const double* point) const {
+        double p = 1.0;
+        for (int d = 0; d < factors_; ++d) p *= factor_density(d, cell_of(point + 2 * d));
+        return p;
+    }
     std::size_t cells_per_factor() const { return static_cast<std::size_t>(bins_) * bins_; }
     std::size_t cell_of(const double* uv) const {
         const auto i = std::min(bins_ - 1, static_cast<int>(uv[0] * bins_));
@@ -167,16 +179,18 @@ struct Mutation {
     double delta = 0.1;
     double large_step = 0.1;
 
-    void operator()(const double* from, double* to, int size, Rng& rng) const {
+    // Returns whether it was a large step (`to` uniform, independent of `from`).
+    bool operator()(const double* from, double* to, int size, Rng& rng) const {
         if (rng.uniform() < large_step) {
             for (int k = 0; k < size; ++k) to[k] = rng.uniform();
-            return;
+            return true;
         }
         for (int k = 0; k < size; ++k) {
             double u = from[k] + delta * (rng.uniform() - 0.5);
             u -= std::floor(u);
             to[k] = u >= 1.0 ? 0.0 : u;
         }
+        return false;
     }
 };
 

@@ -3,6 +3,7 @@
 #include "sampling/streams.h"
 #include "scenes/errors.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -163,7 +164,8 @@ SolverReport GlobalWalks::report() const {
                                    {"mutation_size", options_.mutation_size},
                                    {"large_step", options_.large_step},
                                    {"seed_walks", seeds_done_},
-                                   {"exposure", exposure_},
+                                   {"exposure", exposure()},
+                                   {"exposure_walks", uniform_walks_},
                                    {"importance_floor", floor_},
                                    {"proposed", proposed_},
                                    {"acceptance_rate", proposed_ > 0 ? acceptance_sum_ / proposed_ : 0.0},
@@ -340,19 +342,24 @@ void GlobalWalks::seed_metropolis() {
     const int dims = 2 * options_.depth;
     std::vector<std::vector<double>> points;
     std::vector<double> importance;
-    for (int k = 0; k < options_.seed_walks; ++k) {
+    // Where the image is lit through a small opening every seed may miss it: more seeds,
+    // up to 16 times as many, until one brings light to the image.
+    double sum = 0.0;
+    for (int k = 0; k < 16 * options_.seed_walks && (k < options_.seed_walks || sum == 0.0); ++k) {
         std::vector<double> point(static_cast<std::size_t>(dims));
         for (double& u : point) u = adaptive_rng_.uniform();
         importance.push_back(evaluate_at(point.data()));
+        sum += importance.back();
         points.push_back(std::move(point));
         ++seeds_done_;
     }
-    double mean = 0.0;
-    for (double i : importance) mean += i;
-    mean /= static_cast<double>(importance.size());
+    const double mean = sum / static_cast<double>(importance.size());
     floor_ = mean > 0.0 ? 0.01 * mean : 1.0;
-    exposure_ = mean + floor_;
-    for (double& i : importance) i += floor_;
+    for (double& i : importance) {
+        i += floor_;
+        uniform_importance_ += i;
+        ++uniform_walks_;
+    }
     for (Chain& c : chains_) {
         c.point = points[sampling::pick_in_proportion(importance, adaptive_rng_.uniform())];
         c.importance = evaluate_at(c.point.data()) + floor_;
@@ -365,11 +372,16 @@ void GlobalWalks::advance_metropolis() {
     if (seeds_done_ == 0) seed_metropolis();
     Chain& c = chains_[static_cast<std::size_t>(walks_done_ % kMetropolisChains)];
     const sampling::Mutation mutate{options_.mutation_size, options_.large_step};
-    mutate(c.point.data(), proposal_.data(), 2 * options_.depth, adaptive_rng_);
+    const bool large = mutate(c.point.data(), proposal_.data(), 2 * options_.depth, adaptive_rng_);
     const double importance = evaluate_at(proposal_.data()) + floor_;
+    if (large) {  // a uniform walk: one more sample of the exposure
+        uniform_importance_ += importance;
+        ++uniform_walks_;
+    }
     const double a = std::min(1.0, importance / c.importance);
-    // The expected value of the step (004 section 8.2): both walks, weighed by a.
-    const double new_weight = exposure_ * a / importance, old_weight = exposure_ * (1.0 - a) / c.importance;
+    // The expected value of the step (004 section 8.2): both walks, weighed by a; the
+    // exposure b multiplies the sum when it is read (field()).
+    const double new_weight = a / importance, old_weight = (1.0 - a) / c.importance;
     for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += new_weight * walk_[i] + old_weight * c.estimate[i];
     ++proposed_;
     acceptance_sum_ += a;
@@ -425,7 +437,8 @@ void GlobalWalks::save(StateWriter& out) const {
             out.put(c.estimate);
             out.put(c.importance);
         }
-        out.put(exposure_);
+        out.put(uniform_importance_);
+        out.put(uniform_walks_);
         out.put(proposed_);
         out.put(accepted_);
         out.put(acceptance_sum_);
@@ -463,7 +476,8 @@ void GlobalWalks::restore(StateReader& in) {
             in.get(c.estimate);
             in.get(c.importance);
         }
-        in.get(exposure_);
+        in.get(uniform_importance_);
+        in.get(uniform_walks_);
         in.get(proposed_);
         in.get(accepted_);
         in.get(acceptance_sum_);
@@ -471,6 +485,15 @@ void GlobalWalks::restore(StateReader& in) {
     restore_counters(in, report_);
 }
 
-RadianceField GlobalWalks::field() const { return t_.field_from(sum_, walks_done_, to_eye_); }
+RadianceField GlobalWalks::field() const {
+    if (options_.sampler != sampling::SamplerKind::metropolis) return t_.field_from(sum_, walks_done_, to_eye_);
+    std::vector<Rgb> scaled = sum_;
+    for (Rgb& v : scaled) v *= exposure();
+    return t_.field_from(scaled, walks_done_, to_eye_);
+}
+
+double GlobalWalks::exposure() const {
+    return uniform_walks_ > 0 ? uniform_importance_ / static_cast<double>(uniform_walks_) : 0.0;
+}
 
 }  // namespace raybundle::solver

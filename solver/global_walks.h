@@ -44,9 +44,13 @@
 //               light of unseen patches is still estimated.
 //   metropolis  (eq. 37-41) 4 chains per solver chain, taking steps in turn (a fixed
 //               count: the result does not depend on the threads). First `seed_walks`
-//               uniform walks: their mean importance is the exposure b (8.1.3), and each
-//               chain's first walk is one of them, picked in proportion to its
-//               importance (8.1.2: the chains start in the stationary distribution).
+//               uniform walks (more, up to 16 times as many, while none brings light to
+//               the image); each chain's first walk is one of them, picked in proportion
+//               to its importance (8.1.2: the chains start in the stationary
+//               distribution). The exposure b (8.1.3), the integral of the importance, is
+//               the mean importance of every uniform walk so far: the seeds, and the
+//               large steps' proposals (independent uniform walks too), so that it
+//               improves as the run goes; it scales the sum when the field is read.
 //               The importance gets a floor f, 1 % of the seeds' mean (the light of
 //               walks the camera does not see keeps a chance). Then every step mutates the chain's walk (sampling::Mutation: delta =
 //               mutation_size, large steps with probability large_step), accepts with
@@ -169,7 +173,11 @@ private:
         double importance = 0.0;  // with the floor
     };
     std::vector<Chain> chains_;
-    double exposure_ = 0.0;  // b
+    // The exposure b: the mean importance of the uniform walks so far (the seeds and
+    // the large steps' proposals).
+    double uniform_importance_ = 0.0;
+    long uniform_walks_ = 0;
+    double exposure() const;
     long seeds_done_ = 0, proposed_ = 0, accepted_ = 0;
     double acceptance_sum_ = 0.0;
 };

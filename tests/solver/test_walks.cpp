@@ -127,8 +127,9 @@ TEST_CASE("walks: memory per patch follows the method, and the same seed is bit-
     };
     CHECK(bytes(WalkMethod::walk, false) < bytes(WalkMethod::combined, false));
     CHECK(bytes(WalkMethod::walk, false) < bytes(WalkMethod::walk, true));
-    // Diffuse: the table collapses to D sums (D + 2 vectors), not D(D+1)/2 + 2.
-    CHECK(bytes(WalkMethod::combined, false) == 7 * sizeof(scenes::Rgb));
+    // Diffuse: the table collapses to D sums (D + 3 vectors: the sums, the transfer's
+    // output, the mean and the walk's own estimate), not D(D+1)/2 + 3.
+    CHECK(bytes(WalkMethod::combined, false) == 8 * sizeof(scenes::Rgb));
 
     const auto a = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true);
     const auto b = walk(scene, WalkMethod::bidirectional, 3, 20, 5, true);
@@ -148,7 +149,7 @@ TEST_CASE("glossy walks keep the full table and give the exact first bounce", "[
     solver::SolverOptions opt;
     opt.depth = 3;
     solver::GlobalWalks table(transport, *backend, WalkMethod::bidirectional, opt, {});
-    CHECK(table.report().bytes_per_patch == (6 + 2) * sizeof(scenes::Rgb));
+    CHECK(table.report().bytes_per_patch == (6 + 3) * sizeof(scenes::Rgb));
     CHECK(table.report().decisions["storage"].get<std::string>().find("glossy") != std::string::npos);
 
     const auto& patches = scene.patch_list();
