@@ -5,8 +5,9 @@
 # Usage: scripts/setup-deps.sh [--tests] [--fuzz]
 #   --tests   also the packages only the tests and benchmarks use: OpenCV with its
 #             contrib modules (the guided filter is compared with
-#             cv::ximgproc::guidedFilter), and Open MPI (the tests run the solver on
-#             two ranks with mpirun). scripts/test.sh passes it.
+#             cv::ximgproc::guidedFilter), Open MPI (the tests run the solver on
+#             two ranks with mpirun) and Python 3 (tests/cli/test_mpi.sh reads the
+#             stats and CSVs with it). scripts/test.sh passes it.
 #   --fuzz    also clang and its libFuzzer runtime (scripts/fuzz.sh passes it).
 set -euo pipefail
 
@@ -17,7 +18,7 @@ packages=(
   catch2 libembree-dev libopenexr-dev libpng-dev
   nlohmann-json3-dev libcli11-dev libtbb-dev
 )
-test_packages=(libopencv-dev libopencv-contrib-dev libopenmpi-dev openmpi-bin)
+test_packages=(libopencv-dev libopencv-contrib-dev libopenmpi-dev openmpi-bin python3)
 fuzz_packages=(clang libclang-rt-dev)
 
 for arg in "$@"; do
