@@ -130,6 +130,13 @@ json run_identity(const Command& c, const scenes::Scene& scene) {
             {"options", c.identity}};
 }
 
+std::uint64_t identity_hash(const json& identity) {
+    const std::string bytes = identity.dump();
+    Fnv f;
+    f.bytes(bytes.data(), bytes.size());
+    return f.h;
+}
+
 void write_checkpoint(const std::string& path, const Checkpoint& k) {
     std::string bytes = kMagic;
     bytes.append(reinterpret_cast<const char*>(&kByteOrder), sizeof kByteOrder);

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,9 @@ nlohmann::json options_identity(const CLI::App& cmd);
 // The whole identity: the options' and the scene's (a hash of its patches, materials,
 // lights, sky and camera) and the program's version.
 nlohmann::json run_identity(const Command& c, const scenes::Scene& scene);
+// A 64-bit hash (FNV-1a) of an identity, for comparing runs without sending it whole
+// (apps/ranks.h: every rank's against rank 0's).
+std::uint64_t identity_hash(const nlohmann::json& identity);
 
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 // Throws UsageError ("--resume F: ...") for a file that is not a complete checkpoint of

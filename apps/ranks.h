@@ -54,9 +54,8 @@ public:
     static std::string library();
 
     void share_rows(void* data, std::size_t row_bytes, int rows) const override;
-    // Every rank gets there; throws RankFailed where one failed.
-    void check() const;
-    // The last exchange of a run: after it the leader writes, the others return.
+    // The last exchange of a run (every rank gets there; throws RankFailed where one
+    // failed): after it the leader writes, the others return.
     void finish();
     // Sums and maxima over ranks (every rank gets them).
     long sum(long value) const;

@@ -220,9 +220,7 @@ void require_spreadable(const Command& c, const Ranks& ranks) {
 // Every rank must solve the same scene with the same options (the scene files of
 // every node the same): a hash of the run's identity, compared with rank 0's.
 void require_same_everywhere(const json& identity, const Ranks& ranks) {
-    const std::string bytes = identity.dump();
-    std::uint64_t h = 1469598103934665603ull;  // FNV-1a
-    for (const char ch : bytes) h = (h ^ static_cast<unsigned char>(ch)) * 1099511628211ull;
+    const std::uint64_t h = identity_hash(identity);
     if (ranks.from_leader(h) != h)
         throw UsageError("the scene " + identity["scene"]["name"].get<std::string>() + " (" +
                          std::to_string(identity["scene"]["patches"].get<std::size_t>()) +

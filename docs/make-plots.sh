@@ -151,7 +151,6 @@ set logscale xy
 set grid
 set key top right
 configs = "random sobol vegas metropolis_0.03 metropolis_0.1 metropolis_0.3"
-label(c) = c[1:strlen(c)] eq "" ? c : c
 do for [scene in "partition cornell-box"] {
   set title scene.": error against global directions"
   set xlabel "global directions (seed walks included)"

@@ -58,7 +58,7 @@ public:
 
     int factors() const { return factors_; }
     int bins() const { return bins_; }
-    int refinements() const { return refinements_; }
+    long refinements() const { return refinements_; }
 
     // Draws z (2 factors() coordinates into `point`) from the density; returns p(z).
     double sample(Rng& rng, double* point) const {
@@ -139,8 +139,7 @@ public:
     std::vector<double>& sums() { return sums_; }
     const std::vector<double>& weights() const { return weights_; }
     const std::vector<double>& sums() const { return sums_; }
-    long& refinement_count() { return refinements_; }
-    long refinement_count() const { return refinements_; }
+    long& refinements() { return refinements_; }
     void update_cdf() {
         const std::size_t per = cells_per_factor();
         for (int d = 0; d < factors_; ++d) {

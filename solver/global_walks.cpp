@@ -158,7 +158,7 @@ SolverReport GlobalWalks::report() const {
     if (options_.sampler == sampling::SamplerKind::vegas) {
         r.details["vegas"] = {{"bins", std::to_string(kVegasBins) + "x" + std::to_string(kVegasBins)},
                               {"phase_walks", kVegasPhase},
-                              {"refinements", vegas_.refinement_count()}};
+                              {"refinements", vegas_.refinements()}};
     } else if (options_.sampler == sampling::SamplerKind::metropolis) {
         r.details["metropolis"] = {{"chains", kMetropolisChains},
                                    {"mutation_size", options_.mutation_size},
@@ -429,7 +429,7 @@ void GlobalWalks::save(StateWriter& out) const {
         out.put(floor_);
         out.put(vegas_.weights());
         out.put(vegas_.sums());
-        out.put(vegas_.refinement_count());
+        out.put(vegas_.refinements());
         out.put(phase_walks_);
         out.put(seeds_done_);
         for (const Chain& c : chains_) {
@@ -464,7 +464,7 @@ void GlobalWalks::restore(StateReader& in) {
         in.get(vegas_.sums());
         if (vegas_.weights().size() != cells || vegas_.sums().size() != cells)
             throw StateError("VEGAS tables of another depth");
-        in.get(vegas_.refinement_count());
+        in.get(vegas_.refinements());
         vegas_.update_cdf();
         in.get(phase_walks_);
         in.get(seeds_done_);

@@ -1,21 +1,21 @@
-#include "render/camera.h"
+#include "scenes/camera.h"
 
 #include <cmath>
 
-namespace raybundle::render {
+namespace raybundle::scenes {
 
-PinholeCamera::PinholeCamera(const scenes::Camera& c)
+PinholeCamera::PinholeCamera(const Camera& c)
     : eye_(c.eye), tan_half_(std::tan(0.5 * c.fov_y * M_PI / 180.0)), width_(c.width), height_(c.height) {
     forward_ = (c.target - c.eye).normalized();
     right_ = forward_.cross(c.up).normalized();
     up_ = right_.cross(forward_);
 }
 
-scenes::Vec3 PinholeCamera::direction(double x, double y) const {
+Vec3 PinholeCamera::direction(double x, double y) const {
     const double aspect = static_cast<double>(width_) / height_;
     const double sx = (2.0 * x / width_ - 1.0) * tan_half_ * aspect;
     const double sy = (1.0 - 2.0 * y / height_) * tan_half_;
     return (forward_ + sx * right_ + sy * up_).normalized();
 }
 
-}  // namespace raybundle::render
+}  // namespace raybundle::scenes
