@@ -131,9 +131,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
     cmd.add_option("--seed-walks", s.seed_walks,
-                   "metropolis: random walks per chain whose importance picks the starting walks and the exposure")
+                   "metropolis: the first N walks of each chain are uniform seeds, whose importance picks the "
+                   "starting walks and gives the exposure (0: 40 % of the walks)")
         ->capture_default_str()
-        ->check(CLI::Range(1, 1000000));
+        ->check(CLI::Range(0L, 1000000000L));
     cmd.add_flag("--both-ways,!--one-way", s.both_ways,
                  "iteration: every geometry matrix serves w and -w (default), or w only");
     auto on_off = [&cmd](const char* on, const char* off, std::optional<bool>& value, const std::string& help) {

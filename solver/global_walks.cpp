@@ -71,8 +71,8 @@ const SolverOptions& checked(const SolverOptions& o) {
             throw scenes::OptionError("mutation_size", "must be in (0, 1], got " + std::to_string(o.mutation_size));
         if (!(o.large_step >= 0.0 && o.large_step <= 1.0))
             throw scenes::OptionError("large_step", "must be in [0, 1], got " + std::to_string(o.large_step));
-        if (o.seed_walks < 1)
-            throw scenes::OptionError("seed_walks", "must be >= 1, got " + std::to_string(o.seed_walks));
+        if (o.seed_walks < 0)
+            throw scenes::OptionError("seed_walks", "must be >= 0 (0: automatic), got " + std::to_string(o.seed_walks));
     }
     if (o.unbiased && o.sampler != sampling::SamplerKind::random)
         throw scenes::OptionError("unbiased", std::string("needs the random sampler: the correction carries one walk's "
@@ -143,8 +143,9 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
         point_.assign(static_cast<std::size_t>(2 * D), 0.0);
         proposal_ = point_;
         if (options.sampler == sampling::SamplerKind::metropolis) {
-            chains_.resize(kMetropolisChains);
-            vectors += kMetropolisChains;
+            chains_.assign(kMetropolisChains, Chain{point_, std::vector<Rgb>(n, Rgb::Zero()), 0.0, 0.0});
+            seed_sum_.assign(n, Rgb::Zero());
+            vectors += kMetropolisChains + 1;
         }
         report_.bytes_per_patch = vectors * sizeof(Rgb);
         report_.decisions["importance"] =
@@ -164,6 +165,7 @@ SolverReport GlobalWalks::report() const {
                                    {"mutation_size", options_.mutation_size},
                                    {"large_step", options_.large_step},
                                    {"seed_walks", seeds_done_},
+                                   {"seeding", seeding_},
                                    {"exposure", exposure()},
                                    {"exposure_walks", uniform_walks_},
                                    {"importance_floor", floor_},
@@ -338,44 +340,55 @@ void GlobalWalks::advance_vegas() {
     }
 }
 
+long GlobalWalks::seed_target() const {
+    if (options_.seed_walks > 0) return options_.seed_walks;
+    return std::max(1L, static_cast<long>(SolverOptions::kAutoSeedShare * static_cast<double>(options_.steps)));
+}
+
+// One seed walk: a uniform walk, a sample of the exposure and of the seeds' field, and
+// every chain's reservoir offered it (chain c keeps it with probability I / (the
+// importance of the seeds so far), so that its pick is seed k with probability
+// I_k / sum I: 8.1.2's draw in proportion to the importance, in one pass).
 void GlobalWalks::seed_metropolis() {
-    const int dims = 2 * options_.depth;
-    std::vector<std::vector<double>> points;
-    std::vector<double> importance;
-    // Where the image is lit through a small opening every seed may miss it: more seeds,
-    // up to 16 times as many, until one brings light to the image.
-    double sum = 0.0;
-    for (int k = 0; k < 16 * options_.seed_walks && (k < options_.seed_walks || sum == 0.0); ++k) {
-        std::vector<double> point(static_cast<std::size_t>(dims));
-        for (double& u : point) u = adaptive_rng_.uniform();
-        importance.push_back(evaluate_at(point.data()));
-        sum += importance.back();
-        points.push_back(std::move(point));
-        ++seeds_done_;
-    }
-    const double mean = sum / static_cast<double>(importance.size());
-    floor_ = mean > 0.0 ? 0.01 * mean : 1.0;
-    for (double& i : importance) {
-        i += floor_;
-        uniform_importance_ += i;
-        ++uniform_walks_;
-    }
+    for (double& u : point_) u = adaptive_rng_.uniform();
+    const double importance = evaluate_at(point_.data());
+    for (std::size_t i = 0; i < seed_sum_.size(); ++i) seed_sum_[i] += walk_[i];
+    uniform_importance_ += importance;
+    ++uniform_walks_;
+    ++seeds_done_;
     for (Chain& c : chains_) {
-        c.point = points[sampling::pick_in_proportion(importance, adaptive_rng_.uniform())];
-        c.importance = evaluate_at(c.point.data()) + floor_;
-        c.estimate = walk_;
-        ++seeds_done_;
+        c.reservoir += importance;
+        if (importance > 0.0 && adaptive_rng_.uniform() * c.reservoir < importance) {
+            c.point = point_;
+            c.estimate = walk_;
+            c.importance = importance;
+        }
     }
 }
 
+// The seeds are done (and one of them brought light to the image): the floor, and the
+// chains' first walks are their picks.
+void GlobalWalks::start_chains() {
+    floor_ = 0.01 * uniform_importance_ / static_cast<double>(uniform_walks_);
+    for (Chain& c : chains_) c.importance += floor_;
+    seeding_ = false;
+}
+
 void GlobalWalks::advance_metropolis() {
-    if (seeds_done_ == 0) seed_metropolis();
-    Chain& c = chains_[static_cast<std::size_t>(walks_done_ % kMetropolisChains)];
+    if (seeding_) {
+        // Where the image is lit through a small opening every seed may miss it: the
+        // seeding goes on until one brings light to the image (in a scene whose image
+        // stays dark, the whole run is uniform walks).
+        seed_metropolis();
+        if (seeds_done_ >= seed_target() && uniform_importance_ > 0.0) start_chains();
+        return;
+    }
+    Chain& c = chains_[static_cast<std::size_t>(proposed_ % kMetropolisChains)];
     const sampling::Mutation mutate{options_.mutation_size, options_.large_step};
     const bool large = mutate(c.point.data(), proposal_.data(), 2 * options_.depth, adaptive_rng_);
-    const double importance = evaluate_at(proposal_.data()) + floor_;
+    const double raw = evaluate_at(proposal_.data()), importance = raw + floor_;
     if (large) {  // a uniform walk: one more sample of the exposure
-        uniform_importance_ += importance;
+        uniform_importance_ += raw;
         ++uniform_walks_;
     }
     const double a = std::min(1.0, importance / c.importance);
@@ -432,10 +445,13 @@ void GlobalWalks::save(StateWriter& out) const {
         out.put(vegas_.refinements());
         out.put(phase_walks_);
         out.put(seeds_done_);
+        out.put(seeding_);
+        out.put(seed_sum_);
         for (const Chain& c : chains_) {
             out.put(c.point);
             out.put(c.estimate);
             out.put(c.importance);
+            out.put(c.reservoir);
         }
         out.put(uniform_importance_);
         out.put(uniform_walks_);
@@ -468,13 +484,13 @@ void GlobalWalks::restore(StateReader& in) {
         vegas_.update_cdf();
         in.get(phase_walks_);
         in.get(seeds_done_);
+        in.get(seeding_);
+        in.get(seed_sum_);  // the reader checks the sizes, here and below
         for (Chain& c : chains_) {
-            // Seeded chains hold a walk: its point and estimate (the reader checks the sizes).
-            c.point.assign(seeds_done_ > 0 ? point_.size() : 0, 0.0);
-            c.estimate.assign(seeds_done_ > 0 ? walk_.size() : 0, Rgb::Zero());
             in.get(c.point);
             in.get(c.estimate);
             in.get(c.importance);
+            in.get(c.reservoir);
         }
         in.get(uniform_importance_);
         in.get(uniform_walks_);
@@ -487,13 +503,14 @@ void GlobalWalks::restore(StateReader& in) {
 
 RadianceField GlobalWalks::field() const {
     if (options_.sampler != sampling::SamplerKind::metropolis) return t_.field_from(sum_, walks_done_, to_eye_);
+    if (proposed_ == 0) return t_.field_from(seed_sum_, seeds_done_, to_eye_);
     std::vector<Rgb> scaled = sum_;
     for (Rgb& v : scaled) v *= exposure();
-    return t_.field_from(scaled, walks_done_, to_eye_);
+    return t_.field_from(scaled, proposed_, to_eye_);
 }
 
 double GlobalWalks::exposure() const {
-    return uniform_walks_ > 0 ? uniform_importance_ / static_cast<double>(uniform_walks_) : 0.0;
+    return uniform_walks_ > 0 ? uniform_importance_ / static_cast<double>(uniform_walks_) + floor_ : 0.0;
 }
 
 }  // namespace raybundle::solver

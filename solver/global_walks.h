@@ -43,22 +43,25 @@
 //               tables' floor keeps p > 0 where the camera sees nothing, so that the
 //               light of unseen patches is still estimated.
 //   metropolis  (eq. 37-41) 4 chains per solver chain, taking steps in turn (a fixed
-//               count: the result does not depend on the threads). First `seed_walks`
-//               uniform walks (more, up to 16 times as many, while none brings light to
-//               the image); each chain's first walk is one of them, picked in proportion
-//               to its importance (8.1.2: the chains start in the stationary
-//               distribution). The exposure b (8.1.3), the integral of the importance, is
-//               the mean importance of every uniform walk so far: the seeds, and the
-//               large steps' proposals (independent uniform walks too), so that it
-//               improves as the run goes; it scales the sum when the field is read.
-//               The importance gets a floor f, 1 % of the seeds' mean (the light of
-//               walks the camera does not see keeps a chance). Then every step mutates the chain's walk (sampling::Mutation: delta =
-//               mutation_size, large steps with probability large_step), accepts with
-//               a = min(1, I(z') / I(z)), and adds the expected value of both (8.2):
-//               b (a X(z') / I(z') + (1 - a) X(z) / I(z)). The seed walks cost
-//               visibility but add no estimate; averaged() counts the chain's steps.
-//               Consistent, not unbiased: b is estimated, and 004 section 8.4 bounds
-//               the start-up bias (tests/solver/test_importance_sampling.cpp).
+//               count: the result does not depend on the threads). The first
+//               `seed_walks` walks of the chain's budget (default 40 % of them; more while
+//               none brings light to the image) are uniform seed walks: each chain's
+//               first walk is one of them, picked in proportion to its importance
+//               (8.1.2: the chains start in the stationary distribution; one weighted
+//               reservoir per chain, so that no seed is evaluated twice), and the
+//               exposure b (8.1.3), the integral of the importance, is the mean
+//               importance of every uniform walk so far: the seeds, and the large
+//               steps' proposals (independent uniform walks too), so that it improves
+//               as the run goes; it scales the sum when the field is read. The
+//               importance gets a floor f, 1 % of the seeds' mean (the light of walks
+//               the camera does not see keeps a chance). Then every step mutates the
+//               chain's walk (sampling::Mutation: delta = mutation_size, large steps
+//               with probability large_step), accepts with a = min(1, I(z') / I(z)),
+//               and adds the expected value of both (8.2):
+//               b (a X(z') / I(z') + (1 - a) X(z) / I(z)); the field is their mean over
+//               the chain's steps. Until the first step it is the seeds' mean (a run of
+//               random walks). Consistent, not unbiased: b is estimated, and 004
+//               section 8.4 bounds the start-up bias (tests/solver/test_importance_sampling.cpp).
 //
 // Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
 // seed_walks. Call order: see solver.h.
@@ -121,6 +124,8 @@ private:
     void advance_vegas();
     void advance_metropolis();
     void seed_metropolis();
+    void start_chains();
+    long seed_target() const;
     // The geometry matrices of the walk's directions, dirs_ -> matrices_.
     void transfer_all();
     // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
@@ -171,10 +176,13 @@ private:
         std::vector<double> point;
         std::vector<Rgb> estimate;
         double importance = 0.0;  // with the floor
+        double reservoir = 0.0;   // seeding: the importance of the seeds so far (its pick's odds)
     };
     std::vector<Chain> chains_;
+    std::vector<Rgb> seed_sum_;  // per patch: the seed walks' sum (the field until the first step)
+    bool seeding_ = true;
     // The exposure b: the mean importance of the uniform walks so far (the seeds and
-    // the large steps' proposals).
+    // the large steps' proposals), without the floor.
     double uniform_importance_ = 0.0;
     long uniform_walks_ = 0;
     double exposure() const;

@@ -63,10 +63,12 @@ struct SolverOptions {
     sampling::SamplerKind sampler = sampling::SamplerKind::random;  // walks: their directions
     // Walks with the vegas and metropolis samplers (solver/global_walks.h): the
     // Metropolis perturbation's extent (delta, in the unit cube of the walk's 2D
-    // coordinates), its probability of a large step, and its seed walks per chain.
+    // coordinates), its probability of a large step, and its seed walks per chain (the
+    // first walks of the chain's `steps`; 0: kAutoSeedShare of them).
     double mutation_size = 0.1;
     double large_step = 0.1;
-    int seed_walks = 64;
+    long seed_walks = 0;
+    static constexpr double kAutoSeedShare = 0.4;
     std::string visibility = visibility::kDefaultBackend;  // the backend (the linear basis brings its own painter)
     visibility::BackendOptions map;  // its resolution and jitter (make_solver adds the sky when the scene has one)
 };

@@ -67,6 +67,12 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
         o.depth = 3;
         o.sampler = sampling::SamplerKind::vegas;
     });
+    add("walk, metropolis, stopped while seeding", box, [](auto& o) {
+        o.method = "walk";
+        o.depth = 3;
+        o.sampler = sampling::SamplerKind::metropolis;
+        o.seed_walks = 20;  // the 13th step is a seed walk
+    });
     add("combined, metropolis, glossy", glossy, [](auto& o) {
         o.method = "combined";
         o.depth = 3;
