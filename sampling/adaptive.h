@@ -193,15 +193,18 @@ struct Mutation {
     }
 };
 
-// Picks index k of `weights` with probability weights[k] / sum (the seeds of 004
-// section 8.1.2); `u` uniform in [0, 1).
-inline std::size_t pick_in_proportion(const std::vector<double>& weights, double u) {
-    double total = 0.0;
-    for (double w : weights) total += w;
-    double run = 0.0;
-    for (std::size_t k = 0; k < weights.size(); ++k)
-        if ((run += weights[k]) > u * total) return k;
-    return weights.empty() ? 0 : weights.size() - 1;
-}
+// A pick in proportion to weight from a stream of items, in one pass (a weighted
+// reservoir of one: the seeds of 004 section 8.1.2). Item k replaces the pick with
+// probability w_k / (w_1 + ... + w_k), so after n items the pick is item k with
+// probability w_k / (w_1 + ... + w_n). `u` uniform in [0, 1).
+struct Reservoir {
+    double total = 0.0;  // the weight offered so far
+
+    // Returns whether the item of weight `weight` (>= 0) becomes the pick.
+    bool offer(double weight, double u) {
+        total += weight;
+        return weight > 0.0 && u * total < weight;
+    }
+};
 
 }  // namespace raybundle::sampling

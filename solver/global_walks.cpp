@@ -143,7 +143,7 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
         point_.assign(static_cast<std::size_t>(2 * D), 0.0);
         proposal_ = point_;
         if (options.sampler == sampling::SamplerKind::metropolis) {
-            chains_.assign(kMetropolisChains, Chain{point_, std::vector<Rgb>(n, Rgb::Zero()), 0.0, 0.0});
+            chains_.assign(kMetropolisChains, Chain{point_, std::vector<Rgb>(n, Rgb::Zero()), 0.0, {}});
             seed_sum_.assign(n, Rgb::Zero());
             vectors += kMetropolisChains + 1;
         }
@@ -346,9 +346,7 @@ long GlobalWalks::seed_target() const {
 }
 
 // One seed walk: a uniform walk, a sample of the exposure and of the seeds' field, and
-// every chain's reservoir offered it (chain c keeps it with probability I / (the
-// importance of the seeds so far), so that its pick is seed k with probability
-// I_k / sum I: 8.1.2's draw in proportion to the importance, in one pass).
+// offered to every chain's reservoir (8.1.2's draw in proportion to the importance).
 void GlobalWalks::seed_metropolis() {
     for (double& u : point_) u = adaptive_rng_.uniform();
     const double importance = evaluate_at(point_.data());
@@ -357,8 +355,8 @@ void GlobalWalks::seed_metropolis() {
     ++uniform_walks_;
     ++seeds_done_;
     for (Chain& c : chains_) {
-        c.reservoir += importance;
-        if (importance > 0.0 && adaptive_rng_.uniform() * c.reservoir < importance) {
+        // A walk that lights nothing is never picked: no random number spent on it.
+        if (importance > 0.0 && c.seeds.offer(importance, adaptive_rng_.uniform())) {
             c.point = point_;
             c.estimate = walk_;
             c.importance = importance;
@@ -451,7 +449,7 @@ void GlobalWalks::save(StateWriter& out) const {
             out.put(c.point);
             out.put(c.estimate);
             out.put(c.importance);
-            out.put(c.reservoir);
+            out.put(c.seeds.total);
         }
         out.put(uniform_importance_);
         out.put(uniform_walks_);
@@ -490,7 +488,7 @@ void GlobalWalks::restore(StateReader& in) {
             in.get(c.point);
             in.get(c.estimate);
             in.get(c.importance);
-            in.get(c.reservoir);
+            in.get(c.seeds.total);
         }
         in.get(uniform_importance_);
         in.get(uniform_walks_);

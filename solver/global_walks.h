@@ -60,7 +60,8 @@
 //               and adds the expected value of both (8.2):
 //               b (a X(z') / I(z') + (1 - a) X(z) / I(z)); the field is their mean over
 //               the chain's steps. Until the first step it is the seeds' mean (a run of
-//               random walks). Consistent, not unbiased: b is estimated, and 004
+//               random walks). averaged() counts every walk, seeds included, so that it
+//               grows with the run as the pipeline's rounds need. Consistent, not unbiased: b is estimated, and 004
 //               section 8.4 bounds the start-up bias (tests/solver/test_importance_sampling.cpp).
 //
 // Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
@@ -176,7 +177,7 @@ private:
         std::vector<double> point;
         std::vector<Rgb> estimate;
         double importance = 0.0;  // with the floor
-        double reservoir = 0.0;   // seeding: the importance of the seeds so far (its pick's odds)
+        sampling::Reservoir seeds;  // seeding: picks the first walk in proportion to importance
     };
     std::vector<Chain> chains_;
     std::vector<Rgb> seed_sum_;  // per patch: the seed walks' sum (the field until the first step)
