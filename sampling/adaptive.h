@@ -10,12 +10,12 @@
 //                square; an estimate divides by p(z) (eq. 33), so it stays unbiased
 //                for any tables. The tables are refined in phases from the importance
 //                of the phase's samples (eq. 35-36; choices below).
-//   Mutation     (004 section 8.1.1) the Metropolis proposal: a uniform perturbation
+//   Mutation     (004 section 8.1.1) the Metropolis small step: a uniform perturbation
 //                of every coordinate within [-delta/2, delta/2) on the circle (a
 //                coordinate that leaves [0,1) comes back on the other side: 004 section
-//                8.4 treats the domain as circular), or with a small probability an
-//                independent uniform point (a "large step", which keeps the chain
-//                from staying in one mode). Symmetric: T(x -> y) = T(y -> x).
+//                8.4 treats the domain as circular). Symmetric: T(x -> y) = T(y -> x).
+//                The large steps, independent draws that keep the chain from staying
+//                in one mode, come from a learnt density (sampling/mixture.h).
 //
 // Both are deterministic given their random generator.
 #include "sampling/rng.h"
@@ -172,24 +172,16 @@ private:
     long refinements_ = 0;
 };
 
-// The Metropolis proposal (above): `size` coordinates perturbed by delta, or with
-// probability `large_step` drawn anew.
+// The Metropolis small step (above): `size` coordinates perturbed by delta.
 struct Mutation {
     double delta = 0.1;
-    double large_step = 0.1;
 
-    // Returns whether it was a large step (`to` uniform, independent of `from`).
-    bool operator()(const double* from, double* to, int size, Rng& rng) const {
-        if (rng.uniform() < large_step) {
-            for (int k = 0; k < size; ++k) to[k] = rng.uniform();
-            return true;
-        }
+    void operator()(const double* from, double* to, int size, Rng& rng) const {
         for (int k = 0; k < size; ++k) {
             double u = from[k] + delta * (rng.uniform() - 0.5);
             u -= std::floor(u);
             to[k] = u >= 1.0 ? 0.0 : u;
         }
-        return false;
     }
 };
 

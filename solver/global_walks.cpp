@@ -26,6 +26,9 @@ namespace {
 constexpr int kVegasBins = 8;      // per direction, bins x bins over the unit square
 constexpr long kVegasPhase = 64;   // walks between refinements
 constexpr int kMetropolisChains = 4;
+constexpr long kFirstRefresh = 16;       // Metropolis steps before the large steps' density is first learnt
+constexpr double kRefreshGrowth = 1.25;  // then refreshed after 1.25 times as many
+constexpr double kLearningShare = 0.2;   // of the steps after the seeds: learning, then the density is fixed
 
 double binomial(int n, int k) {
     double r = 1.0;
@@ -97,7 +100,9 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
       sampler_(options.sampler, options.depth, run.seed, run.chain),
       jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)),
       adaptive_rng_(run.seed, sampling::streams::kAdaptiveWalks[run.chain]),
-      vegas_(options.depth, kVegasBins) {
+      vegas_(options.depth, kVegasBins),
+      learner_(options.depth),
+      exposure_(options.depth) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));
@@ -167,7 +172,10 @@ SolverReport GlobalWalks::report() const {
                                    {"seed_walks", seeds_done_},
                                    {"seeding", seeding_},
                                    {"exposure", exposure()},
-                                   {"exposure_walks", uniform_walks_},
+                                   {"exposure_walks", exposure_.samples()},
+                                   {"density_refreshes", static_cast<long>(exposure_.densities().size()) - 1},
+                                   {"learning_steps", learnt_},
+                                   {"image_steps", imaged_},
                                    {"importance_floor", floor_},
                                    {"proposed", proposed_},
                                    {"acceptance_rate", proposed_ > 0 ? acceptance_sum_ / proposed_ : 0.0},
@@ -340,6 +348,10 @@ void GlobalWalks::advance_vegas() {
     }
 }
 
+long GlobalWalks::learning_steps() const {
+    return std::max(1L, static_cast<long>(kLearningShare * static_cast<double>(options_.steps - seed_target())));
+}
+
 long GlobalWalks::seed_target() const {
     if (options_.seed_walks > 0) return options_.seed_walks;
     return std::max(1L, static_cast<long>(SolverOptions::kAutoSeedShare * static_cast<double>(options_.steps)));
@@ -351,8 +363,7 @@ void GlobalWalks::seed_metropolis() {
     for (double& u : point_) u = adaptive_rng_.uniform();
     const double importance = evaluate_at(point_.data());
     for (std::size_t i = 0; i < seed_sum_.size(); ++i) seed_sum_[i] += walk_[i];
-    uniform_importance_ += importance;
-    ++uniform_walks_;
+    exposure_.add(point_.data(), importance);
     ++seeds_done_;
     for (Chain& c : chains_) {
         // A walk that lights nothing is never picked: no random number spent on it.
@@ -367,8 +378,9 @@ void GlobalWalks::seed_metropolis() {
 // The seeds are done (and one of them brought light to the image): the floor, and the
 // chains' first walks are their picks.
 void GlobalWalks::start_chains() {
-    floor_ = 0.01 * uniform_importance_ / static_cast<double>(uniform_walks_);
+    floor_ = 0.01 * exposure_.mean();
     for (Chain& c : chains_) c.importance += floor_;
+    next_refresh_ = kFirstRefresh;
     seeding_ = false;
 }
 
@@ -378,22 +390,42 @@ void GlobalWalks::advance_metropolis() {
         // seeding goes on until one brings light to the image (in a scene whose image
         // stays dark, the whole run is uniform walks).
         seed_metropolis();
-        if (seeds_done_ >= seed_target() && uniform_importance_ > 0.0) start_chains();
+        if (seeds_done_ >= seed_target() && exposure_.mean() > 0.0) start_chains();
         return;
     }
     Chain& c = chains_[static_cast<std::size_t>(proposed_ % kMetropolisChains)];
-    const sampling::Mutation mutate{options_.mutation_size, options_.large_step};
-    const bool large = mutate(c.point.data(), proposal_.data(), 2 * options_.depth, adaptive_rng_);
-    const double raw = evaluate_at(proposal_.data()), importance = raw + floor_;
-    if (large) {  // a uniform walk: one more sample of the exposure
-        uniform_importance_ += raw;
-        ++uniform_walks_;
+    const int size = 2 * options_.depth;
+    // A large step draws the walk anew from the learnt density p (sampling/mixture.h):
+    // an independence proposal, accepted by the Metropolis-Hastings ratio
+    // I(z') p(z) / (I(z) p(z')). A small step perturbs the walk (symmetric).
+    const bool large = adaptive_rng_.uniform() < options_.large_step;
+    double proposal_over_current = 1.0;  // p(z') / p(z) for a large step
+    if (large) {
+        const sampling::DirectionMixture& p = exposure_.current();
+        proposal_over_current = p.sample(adaptive_rng_, proposal_.data()) / p.density(c.point.data());
+    } else {
+        sampling::Mutation{options_.mutation_size}(c.point.data(), proposal_.data(), size, adaptive_rng_);
     }
-    const double a = std::min(1.0, importance / c.importance);
-    // The expected value of the step (004 section 8.2): both walks, weighed by a; the
-    // exposure b multiplies the sum when it is read (field()).
-    const double new_weight = a / importance, old_weight = (1.0 - a) / c.importance;
-    for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += new_weight * walk_[i] + old_weight * c.estimate[i];
+    const double raw = evaluate_at(proposal_.data()), importance = raw + floor_;
+    if (large) exposure_.add(proposal_.data(), raw);  // an independent walk: a sample of b
+    const double a = std::min(1.0, importance / (c.importance * proposal_over_current));
+    if (learnt_ < learning_steps()) {
+        // Learning: the density learns from the step's expected value (both walks,
+        // weighed by a) and is refreshed now and then; the step stays out of the image.
+        learner_.learn(proposal_.data(), a);
+        learner_.learn(c.point.data(), 1.0 - a);
+        ++learnt_;
+        if (learnt_ == next_refresh_ || learnt_ == learning_steps()) {
+            exposure_.draw_from(learner_.mixture(), std::sqrt(1.0 + static_cast<double>(learnt_)));
+            next_refresh_ = std::max(next_refresh_ + 1, static_cast<long>(kRefreshGrowth * static_cast<double>(next_refresh_)));
+        }
+    } else {
+        // The expected value of the step (004 section 8.2): both walks, weighed by a;
+        // the exposure b multiplies the sum when it is read (field()).
+        const double new_weight = a / importance, old_weight = (1.0 - a) / c.importance;
+        for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += new_weight * walk_[i] + old_weight * c.estimate[i];
+        ++imaged_;
+    }
     ++proposed_;
     acceptance_sum_ += a;
     if (adaptive_rng_.uniform() < a) {
@@ -451,8 +483,22 @@ void GlobalWalks::save(StateWriter& out) const {
             out.put(c.importance);
             out.put(c.seeds.total);
         }
-        out.put(uniform_importance_);
-        out.put(uniform_walks_);
+        out.put(learner_.counts());
+        out.put(learner_.totals());
+        out.put(learner_.marginals());
+        out.put(learner_.marginal_total());
+        out.put(learnt_);
+        out.put(next_refresh_);
+        out.put(imaged_);
+        out.put(static_cast<std::uint64_t>(exposure_.densities().size()));
+        for (const sampling::DirectionMixture& p : exposure_.densities()) {
+            out.put(p.uniform);
+            out.put(p.weights);
+            out.put(p.cells);
+        }
+        out.put(exposure_.trust());
+        out.put(exposure_.counts());
+        out.put(exposure_.sums());
         out.put(proposed_);
         out.put(accepted_);
         out.put(acceptance_sum_);
@@ -490,8 +536,28 @@ void GlobalWalks::restore(StateReader& in) {
             in.get(c.importance);
             in.get(c.seeds.total);
         }
-        in.get(uniform_importance_);
-        in.get(uniform_walks_);
+        in.get(learner_.counts());
+        in.get(learner_.totals());
+        in.get(learner_.marginals());
+        in.get(learner_.marginal_total());
+        in.get(learnt_);
+        in.get(next_refresh_);
+        in.get(imaged_);
+        std::uint64_t densities = 0;
+        in.get(densities);
+        if (densities < 1 || densities > in.left() / 8) throw StateError("a Metropolis density count out of range");
+        exposure_.densities().assign(densities, sampling::DirectionMixture::uniform_density(options_.depth));
+        for (sampling::DirectionMixture& p : exposure_.densities()) {
+            in.get(p.uniform);
+            in.get(p.weights);
+            in.get(p.cells);
+        }
+        exposure_.trust().resize(densities);
+        exposure_.counts().resize(densities);
+        exposure_.sums().resize(densities);
+        in.get(exposure_.trust());
+        in.get(exposure_.counts());
+        in.get(exposure_.sums());
         in.get(proposed_);
         in.get(accepted_);
         in.get(acceptance_sum_);
@@ -501,14 +567,14 @@ void GlobalWalks::restore(StateReader& in) {
 
 RadianceField GlobalWalks::field() const {
     if (options_.sampler != sampling::SamplerKind::metropolis) return t_.field_from(sum_, walks_done_, to_eye_);
-    if (proposed_ == 0) return t_.field_from(seed_sum_, seeds_done_, to_eye_);
+    if (imaged_ == 0) return t_.field_from(seed_sum_, seeds_done_, to_eye_);
     std::vector<Rgb> scaled = sum_;
     for (Rgb& v : scaled) v *= exposure();
-    return t_.field_from(scaled, proposed_, to_eye_);
+    return t_.field_from(scaled, imaged_, to_eye_);
 }
 
 double GlobalWalks::exposure() const {
-    return uniform_walks_ > 0 ? uniform_importance_ / static_cast<double>(uniform_walks_) + floor_ : 0.0;
+    return exposure_.samples() > 0 ? exposure_.mean() + floor_ : 0.0;
 }
 
 }  // namespace raybundle::solver

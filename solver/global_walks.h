@@ -67,6 +67,7 @@
 // Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
 // seed_walks. Call order: see solver.h.
 #include "sampling/adaptive.h"
+#include "sampling/mixture.h"
 #include "sampling/walk_sampler.h"
 #include "solver/importance.h"
 #include "solver/solver.h"
@@ -182,10 +183,14 @@ private:
     std::vector<Chain> chains_;
     std::vector<Rgb> seed_sum_;  // per patch: the seed walks' sum (the field until the first step)
     bool seeding_ = true;
-    // The exposure b: the mean importance of the uniform walks so far (the seeds and
-    // the large steps' proposals), without the floor.
-    double uniform_importance_ = 0.0;
-    long uniform_walks_ = 0;
+    // The large steps' density, learnt from the chains' steps and refreshed after
+    // kFirstRefresh, then kRefreshGrowth times more, steps.
+    sampling::MixtureLearner learner_;
+    long learnt_ = 0, next_refresh_ = 0, imaged_ = 0;  // learning steps, then the image's
+    long learning_steps() const;
+    // The exposure b without the floor: the deterministic-mixture estimate over every
+    // independent walk (the seeds, uniform, and the large steps, from the densities).
+    sampling::MixtureEstimate exposure_;
     double exposure() const;
     long seeds_done_ = 0, proposed_ = 0, accepted_ = 0;
     double acceptance_sum_ = 0.0;

@@ -66,9 +66,9 @@ struct SolverOptions {
     // coordinates), its probability of a large step, and its seed walks per chain (the
     // first walks of the chain's `steps`; 0: kAutoSeedShare of them).
     double mutation_size = 0.1;
-    double large_step = 0.1;
+    double large_step = 0.3;
     long seed_walks = 0;
-    static constexpr double kAutoSeedShare = 0.4;
+    static constexpr double kAutoSeedShare = 0.3;
     std::string visibility = visibility::kDefaultBackend;  // the backend (the linear basis brings its own painter)
     visibility::BackendOptions map;  // its resolution and jitter (make_solver adds the sky when the scene has one)
 };

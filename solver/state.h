@@ -98,9 +98,10 @@ public:
     void finish() const {
         if (left() != 0) throw StateError(std::to_string(left()) + " bytes left over");
     }
+    // The bytes not yet read.
+    std::size_t left() const { return bytes_.size() - at_; }
 
 private:
-    std::size_t left() const { return bytes_.size() - at_; }
     template <class T>
     T value() {
         static_assert(std::is_trivially_copyable_v<T>);

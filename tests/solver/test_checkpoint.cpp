@@ -73,7 +73,13 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
         o.sampler = sampling::SamplerKind::metropolis;
         o.seed_walks = 20;  // the 13th step is a seed walk
     });
-    add("combined, metropolis, glossy", glossy, [](auto& o) {
+    add("walk, metropolis, stopped in the image's steps", box, [](auto& o) {
+        o.method = "walk";
+        o.depth = 3;
+        o.sampler = sampling::SamplerKind::metropolis;
+        o.seed_walks = 4;  // then 7 learning steps; the 13th step goes into the image
+    });
+    add("combined, metropolis, glossy", glossy, [](auto& o) {  // stopped while learning
         o.method = "combined";
         o.depth = 3;
         o.sampler = sampling::SamplerKind::metropolis;

@@ -29,7 +29,7 @@ double characteristic(int k, double delta) {
 // from M uniform seeds in proportion to their (constant) importance (8.1.2). Returns
 // the estimates of the Fourier coefficients c_k = E[exp(j k x_n)], k = 1..K.
 std::vector<std::complex<double>> chains_after(int n, bool seeded, int N, int K, double delta) {
-    const sampling::Mutation mutate{delta, 0.0};
+    const sampling::Mutation mutate{delta};
     sampling::Rng rng(5, 77);
     std::vector<double> seeds(512);
     for (double& s : seeds) s = rng.uniform();
@@ -236,8 +236,11 @@ TEST_CASE("VEGAS and Metropolis walks reach what random walks reach on the homog
     solver::SolverReport report;
     walks_mean(scene, sampling::SamplerKind::metropolis, 100, 1, &report);
     const auto& m = report.details.at("metropolis");
-    CHECK(m.at("seed_walks").get<long>() == 40);  // 40 % of the walks
-    CHECK(m.at("proposed").get<long>() == 60);
+    CHECK(m.at("seed_walks").get<long>() == 30);  // 30 % of the walks
+    CHECK(m.at("proposed").get<long>() == 70);
+    CHECK(m.at("learning_steps").get<long>() == 14);  // 20 % of the steps
+    CHECK(m.at("image_steps").get<long>() == 56);
+    CHECK(m.at("density_refreshes").get<long>() == 1);  // at the end of the learning (before 16 steps)
     CHECK_FALSE(m.at("seeding").get<bool>());
     CHECK(m.at("acceptance_rate").get<double>() > 0.5);  // a homogeneous scene: nearly constant importance
     CHECK(m.at("exposure").get<double>() > 0.0);
