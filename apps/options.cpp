@@ -127,12 +127,13 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                    "metropolis: the perturbation's extent in the walk's unit cube")
         ->capture_default_str()
         ->check(CLI::Range(1e-6, 1.0));
-    cmd.add_option("--large-step", s.large_step, "metropolis: the probability of an independent new walk")
+    cmd.add_option("--large-step", s.large_step,
+                   "metropolis: the probability of an independent new walk, from the density learnt from the chains")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
     cmd.add_option("--seed-walks", s.seed_walks,
                    "metropolis: the first N walks of each chain are uniform seeds, whose importance picks the "
-                   "starting walks and gives the exposure (0: 40 % of the walks)")
+                   "starting walks (0: 30 % of the walks)")
         ->capture_default_str()
         ->check(CLI::Range(0L, 1000000000L));
     cmd.add_flag("--both-ways,!--one-way", s.both_ways,

@@ -44,25 +44,34 @@
 //               light of unseen patches is still estimated.
 //   metropolis  (eq. 37-41) 4 chains per solver chain, taking steps in turn (a fixed
 //               count: the result does not depend on the threads). The first
-//               `seed_walks` walks of the chain's budget (default 40 % of them; more while
+//               `seed_walks` walks of the chain's budget (default 30 % of them; more while
 //               none brings light to the image) are uniform seed walks: each chain's
 //               first walk is one of them, picked in proportion to its importance
 //               (8.1.2: the chains start in the stationary distribution; one weighted
-//               reservoir per chain, so that no seed is evaluated twice), and the
-//               exposure b (8.1.3), the integral of the importance, is the mean
-//               importance of every uniform walk so far: the seeds, and the large
-//               steps' proposals (independent uniform walks too), so that it improves
-//               as the run goes; it scales the sum when the field is read. The
+//               reservoir per chain, so that no seed is evaluated twice). The
 //               importance gets a floor f, 1 % of the seeds' mean (the light of walks
-//               the camera does not see keeps a chance). Then every step mutates the
-//               chain's walk (sampling::Mutation: delta = mutation_size, large steps
-//               with probability large_step), accepts with a = min(1, I(z') / I(z)),
-//               and adds the expected value of both (8.2):
-//               b (a X(z') / I(z') + (1 - a) X(z) / I(z)); the field is their mean over
-//               the chain's steps. Until the first step it is the seeds' mean (a run of
-//               random walks). averaged() counts every walk, seeds included, so that it
-//               grows with the run as the pipeline's rounds need. Consistent, not unbiased: b is estimated, and 004
-//               section 8.4 bounds the start-up bias (tests/solver/test_importance_sampling.cpp).
+//               the camera does not see keeps a chance). Then every step either
+//               perturbs the chain's walk (sampling::Mutation, delta = mutation_size;
+//               accepted with a = min(1, I(z') / I(z))) or, with probability
+//               large_step, draws a new walk from a density p learnt from the chains
+//               (sampling/mixture.h: a mixture of one-direction components, since light
+//               through an opening needs one of the walk's directions in its cone;
+//               accepted with a = min(1, I(z') p(z) / (I(z) p(z')))). The next 20 % of
+//               the steps after the seeds teach the density (refreshed after 16, 20,
+//               25, ... of them) and stay out of the image; then it is fixed, so that
+//               the chains are plain Metropolis-Hastings (adapting all along biased the
+//               homogeneous box by 3 % at 1,200 walks). Every other step adds the
+//               expected value of both walks (8.2): b (a X(z') / I(z') + (1 - a) X(z) / I(z)),
+//               the field is their mean. The exposure b (8.1.3), the integral of the
+//               importance, comes from every independent walk: the seeds (uniform) and
+//               the large steps (from p), each density's sum of I / p weighed by a trust
+//               fixed in advance (sampling::MixtureEstimate): far less heavy-tailed than
+//               the uniform walks' mean, and unbiased. Until the first image step the
+//               field is the seeds' mean (a run of random walks). averaged() counts
+//               every walk, seeds included, so that it grows with the run as the
+//               pipeline's rounds need. Consistent, not unbiased: b is estimated, and
+//               004 section 8.4 bounds the start-up bias
+//               (tests/solver/test_importance_sampling.cpp).
 //
 // Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
 // seed_walks. Call order: see solver.h.
