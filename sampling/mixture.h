@@ -32,7 +32,9 @@
 //                         sum_k omega_k sum_{i from p_k} f(z_i) / p_k(z_i)  /  sum_k omega_k n_k.
 //                     Every summand has the expectation omega_k * integral whatever
 //                     p_k is (it was learnt from earlier samples only) and the weights
-//                     do not look at the values, so the estimate is unbiased. (The
+//                     do not look at the values, so the estimate is unbiased (given
+//                     the samples' counts: the solver's seeding, which goes on while
+//                     the image is dark, is the exception). (The
 //                     deterministic mixture, which weighs every sample by the mixture
 //                     of all the densities, bounds the weights further, but a density
 //                     learnt near a sample then discounts that sample: it measured 28 %
@@ -42,8 +44,10 @@
 #include "sampling/rng.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace raybundle::sampling {
@@ -69,10 +73,22 @@ struct DirectionMixture {
         return m;
     }
 
+    // The cell of a direction's coordinates in [0, 1] (1 goes to the last cell).
     static int cell_of(const double* uv) {
-        const int i = std::min(kBins - 1, static_cast<int>(uv[0] * kBins));
-        const int j = std::min(kBins - 1, static_cast<int>(uv[1] * kBins));
+        const int i = std::clamp(static_cast<int>(uv[0] * kBins), 0, kBins - 1);
+        const int j = std::clamp(static_cast<int>(uv[1] * kBins), 0, kBins - 1);
         return i * kBins + j;
+    }
+
+    // Whether restored values make a density: 0 < u <= 1, weights and cells finite
+    // and >= 0, of the sizes for `directions`.
+    bool valid(int directions_expected) const {
+        auto ok = [](double v) { return std::isfinite(v) && v >= 0.0; };
+        if (directions != directions_expected || !(uniform > 0.0 && uniform <= 1.0)) return false;
+        if (weights.size() != static_cast<std::size_t>(directions) ||
+            cells.size() != static_cast<std::size_t>(directions) * cells_per_component())
+            return false;
+        return std::all_of(weights.begin(), weights.end(), ok) && std::all_of(cells.begin(), cells.end(), ok);
     }
 
     double density(const double* point) const {
@@ -110,13 +126,12 @@ public:
     static constexpr double kPrior = 0.02;
 
     explicit MixtureLearner(int directions)
-        : directions_(directions),
+        : directions_(checked(directions)),
           counts_(static_cast<std::size_t>(directions) * DirectionMixture::cells_per_component(), 0.0),
           totals_(static_cast<std::size_t>(directions), 0.0),
           marginals_(static_cast<std::size_t>(directions) * DirectionMixture::cells_per_component(), 0.0),
           responsibility_(static_cast<std::size_t>(directions)),
           cell_(static_cast<std::size_t>(directions)) {
-        if (directions < 1) throw std::invalid_argument("MixtureLearner: directions must be >= 1");
     }
 
     // One point of the target with weight w >= 0.
@@ -167,6 +182,10 @@ public:
     double marginal_total() const { return marginal_total_; }
 
 private:
+    static int checked(int directions) {
+        if (directions < 1) throw std::invalid_argument("MixtureLearner: directions must be >= 1");
+        return directions;
+    }
     double weight(int t) const {
         double all = 0.0;
         for (double v : totals_) all += v;
@@ -207,22 +226,22 @@ private:
 class MixtureEstimate {
 public:
     // Starts with the uniform density, trust 1.
-    explicit MixtureEstimate(int directions) { draw_from(DirectionMixture::uniform_density(directions), 1.0); }
+    explicit MixtureEstimate(int directions) : current_(DirectionMixture::uniform_density(directions)) {
+        begin_period(1.0);
+    }
 
     // The next samples are drawn from `p`; their trust `omega` > 0 (fixed before they
     // are drawn).
     void draw_from(DirectionMixture p, double omega) {
-        densities_.push_back(std::move(p));
-        trust_.push_back(omega);
-        counts_.push_back(0);
-        sums_.push_back(0.0);
+        current_ = std::move(p);
+        begin_period(omega);
     }
-    const DirectionMixture& current() const { return densities_.back(); }
+    const DirectionMixture& current() const { return current_; }
 
     // A sample drawn from current(): its point and f(z) >= 0.
     void add(const double* point, double f) {
         ++counts_.back();
-        if (f > 0.0) sums_.back() += f / densities_.back().density(point);
+        if (f > 0.0) sums_.back() += f / current_.density(point);
     }
 
     long samples() const {
@@ -230,6 +249,7 @@ public:
         for (long c : counts_) n += c;
         return n;
     }
+    long periods() const { return static_cast<long>(counts_.size()); }  // densities drawn from
 
     // The estimate of the integral (0 before the first sample).
     double mean() const {
@@ -241,21 +261,28 @@ public:
         return weight > 0.0 ? sum / weight : 0.0;
     }
 
-    // The state a checkpoint keeps (solver/state.h).
-    std::vector<DirectionMixture>& densities() { return densities_; }
+    // The state a checkpoint keeps (solver/state.h): the current density and, per
+    // period, omega_k, n_k and the sum of f / p_k.
+    DirectionMixture& current() { return current_; }
     std::vector<double>& trust() { return trust_; }
     std::vector<long>& counts() { return counts_; }
     std::vector<double>& sums() { return sums_; }
-    const std::vector<DirectionMixture>& densities() const { return densities_; }
     const std::vector<double>& trust() const { return trust_; }
     const std::vector<long>& counts() const { return counts_; }
     const std::vector<double>& sums() const { return sums_; }
 
 private:
-    std::vector<DirectionMixture> densities_;
-    std::vector<double> trust_;   // omega_k
-    std::vector<long> counts_;    // n_k
-    std::vector<double> sums_;    // sum of f / p_k over the samples from p_k
+    void begin_period(double omega) {
+        if (!(omega > 0.0)) throw std::invalid_argument("MixtureEstimate: a trust must be > 0");
+        trust_.push_back(omega);
+        counts_.push_back(0);
+        sums_.push_back(0.0);
+    }
+
+    DirectionMixture current_;
+    std::vector<double> trust_;  // omega_k
+    std::vector<long> counts_;   // n_k
+    std::vector<double> sums_;   // sum of f / p_k over the samples from p_k
 };
 
 }  // namespace raybundle::sampling

@@ -173,7 +173,7 @@ SolverReport GlobalWalks::report() const {
                                    {"seeding", seeding_},
                                    {"exposure", exposure()},
                                    {"exposure_walks", exposure_.samples()},
-                                   {"density_refreshes", static_cast<long>(exposure_.densities().size()) - 1},
+                                   {"density_refreshes", exposure_.periods() - 1},
                                    {"learning_steps", learnt_},
                                    {"image_steps", imaged_},
                                    {"importance_floor", floor_},
@@ -349,6 +349,7 @@ void GlobalWalks::advance_vegas() {
 }
 
 long GlobalWalks::learning_steps() const {
+    if (!(options_.large_step > 0.0)) return 0;  // nothing draws from the density
     return std::max(1L, static_cast<long>(kLearningShare * static_cast<double>(options_.steps - seed_target())));
 }
 
@@ -490,13 +491,11 @@ void GlobalWalks::save(StateWriter& out) const {
         out.put(learnt_);
         out.put(next_refresh_);
         out.put(imaged_);
-        out.put(static_cast<std::uint64_t>(exposure_.densities().size()));
-        for (const sampling::DirectionMixture& p : exposure_.densities()) {
-            out.put(p.uniform);
-            out.put(p.weights);
-            out.put(p.cells);
-        }
-        out.put(exposure_.trust());
+        out.put(exposure_.current().uniform);
+        out.put(exposure_.current().weights);
+        out.put(exposure_.current().cells);
+        out.put(static_cast<std::uint64_t>(exposure_.trust().size()));
+        for (double omega : exposure_.trust()) out.put(omega);
         out.put(exposure_.counts());
         out.put(exposure_.sums());
         out.put(proposed_);
@@ -543,21 +542,28 @@ void GlobalWalks::restore(StateReader& in) {
         in.get(learnt_);
         in.get(next_refresh_);
         in.get(imaged_);
-        std::uint64_t densities = 0;
-        in.get(densities);
-        if (densities < 1 || densities > in.left() / 8) throw StateError("a Metropolis density count out of range");
-        exposure_.densities().assign(densities, sampling::DirectionMixture::uniform_density(options_.depth));
-        for (sampling::DirectionMixture& p : exposure_.densities()) {
-            in.get(p.uniform);
-            in.get(p.weights);
-            in.get(p.cells);
+        sampling::DirectionMixture& p = exposure_.current();
+        in.get(p.uniform);
+        in.get(p.weights);
+        in.get(p.cells);
+        if (!p.valid(options_.depth)) throw StateError("a Metropolis density out of range");
+        std::uint64_t periods = 0;
+        in.get(periods);
+        // Each period takes 24 bytes: a count the bytes left cannot hold is refused
+        // before anything is allocated.
+        if (periods < 1 || periods > in.left() / 24) throw StateError("a Metropolis period count out of range");
+        exposure_.trust().resize(periods);
+        exposure_.counts().resize(periods);
+        exposure_.sums().resize(periods);
+        for (std::uint64_t k = 0; k < periods; ++k) {
+            in.get(exposure_.trust()[k]);
+            if (!(exposure_.trust()[k] > 0.0)) throw StateError("a Metropolis trust out of range");
         }
-        exposure_.trust().resize(densities);
-        exposure_.counts().resize(densities);
-        exposure_.sums().resize(densities);
-        in.get(exposure_.trust());
         in.get(exposure_.counts());
         in.get(exposure_.sums());
+        for (const Chain& c : chains_)
+            for (double u : c.point)
+                if (!(u >= 0.0 && u <= 1.0)) throw StateError("a Metropolis walk outside the unit cube");
         in.get(proposed_);
         in.get(accepted_);
         in.get(acceptance_sum_);

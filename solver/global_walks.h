@@ -58,7 +58,8 @@
 //               through an opening needs one of the walk's directions in its cone;
 //               accepted with a = min(1, I(z') p(z) / (I(z) p(z')))). The next 20 % of
 //               the steps after the seeds teach the density (refreshed after 16, 20,
-//               25, ... of them) and stay out of the image; then it is fixed, so that
+//               25, ... of them and at the last) and stay out of the image (none
+//               with large_step 0); then it is fixed, so that
 //               the chains are plain Metropolis-Hastings (adapting all along biased the
 //               homogeneous box by 3 % at 1,200 walks). Every other step adds the
 //               expected value of both walks (8.2): b (a X(z') / I(z') + (1 - a) X(z) / I(z)),
@@ -193,12 +194,14 @@ private:
     std::vector<Rgb> seed_sum_;  // per patch: the seed walks' sum (the field until the first step)
     bool seeding_ = true;
     // The large steps' density, learnt from the chains' steps and refreshed after
-    // kFirstRefresh, then kRefreshGrowth times more, steps.
+    // kFirstRefresh, then kRefreshGrowth times more, steps, and at the last learning
+    // step.
     sampling::MixtureLearner learner_;
     long learnt_ = 0, next_refresh_ = 0, imaged_ = 0;  // learning steps, then the image's
     long learning_steps() const;
-    // The exposure b without the floor: the deterministic-mixture estimate over every
-    // independent walk (the seeds, uniform, and the large steps, from the densities).
+    // The exposure b without the floor, from every independent walk (the seeds,
+    // uniform, and the large steps, from the density of their period): each density's
+    // sum of I / p_k, weighed by a trust fixed in advance.
     sampling::MixtureEstimate exposure_;
     double exposure() const;
     long seeds_done_ = 0, proposed_ = 0, accepted_ = 0;

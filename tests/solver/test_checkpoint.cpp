@@ -36,6 +36,7 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
         const char* name;
         const scenes::Scene* scene;
         solver::SolverOptions options;
+        long stop = 13;  // steps before the save
     };
     std::vector<Case> cases;
     auto add = [&](const char* name, const scenes::Scene& scene, auto&& set) {
@@ -79,6 +80,14 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
         o.sampler = sampling::SamplerKind::metropolis;
         o.seed_walks = 4;  // then 7 learning steps; the 13th step goes into the image
     });
+    add("walk, metropolis, stopped after density refreshes", box, [](auto& o) {
+        o.method = "walk";
+        o.depth = 3;
+        o.sampler = sampling::SamplerKind::metropolis;
+        o.steps = 200;
+        o.seed_walks = 2;  // then 39 learning steps: refreshed after 16, 20 and 25, stopped at 28
+    });
+    cases.back().stop = 30;
     add("combined, metropolis, glossy", glossy, [](auto& o) {  // stopped while learning
         o.method = "combined";
         o.depth = 3;
@@ -101,7 +110,7 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
             // Stopped after 13 steps (not a multiple of the batch of 8 directions), saved,
             // restored into a new solver (one thread: the result does not depend on it).
             auto first = solver::make_solver(transport, c.options, run);
-            first->advance(13);
+            first->advance(c.stop);
             const std::string bytes = saved(*first);
             sampling::RunOptions one = run;
             one.threads = 1;
@@ -111,7 +120,7 @@ TEST_CASE("checkpoints: save after k steps, restore into a fresh solver, go on: 
             in.finish();
             CHECK(second->averaged() == first->averaged());
             CHECK(same(second->field(), first->field()));
-            second->advance(c.options.steps - 13);
+            second->advance(c.options.steps - c.stop);
             CHECK(same(second->field(), whole->field()));
             CHECK(second->report().steps == whole->report().steps);
             CHECK(second->report().directions == whole->report().directions);
