@@ -494,8 +494,7 @@ void GlobalWalks::save(StateWriter& out) const {
         out.put(exposure_.current().uniform);
         out.put(exposure_.current().weights);
         out.put(exposure_.current().cells);
-        out.put(static_cast<std::uint64_t>(exposure_.trust().size()));
-        for (double omega : exposure_.trust()) out.put(omega);
+        out.put(exposure_.trust());  // its count first, which restore() bounds before allocating
         out.put(exposure_.counts());
         out.put(exposure_.sums());
         out.put(proposed_);
