@@ -5,7 +5,8 @@
 # Usage: scripts/setup-deps.sh [--tests] [--fuzz]
 #   --tests   also the packages only the tests and benchmarks use: OpenCV with its
 #             contrib modules (the guided filter is compared with
-#             cv::ximgproc::guidedFilter), Open MPI (the tests run the solver on
+#             cv::ximgproc::guidedFilter), GSL (our VEGAS tables are compared
+#             with gsl_monte_vegas), Open MPI (the tests run the solver on
 #             two ranks with mpirun) and Python 3 (tests/cli/test_mpi.sh reads the
 #             stats and CSVs with it). scripts/test.sh passes it.
 #   --fuzz    also clang and its libFuzzer runtime (scripts/fuzz.sh passes it).
@@ -18,7 +19,7 @@ packages=(
   catch2 libembree-dev libopenexr-dev libpng-dev
   nlohmann-json3-dev libcli11-dev libtbb-dev
 )
-test_packages=(libopencv-dev libopencv-contrib-dev libopenmpi-dev openmpi-bin python3)
+test_packages=(libopencv-dev libopencv-contrib-dev libgsl-dev libopenmpi-dev openmpi-bin python3)
 fuzz_packages=(clang libclang-rt-dev)
 
 for arg in "$@"; do

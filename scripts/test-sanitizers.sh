@@ -17,7 +17,7 @@ jobs=${RAYBUNDLE_JOBS:-2}
 # Without MPI: Open MPI's own allocations would fill LeakSanitizer's report, and this
 # build checks that a raybundle without MPI refuses to run as copies under mpirun.
 cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYBUNDLE_SANITIZE=ON -DRAYBUNDLE_WITH_MPI=OFF \
-  -DRAYBUNDLE_BUILD_BENCH=OFF -DRAYBUNDLE_REQUIRE_OPENCV=ON
+  -DRAYBUNDLE_BUILD_BENCH=OFF -DRAYBUNDLE_REQUIRE_OPENCV=ON -DRAYBUNDLE_REQUIRE_GSL=ON
 cmake --build build-sanitize -j "$jobs"
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"

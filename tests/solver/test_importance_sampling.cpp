@@ -6,6 +6,7 @@
 #include "scenes/builtin.h"
 #include "solver/global_walks.h"
 #include "visibility/backend.h"
+#include "tests/sampling/integrands.h"
 
 #include <catch2/catch.hpp>
 
@@ -107,28 +108,9 @@ TEST_CASE("Metropolis start-up bias: a single seed follows 004 eq. 51, seeds by 
     }
 }
 
-namespace {
-
-// A peak per direction: g(u, v) = exp(-((u - 0.3)^2 + (v - 0.6)^2) / (2 s^2)) on the
-// unit square, two directions: f = g(z0, z1) g(z2, z3). Its integral is the product of
-// four one-dimensional Gaussian integrals over [0, 1].
-constexpr double kS = 0.06;
-double peak(const double* z) {
-    auto g = [](double u, double v) { return std::exp(-((u - 0.3) * (u - 0.3) + (v - 0.6) * (v - 0.6)) / (2 * kS * kS)); };
-    return g(z[0], z[1]) * g(z[2], z[3]);
-}
-double peak_integral() {
-    auto one = [](double c) {
-        return kS * std::sqrt(M_PI / 2.0) * (std::erf((1.0 - c) / (kS * std::sqrt(2.0))) + std::erf(c / (kS * std::sqrt(2.0))));
-    };
-    return one(0.3) * one(0.6) * one(0.3) * one(0.6);
-}
-
-}  // namespace
-
 TEST_CASE("VEGAS: unbiased on a peaked integrand, and its variance far below uniform sampling",
           "[sampling][vegas]") {
-    const double exact = peak_integral();
+    const double exact = test::peak_integral();
     sampling::VegasTables tables(2, 16);
     sampling::Rng rng(3, 11);
     double z[4];
@@ -136,7 +118,7 @@ TEST_CASE("VEGAS: unbiased on a peaked integrand, and its variance far below uni
     for (int phase = 0; phase < 10; ++phase) {
         for (int m = 0; m < 2000; ++m) {
             const double p = tables.sample(rng, z);
-            tables.accumulate(z, peak(z) / p);
+            tables.accumulate(z, test::peak(z) / p);
         }
         tables.refine();
     }
@@ -147,11 +129,11 @@ TEST_CASE("VEGAS: unbiased on a peaked integrand, and its variance far below uni
     for (int m = 0; m < M; ++m) {
         const double p = tables.sample(rng, z);
         CHECK(p == Approx(tables.density(z)).epsilon(1e-12));
-        const double v = peak(z) / p;
+        const double v = test::peak(z) / p;
         sum += v;
         sum2 += v * v;
         for (double& u : z) u = rng.uniform();
-        const double w = peak(z);
+        const double w = test::peak(z);
         usum += w;
         usum2 += w * w;
     }
