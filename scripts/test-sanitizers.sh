@@ -8,8 +8,9 @@
 # the high-albedo estimators ("no drift ...", "high albedo by default ...": 10^5 and
 # 2*10^4 steps of code the shorter stress tests run as well) and the samplers'
 # comparison on the partition scene ("partition": 37 runs of the CLI, whose Metropolis
-# code the unit tests run as well) are left to the normal build, to keep CI within 30
-# minutes on 2 cores. Extra arguments go to ctest (e.g.
+# code the unit tests run as well) and the quasi-random walks against random ones ("qmc":
+# 90 runs of the CLI; the samplers' unit tests run here) are left to the normal build,
+# to keep CI within 30 minutes on 2 cores. Extra arguments go to ctest (e.g.
 # -R cli).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,4 +23,4 @@ cmake --build build-sanitize -j "$jobs"
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0"
-ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$" "$@"
+ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$|^qmc$" "$@"
