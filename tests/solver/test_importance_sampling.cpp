@@ -195,7 +195,7 @@ double walks_mean(const scenes::Scene& scene, sampling::SamplerKind sampler, lon
 TEST_CASE("VEGAS and Metropolis walks reach what random walks reach on the homogeneous box", "[solver][walks][vegas]") {
     const auto scene = scenes::make_builtin("homogeneous-box", 0.34);
     const double exact = 1.0 - std::ldexp(1.0, -4);  // D = 3
-    const int K = 6;
+    const int K = 12;
     auto over_seeds = [&](sampling::SamplerKind sampler) {
         double sum = 0.0, sum2 = 0.0;
         for (int k = 0; k < K; ++k) {
