@@ -1,6 +1,6 @@
 // `raybundle check SCENE`: validate a scene and print what it holds, without solving.
 #include "cli.h"
-#include "stats.h"
+#include "render/run_record.h"
 
 #include "render/scene_check.h"
 #include "scenes/ray_caster.h"
@@ -25,13 +25,13 @@ double percent(double part, double whole) { return whole > 0.0 ? 100.0 * part / 
 int check_scene(const Command& c) {
     const scenes::Scene scene = load_scene(c);
     const scenes::RayCaster caster(scene);
-    const render::SceneSummary s = render::summarize(scene, caster, c.run.threads);
+    const render::SceneSummary s = render::summarize(scene, caster, c.config.run.threads);
     const scenes::Camera& cam = scene.camera;
 
     std::printf("scene       %s\n", scene.name.c_str());
     std::printf("patches     %zu after refinement (%zu vertices), area %.6g\n", s.patches, s.vertices, s.area);
     if (scene.dropped_degenerate > 0) std::printf("            %zu zero-area triangles dropped\n", scene.dropped_degenerate);
-    std::printf("contacts    %s\n", contacts_line(scene).c_str());
+    std::printf("contacts    %s\n", render::contacts_line(scene).c_str());
     std::printf("bounds      %s .. %s\n", vec(s.lo).c_str(), vec(s.hi).c_str());
     std::printf("materials   %zu:", scene.materials.size());
     for (const auto& m : scene.materials)

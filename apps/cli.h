@@ -1,16 +1,11 @@
 #pragma once
 // The `raybundle` command line: what it holds between parsing and running. Options
-// are parsed straight into the libraries' own structs (SolverOptions, GatherOptions,
-// RunOptions, scene overrides); the command line adds only what it alone knows: the
-// files to write, and its own checks. Libraries report bad options in their own terms
-// (OptionError), which flag_of() turns into flags.
-#include "render/final_gather.h"
-#include "render/path_tracer.h"
-#include "render/progressive.h"
-#include "sampling/run.h"
+// are parsed straight into the library's run configuration (render::RunConfig) and the
+// scene overrides; the command line adds only what it alone knows: the files to write,
+// and its own checks. Libraries report bad options in their own terms (OptionError),
+// which flag_of() turns into flags.
+#include "render/run.h"
 #include "scenes/loader.h"
-#include "solver/solver.h"
-#include "solver/transport.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -33,17 +28,10 @@ struct Command {
     std::string scene_file, builtin;
     std::vector<std::string> defines;  // -D key=value
     scenes::Overrides overrides;       // the defines, then --patch-size, --width, --height, --fov
-    // Solving and rendering.
-    solver::SolverOptions solver;
-    solver::ShotOptions shots;
-    sampling::RunOptions run;
-    std::string shading = "smooth";
-    render::GatherOptions gather;
-    // The defaults make a final-gathered image (0 rays: the patch image instead).
-    int gather_rays = 64;
-    int diffuse_shot = -1;  // --diffuse-shot 1, --no-diffuse-shot 0, -1: decided per scene
-    render::PathTraceOptions path;  // --method pathtrace
-    render::RoundOptions rounds;    // --target-error, --time-budget
+    // Everything the run computes from, its defaults the library's (render/run.h); the
+    // flags set its fields. check_command() fills in the checkpoint identity and the
+    // files the run names.
+    render::RunConfig config;
     // Outputs: nothing is written that was not asked for.
     std::vector<std::string> images;  // -o, the format by the extension
     double exposure = 0.0;
@@ -51,12 +39,7 @@ struct Command {
     std::string reference;  // an EXR the image is compared with (relative L1, MSE)
     long csv_every = 0;
     bool quiet = false;
-    // Checkpoints (apps/checkpoint.h): the file, how often (steps over both chains, or
-    // seconds; one of them), the file to resume from, and what the run is.
-    std::string checkpoint, resume;
-    long checkpoint_steps = 0;
-    double checkpoint_seconds = 60.0;
-    nlohmann::json identity;
+    std::string resume;  // the checkpoint to go on from
 };
 
 // The options of `solve` (and the scene options of `check`) on their subcommand.

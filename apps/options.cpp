@@ -1,7 +1,6 @@
 // The options of `raybundle solve` and `raybundle check`, and the checks only the
 // command line can make.
 #include "cli.h"
-#include "checkpoint.h"
 #include "outputs.h"
 
 #include "render/image_io.h"
@@ -15,6 +14,7 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <set>
 
 namespace raybundle::apps {
 
@@ -64,6 +64,13 @@ const CLI::Validator kEvery(
     },
     "N|Ss");
 
+// A flag's choices: an enum's names array (one list for the library's parsing, its
+// messages and the command line).
+template <std::size_t N>
+CLI::IsMember choices(const std::array<const char*, N>& names) {
+    return CLI::IsMember(std::vector<std::string>(names.begin(), names.end()));
+}
+
 // The library's option names and the flags that set them.
 const std::map<std::string, std::string> kFlags = {
     {"method", "--method"},       {"basis", "--basis"},
@@ -79,6 +86,26 @@ const std::map<std::string, std::string> kFlags = {
     {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
     {"emission_samples", "--emission-samples"},
 };
+
+// The flags that do not change what a run computes: its outputs, its thread count (the
+// same result for any), its chatter, and the checkpoint flags themselves.
+const std::set<std::string> kNotIdentity = {"--output", "--exposure", "--stats", "--csv",  "--csv-every",
+                                            "--patches", "--ply",     "--aov",   "--reference", "--quiet",
+                                            "--threads", "--checkpoint", "--checkpoint-every", "--resume",
+                                            "--help", "scene"};
+
+// The options part of a run's identity (render/checkpoint.h): every flag given that
+// decides the result, with its values as given.
+nlohmann::json options_identity(const CLI::App& cmd) {
+    nlohmann::json options = nlohmann::json::object();
+    for (const CLI::Option* o : cmd.get_options()) {
+        if (o->count() == 0) continue;
+        const std::string name = o->get_name();
+        if (kNotIdentity.count(name) > 0) continue;
+        options[name] = o->results();
+    }
+    return options;
+}
 
 }  // namespace
 
@@ -100,14 +127,14 @@ void add_scene_options(CLI::App& cmd, Command& c) {
     shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384));
     shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384));
     shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);
-    cmd.add_option("--threads", c.run.threads, "threads (default: all cores; the same result for any count)")
+    cmd.add_option("--threads", c.config.run.threads, "threads (default: all cores; the same result for any count)")
         ->check(CLI::Range(1, 1024));
-    c.run.threads = hardware_threads();
+    c.config.run.threads = hardware_threads();
 }
 
 void add_solve_options(CLI::App& cmd, Command& c) {
     add_scene_options(cmd, c);
-    solver::SolverOptions& s = c.solver;
+    solver::SolverOptions& s = c.config.solver;
     cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several");
     cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite);
     cmd.add_option("--method", s.method,
@@ -122,7 +149,7 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option_function<std::string>(
            "--sampler", [&s](const std::string& v) { s.sampler = sampling::parse_sampler(v); },
            "walk directions: random | halton | sobol, or importance-sampled for the image: vegas | metropolis")
-        ->check(CLI::IsMember({"random", "halton", "sobol", "vegas", "metropolis"}));
+        ->check(choices(sampling::kSamplerNames));
     cmd.add_option("--mutation-size", s.mutation_size,
                    "metropolis: the perturbation's extent in the walk's unit cube")
         ->capture_default_str()
@@ -152,28 +179,29 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
     cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
         ->check(CLI::Range(1, 16384));
-    cmd.add_flag_callback("--diffuse-shot", [&c] { c.diffuse_shot = 1; },
+    cmd.add_flag_callback("--diffuse-shot", [&c] { c.config.diffuse_shot = true; },
                           "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse "
                           "scenes with area lights");
-    cmd.add_flag_callback("--no-diffuse-shot", [&c] { c.diffuse_shot = 0; }, "no diffuse shot");
-    cmd.add_option("--seed", c.run.seed, "random seed; the same seed gives bit-identical output")
+    cmd.add_flag_callback("--no-diffuse-shot", [&c] { c.config.diffuse_shot = false; }, "no diffuse shot");
+    cmd.add_option("--seed", c.config.run.seed, "random seed; the same seed gives bit-identical output")
         ->check(kDigits)
         ->capture_default_str();
-    cmd.add_option("--shading", c.shading, "patch image: smooth | flat")->capture_default_str();
-    cmd.add_option("--gather", c.gather_rays,
+    cmd.add_option_function<std::string>(
+           "--shading", [&c](const std::string& v) { c.config.shading = render::parse_shading(v); },
+           "patch image: smooth | flat")
+        ->check(choices(render::kShadingNames))
+        ->default_str(render::shading_name(c.config.shading));
+    render::GatherOptions& g = c.config.gather;
+    cmd.add_option("--gather", g.gather_rays,
                    "final gather with N rays per pixel for the indirect light (0: the patch image instead)")
         ->capture_default_str()
         ->check(CLI::Range(0, 1 << 20));
-    render::GatherOptions& g = c.gather;
-    g.spp = 16;
-    g.direct_samples = 8;
     cmd.add_option("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
         ->capture_default_str()
         ->check(CLI::Range(0, 1 << 16));
     cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel (pathtrace: paths per pixel)")
         ->capture_default_str()
         ->check(CLI::Range(1, 1 << 20));
-    g.emission_samples = 64;
     cmd.add_option("--emission-samples", g.emission_samples,
                    "final gather with --spp > 1: camera rays per pixel, besides the spp samples, for the emission and "
                    "sky the camera sees (0: the spp samples see them)")
@@ -182,14 +210,14 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option_function<std::string>(
            "--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
            "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
-        ->check(CLI::IsMember({"analytic", "sampled"}));
+        ->check(choices(render::kDirectLightNames));
     cmd.add_option("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
         ->capture_default_str()
         ->check(CLI::Range(0, 1 << 16));
     cmd.add_option_function<std::string>(
            "--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
            "final gather: guided | bilateral | atrous | none")
-        ->check(CLI::IsMember({"guided", "bilateral", "atrous", "none"}));
+        ->check(choices(render::kFilterNames));
     cmd.add_option("--filter-radius", g.filter.radius,
                    "guided and bilateral filters: window radius in pixels (0: 3 at 256^2, in proportion to the image "
                    "size, less with more gather rays per pass)")
@@ -206,10 +234,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                    "an EXR of the same size (e.g. from --method pathtrace): the image's relative L1 error and MSE "
                    "against it go into the summary line and the stats")
         ->check(CLI::ExistingFile);
-    cmd.add_option("--target-error", c.rounds.target_error,
+    cmd.add_option("--target-error", c.config.rounds.target_error,
                    "render in rounds until the image's estimated relative L1 error is at most E (e.g. 0.01)")
         ->check(kPositive & CLI::Range(0.0, 1.0));
-    cmd.add_option("--time-budget", c.rounds.time_budget,
+    cmd.add_option("--time-budget", c.config.rounds.time_budget,
                    "render in rounds for about S seconds (the first round always runs)")
         ->check(kPositive);
     cmd.add_option("--stats", c.stats, "run statistics (JSON)");
@@ -221,18 +249,18 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
     cmd.add_option("--ply", c.ply, "per-patch PLY with radiance colours (MeshLab)");
     cmd.add_flag("-q,--quiet", c.quiet, "no progress bar and no summary line");
-    cmd.add_option("--checkpoint", c.checkpoint,
+    cmd.add_option("--checkpoint", c.config.checkpoint,
                    "write the solver's state to FILE every --checkpoint-every, and when interrupted, to go on with "
                    "--resume FILE (one-round runs: not with --target-error, --time-budget or pathtrace)");
     cmd.add_option_function<std::string>(
            "--checkpoint-every",
            [&c](const std::string& v) {
                if (v.back() == 's') {
-                   c.checkpoint_seconds = std::stod(v.substr(0, v.size() - 1));
-                   c.checkpoint_steps = 0;
+                   c.config.checkpoint_seconds = std::stod(v.substr(0, v.size() - 1));
+                   c.config.checkpoint_steps = 0;
                } else {
-                   c.checkpoint_steps = std::stol(v);
-                   c.checkpoint_seconds = 0.0;
+                   c.config.checkpoint_steps = std::stol(v);
+                   c.config.checkpoint_seconds = 0.0;
                }
            },
            "N steps (over both chains, as --iterations counts them) or Ss seconds between checkpoints (default 60s)")
@@ -258,49 +286,52 @@ void check_command(const CLI::App& cmd, Command& c) {
                                   {"--frame", "--no-frame"}})
         if (cmd.count(on) > 0 && cmd.count(off) > 0)
             throw UsageError(std::string("give one of ") + on + " and " + off);
-    if (c.solver.method != "pathtrace") {
+    render::RunConfig& r = c.config;
+    if (r.solver.method != "pathtrace") {
         const auto& names = solver::method_names();
-        if (std::find(names.begin(), names.end(), c.solver.method) == names.end()) {
+        if (std::find(names.begin(), names.end(), r.solver.method) == names.end()) {
             std::string known;
             for (const auto& m : names) known += m + ", ";
-            throw UsageError("--method: unknown method '" + c.solver.method + "' (known: " + known + "pathtrace)");
+            throw UsageError("--method: unknown method '" + r.solver.method + "' (known: " + known + "pathtrace)");
         }
     }
-    if (c.solver.method == "pathtrace") {
+    if (r.solver.method == "pathtrace") {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
-        c.path.spp = cmd.count("--spp") > 0 ? c.gather.spp : render::PathTraceOptions{}.spp;
-    } else if (c.gather_rays == 0) {
+        r.path.spp = cmd.count("--spp") > 0 ? r.gather.spp : render::PathTraceOptions{}.spp;
+    } else if (r.gather.gather_rays == 0) {
         for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--filter-radius", "--eps-normal", "--eps-depth"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " needs the final gather (--gather N, N > 0)");
-    } else if (c.gather.spp > 4096) {
-        throw UsageError("--spp " + std::to_string(c.gather.spp) + ": the final gather takes at most 4096");
+    } else if (r.gather.spp > 4096) {
+        throw UsageError("--spp " + std::to_string(r.gather.spp) + ": the final gather takes at most 4096");
     }
-    if (c.solver.method == "iteration" && cmd.count("--depth") > 0)
+    if (r.solver.method == "iteration" && cmd.count("--depth") > 0)
         throw UsageError("--depth applies to the walk methods, not to --method iteration");
     for (const char* flag : {"--mutation-size", "--large-step", "--seed-walks"})
-        if (cmd.count(flag) > 0 && c.solver.sampler != sampling::SamplerKind::metropolis)
+        if (cmd.count(flag) > 0 && r.solver.sampler != sampling::SamplerKind::metropolis)
             throw UsageError(std::string(flag) + " applies to --sampler metropolis");
     if (cmd.count("--csv-every") > 0 && c.csv.empty()) throw UsageError("--csv-every needs --csv FILE");
-    if (cmd.count("--checkpoint-every") > 0 && c.checkpoint.empty())
+    if (cmd.count("--checkpoint-every") > 0 && r.checkpoint.empty())
         throw UsageError("--checkpoint-every needs --checkpoint FILE");
-    for (const auto& [path, flag] : {std::pair{c.checkpoint, "--checkpoint"}, {c.resume, "--resume"}}) {
+    for (const auto& [path, flag] : {std::pair{r.checkpoint, "--checkpoint"}, {c.resume, "--resume"}}) {
         if (path.empty()) continue;
-        if (c.solver.method == "pathtrace")
+        if (r.solver.method == "pathtrace")
             throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no solver state)");
-        if (c.rounds.target_error > 0.0 || c.rounds.time_budget > 0.0)
+        if (r.rounds.target_error > 0.0 || r.rounds.time_budget > 0.0)
             throw UsageError(std::string(flag) + " works for runs of one round: not with " +
-                             (c.rounds.target_error > 0.0 ? "--target-error" : "--time-budget"));
+                             (r.rounds.target_error > 0.0 ? "--target-error" : "--time-budget"));
     }
-    c.identity = options_identity(cmd);
-    c.gather.gather_rays = c.gather_rays;
-    c.run.progress_every = c.csv_every;
+    r.identity = options_identity(cmd);
+    r.run.progress_every = c.csv_every;
+    if (!c.csv.empty()) r.record_every = c.csv_every;
+    r.reference_file = c.reference;
+    r.resume_file = c.resume;
     // Every output names a file that can be written, and no two outputs, nor an output
     // and an input, the same file (compared once resolved: ./d/x.exr is d/x.exr).
     struct Named {
@@ -323,12 +354,12 @@ void check_command(const CLI::App& cmd, Command& c) {
         if (::stat(c.aov.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw UsageError("--aov " + c.aov + ": not a directory");
         for (const char* name : kAovNames) outputs.push_back({c.aov + "/" + name + ".exr", "--aov"});
     }
-    if (!c.checkpoint.empty()) outputs.push_back({c.checkpoint, "--checkpoint"});
+    if (!r.checkpoint.empty()) outputs.push_back({r.checkpoint, "--checkpoint"});
     std::vector<Named> inputs;
     if (!c.scene_file.empty()) inputs.push_back({c.scene_file, "the scene file"});
     if (!c.reference.empty()) inputs.push_back({c.reference, "the --reference image"});
     // --resume F --checkpoint F goes on writing the checkpoint it resumed from.
-    if (!c.resume.empty() && (c.checkpoint.empty() || resolved_path(c.resume) != resolved_path(c.checkpoint)))
+    if (!c.resume.empty() && (r.checkpoint.empty() || resolved_path(c.resume) != resolved_path(r.checkpoint)))
         inputs.push_back({c.resume, "the --resume checkpoint"});
     std::vector<std::string> resolved;
     for (const auto& out : outputs) {

@@ -107,7 +107,7 @@ void Ranks::share_rows(void* data, std::size_t row_bytes, int rows) const {
                         &all[row_bytes * static_cast<std::size_t>(firsts[static_cast<std::size_t>(k)] + i)], row_bytes);
 }
 
-void Ranks::finish() {
+void Ranks::finish() const {
     agree(nullptr, 0);
     finished_ = true;
 }
@@ -174,7 +174,7 @@ void Ranks::agree(const std::string* failure, int code) const {
     if (failure) throw RankFailed(*failure, code);
 }
 void Ranks::share_rows(void*, std::size_t, int) const {}
-void Ranks::finish() { finished_ = true; }
+void Ranks::finish() const { finished_ = true; }
 long Ranks::sum(long value) const { return value; }
 double Ranks::sum(double value) const { return value; }
 int Ranks::max(int value) const { return value; }

@@ -56,16 +56,16 @@ public:
     void share_rows(void* data, std::size_t row_bytes, int rows) const override;
     // The last exchange of a run (every rank gets there; throws RankFailed where one
     // failed): after it the leader writes, the others return.
-    void finish();
+    void finish() const override;
     // Sums and maxima over ranks (every rank gets them).
-    long sum(long value) const;
-    double sum(double value) const;
-    int max(int value) const;
+    long sum(long value) const override;
+    double sum(double value) const override;
+    int max(int value) const override;
     // Rank 0's value, on every rank.
-    std::uint64_t from_leader(std::uint64_t value) const;
+    std::uint64_t from_leader(std::uint64_t value) const override;
     // sum_r n_r v_r / sum_r n_r over ranks, summed in rank order (zeros where every n_r is
     // 0); every rank passes a vector of the same size and gets the result in it.
-    void weighted_mean(std::vector<double>& values, long n) const;
+    void weighted_mean(std::vector<double>& values, long n) const override;
 
     // This rank failed with `message` (one line) and exit code `code`: the leader prints
     // the line of the lowest failed rank, the others nothing; every rank's exit code.
@@ -76,7 +76,8 @@ private:
     void agree(const std::string* failure, int code) const;
 
     int rank_ = 0, size_ = 1;
-    bool mpi_ = false, finished_ = false;
+    bool mpi_ = false;
+    mutable bool finished_ = false;
 };
 
 }  // namespace raybundle::apps

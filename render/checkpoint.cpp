@@ -1,6 +1,4 @@
-#include "checkpoint.h"
-
-#include "signals.h"
+#include "render/checkpoint.h"
 
 #include "render/image_io.h"
 #include "scenes/errors.h"
@@ -14,13 +12,12 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
-#include <set>
 
 #ifndef RAYBUNDLE_VERSION
 #define RAYBUNDLE_VERSION "unknown"
 #endif
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 namespace {
 
@@ -31,13 +28,6 @@ constexpr std::uint32_t kByteOrder = 0x01020304u;
 // The largest checkpoint read: two chains of 10^7 patches with the ambient variate's
 // vectors are about 3 GB.
 constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{16} << 30;
-
-// The flags that do not change what a run computes: its outputs, its thread count (the
-// same result for any), its chatter, and the checkpoint flags themselves.
-const std::set<std::string> kNotIdentity = {"--output", "--exposure", "--stats", "--csv",  "--csv-every",
-                                            "--patches", "--ply",     "--aov",   "--reference", "--quiet",
-                                            "--threads", "--checkpoint", "--checkpoint-every", "--resume",
-                                            "--help", "scene"};
 
 struct Fnv {
     std::uint64_t h = 0xcbf29ce484222325ull;
@@ -97,9 +87,7 @@ std::string scene_hash(const scenes::Scene& scene) {
     return hex(f.h);
 }
 
-UsageError bad(const std::string& path, const std::string& why) {
-    return UsageError("--resume " + path + ": " + why);
-}
+CheckpointError bad(const std::string& path, const std::string& why) { return CheckpointError(path + ": " + why); }
 
 // Appends a u64 length and the bytes.
 void put_block(std::string& out, const std::string& block) {
@@ -110,24 +98,13 @@ void put_block(std::string& out, const std::string& block) {
 
 }  // namespace
 
-json options_identity(const CLI::App& cmd) {
-    json options = json::object();
-    for (const CLI::Option* o : cmd.get_options()) {
-        if (o->count() == 0) continue;
-        const std::string name = o->get_name();
-        if (kNotIdentity.count(name) > 0) continue;
-        options[name] = o->results();
-    }
-    return options;
-}
-
-json run_identity(const Command& c, const scenes::Scene& scene) {
+json run_identity(const json& options, const scenes::Scene& scene) {
     // The version and the exact painter's span kernels (AVX2 and the portable loops may
     // differ in a pixel pair where depths tie): a checkpoint goes on bit-identically only
     // on the same build and kernels.
     return {{"version", std::string(RAYBUNDLE_VERSION) + " (" + visibility::best_span_kernels().name + " kernels)"},
             {"scene", {{"name", scene.name}, {"patches", scene.patch_count()}, {"hash", scene_hash(scene)}}},
-            {"options", c.identity}};
+            {"options", options}};
 }
 
 std::uint64_t identity_hash(const json& identity) {
@@ -137,7 +114,7 @@ std::uint64_t identity_hash(const json& identity) {
     return f.h;
 }
 
-void write_checkpoint(const std::string& path, const Checkpoint& k) {
+void write_checkpoint(const std::string& path, const Checkpoint& k, const TemporaryTracker& tracker) {
     std::string bytes = kMagic;
     bytes.append(reinterpret_cast<const char*>(&kByteOrder), sizeof kByteOrder);
     const json header = {{"identity", k.identity}, {"steps_done", k.steps_done}, {"seconds", k.seconds}, {"rows", k.rows}};
@@ -149,21 +126,24 @@ void write_checkpoint(const std::string& path, const Checkpoint& k) {
     f.bytes(bytes.data(), bytes.size());
     bytes.append(reinterpret_cast<const char*>(&f.h), sizeof f.h);
 
-    const int slot = track_temporary(path + ".partial-" + std::to_string(::getpid()));
+    const int slot = tracker.track ? tracker.track(path + ".partial-" + std::to_string(::getpid())) : -1;
+    auto untrack = [&] {
+        if (tracker.untrack) tracker.untrack(slot);
+    };
     try {
-        render::write_atomically(path, [&](const std::string& tmp) {
+        write_atomically(path, [&](const std::string& tmp) {
             std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(tmp.c_str(), "wb"), &std::fclose);
-            if (!file) throw std::runtime_error("--checkpoint " + path + ": cannot write (" + std::strerror(errno) + ")");
+            if (!file) throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
             // On disk before the rename: a crash of the machine leaves the old checkpoint.
             if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0 ||
                 ::fsync(::fileno(file.get())) != 0)
-                throw std::runtime_error("--checkpoint " + path + ": write failed (" + std::strerror(errno) + ")");
+                throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
         });
     } catch (...) {
-        untrack_temporary(slot);
+        untrack();
         throw;
     }
-    untrack_temporary(slot);
+    untrack();
 }
 
 Checkpoint read_checkpoint(const std::string& path) {
@@ -171,7 +151,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     try {
         bytes = scenes::read_input_file(path, path, "checkpoint", kMaxCheckpointBytes);
     } catch (const scenes::SceneError& e) {
-        throw UsageError(std::string("--resume ") + e.what());
+        throw CheckpointError(e.what());
     }
     const std::size_t magic = sizeof kMagic - 1;
     if (bytes.compare(0, magic, kMagic) != 0) throw bad(path, "not a raybundle checkpoint");
@@ -248,4 +228,4 @@ void require_same_run(const std::string& path, const json& saved, const json& no
         if (!is.contains(name)) throw bad(path, prefix + name + " " + shown(value) + " was given then, not now");
 }
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

@@ -1,15 +1,16 @@
 #pragma once
 // Checkpoints: a run's solver state in a file, written every so often while it solves
-// (--checkpoint F, --checkpoint-every N steps or Ss seconds, and when the run is
-// interrupted), read back to go on (--resume F) bit-identically: a run killed and
-// resumed writes the image an uninterrupted run with the same seed writes.
+// (RunConfig::checkpoint, every so many steps or seconds, and when the run is
+// interrupted), read back to go on (RunConfig::resume) bit-identically: a run killed
+// and resumed writes the image an uninterrupted run with the same seed writes.
 //
 // What a checkpoint holds: what the run is (its identity: the program's version, a
 // hash of the scene as loaded, and every option that decides the result) and where it
 // is (the steps each chain has done, the seconds so far, the convergence rows so far,
 // each chain's Solver::save()). Resuming checks the identity first, and names the
-// first difference. Outputs, --threads (the same result for any count), --quiet and the
-// checkpoint flags themselves may differ.
+// first difference. The options part of the identity is the caller's (the command line
+// gives every option that decides the result: outputs, threads, chatter and the
+// checkpoint flags themselves may differ).
 //
 // The file, in this machine's byte order:
 //   "raybundle checkpoint 1\n", a u32 byte-order mark 0x01020304,
@@ -17,15 +18,23 @@
 //   u64 FNV-1a of every byte before.
 // It is written to a temporary beside it and renamed, so a kill at any moment leaves
 // the last complete checkpoint (or none).
-#include "cli.h"
+#include "render/image_io.h"
+#include "scenes/scene.h"
 
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
-namespace raybundle::apps {
+namespace raybundle::render {
+
+// A checkpoint that cannot be read, or that another run wrote: the message begins with
+// the file's name.
+struct CheckpointError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
 
 struct Checkpoint {
     nlohmann::json identity;
@@ -35,20 +44,21 @@ struct Checkpoint {
     std::vector<std::string> states;                // Solver::save() per chain
 };
 
-// The options part of a run's identity, from the parsed command line (check_command).
-nlohmann::json options_identity(const CLI::App& cmd);
-// The whole identity: the options' and the scene's (a hash of its patches, materials,
-// lights, sky and camera) and the program's version.
-nlohmann::json run_identity(const Command& c, const scenes::Scene& scene);
+// The whole identity: the options' (given by the caller) and the scene's (a hash of its
+// patches, materials, lights, sky and camera) and the program's version.
+nlohmann::json run_identity(const nlohmann::json& options, const scenes::Scene& scene);
 // A 64-bit hash (FNV-1a) of an identity, for comparing runs without sending it whole
 // (apps/ranks.h: every rank's against rank 0's).
 std::uint64_t identity_hash(const nlohmann::json& identity);
 
-void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
-// Throws UsageError ("--resume F: ...") for a file that is not a complete checkpoint of
+// Writes atomically (render::write_atomically; fsynced before the rename), its
+// temporary registered with `tracker`. Throws std::runtime_error ("F: cannot write
+// ...") where it cannot.
+void write_checkpoint(const std::string& path, const Checkpoint& checkpoint, const TemporaryTracker& tracker = {});
+// Throws CheckpointError ("F: ...") for a file that is not a complete checkpoint of
 // this machine's byte order.
 Checkpoint read_checkpoint(const std::string& path);
-// Throws UsageError naming the first difference between the identities.
+// Throws CheckpointError naming the first difference between the identities.
 void require_same_run(const std::string& path, const nlohmann::json& saved, const nlohmann::json& now);
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

@@ -48,6 +48,7 @@
 #include "render/image.h"
 #include "scenes/scene.h"
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -104,6 +105,8 @@ Image atrous_filter(const Image& input, const Guide& guide, int iterations, doub
 
 // Which filter cleans the final gather's indirect light, and its parameters.
 enum class Filter { guided, bilateral, atrous, none };
+// Their names in the enum's order: parsing, messages and the command line's choices.
+inline constexpr std::array<const char*, 4> kFilterNames = {"guided", "bilateral", "atrous", "none"};
 // Parses "guided", "bilateral", "atrous" or "none"; throws OptionError("filter").
 Filter parse_filter(const std::string& name);
 const char* filter_name(Filter f);

@@ -48,12 +48,12 @@ int most_similar_guide(const Vec3& normal, double depth, const std::vector<Vec3>
 }
 
 DirectLight parse_direct_light(const std::string& name) {
-    if (name == "analytic") return DirectLight::analytic;
-    if (name == "sampled") return DirectLight::sampled;
+    for (std::size_t k = 0; k < kDirectLightNames.size(); ++k)
+        if (name == kDirectLightNames[k]) return static_cast<DirectLight>(k);
     throw scenes::OptionError("direct", "unknown direct light method '" + name + "' (analytic | sampled)");
 }
 
-const char* direct_light_name(DirectLight d) { return d == DirectLight::analytic ? "analytic" : "sampled"; }
+const char* direct_light_name(DirectLight d) { return kDirectLightNames[static_cast<std::size_t>(d)]; }
 
 namespace {
 

@@ -66,6 +66,8 @@ namespace raybundle::render {
 
 // How direct light from area lights is computed (see above).
 enum class DirectLight { analytic, sampled };
+// Their names in the enum's order: parsing, messages and the command line's choices.
+inline constexpr std::array<const char*, 2> kDirectLightNames = {"analytic", "sampled"};
 DirectLight parse_direct_light(const std::string& name);  // throws OptionError
 const char* direct_light_name(DirectLight d);
 

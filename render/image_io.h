@@ -8,6 +8,14 @@
 
 namespace raybundle::render {
 
+// Who removes a temporary file if a signal ends the process (the command line's
+// handler, apps/signals.h): track(path) before the file is made gives a slot, untrack
+// (slot) once it is renamed or removed. Empty functions: nobody.
+struct TemporaryTracker {
+    std::function<int(const std::string& path)> track;
+    std::function<void(int slot)> untrack;
+};
+
 // Runs write(tmp) for a temporary path next to `path`, then renames tmp to path.
 // On any exception the temporary file is removed and the exception propagates.
 void write_atomically(const std::string& path, const std::function<void(const std::string& tmp)>& write);

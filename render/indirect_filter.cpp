@@ -10,22 +10,15 @@ namespace raybundle::render {
 using scenes::Vec3;
 
 Filter parse_filter(const std::string& name) {
-    if (name == "guided") return Filter::guided;
-    if (name == "bilateral") return Filter::bilateral;
-    if (name == "atrous") return Filter::atrous;
-    if (name == "none") return Filter::none;
-    throw scenes::OptionError("filter", "unknown filter '" + name + "' (known: guided, bilateral, atrous, none)");
+    std::string known;
+    for (std::size_t k = 0; k < kFilterNames.size(); ++k) {
+        if (name == kFilterNames[k]) return static_cast<Filter>(k);
+        known += (k > 0 ? ", " : "") + std::string(kFilterNames[k]);
+    }
+    throw scenes::OptionError("filter", "unknown filter '" + name + "' (known: " + known + ")");
 }
 
-const char* filter_name(Filter f) {
-    switch (f) {
-        case Filter::guided: return "guided";
-        case Filter::bilateral: return "bilateral";
-        case Filter::atrous: return "atrous";
-        case Filter::none: return "none";
-    }
-    return "?";
-}
+const char* filter_name(Filter f) { return kFilterNames[static_cast<std::size_t>(f)]; }
 
 int auto_filter_radius(int width, int height, int gather_rays) {
     const double size = std::max(width, height) / 256.0;

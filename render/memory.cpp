@@ -1,4 +1,4 @@
-#include "memory.h"
+#include "render/memory.h"
 
 #include "visibility/backend.h"
 
@@ -10,24 +10,14 @@
 #include <fstream>
 #include <string>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
-namespace {
-
-std::string gigabytes(double bytes) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
-    return text;
-}
-
-}  // namespace
-
-MemoryNeed memory_need(const Command& c, const scenes::Scene& scene) {
+MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene) {
     MemoryNeed need;
     const double threads = std::max(1, c.run.threads);
     const bool traced = c.solver.method == "pathtrace";
     need.patches = static_cast<double>(scene.patch_count()) * (600.0 + (traced ? 0.0 : 700.0 * threads));
-    const double per_pixel = traced ? 100.0 : c.gather_rays > 0 ? 340.0 : 230.0;
+    const double per_pixel = traced ? 100.0 : c.gather.gather_rays > 0 ? 340.0 : 230.0;
     need.pixels = per_pixel * static_cast<double>(scene.camera.width) * static_cast<double>(scene.camera.height);
     if (!traced) {
         // The linear basis rasterises with the centre-sorted painter (its own map).
@@ -76,19 +66,4 @@ std::uint64_t memory_available() {
     return total;
 }
 
-void require_memory(const Command& c, const scenes::Scene& scene) {
-    const std::uint64_t available = memory_available();
-    const MemoryNeed need = memory_need(c, scene);
-    if (available == 0 || need.bytes <= static_cast<double>(available)) return;
-    const std::string largest = need.pixels >= std::max(need.patches, need.maps)
-                                    ? "a smaller image (--width, --height)"
-                                : need.patches >= need.maps ? "larger patches (--patch-size)"
-                                                            : "a smaller --resolution or another --visibility";
-    throw UsageError(scene.name + ": " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
-                     " pixels and " + std::to_string(scene.patch_count()) + " patches need about " +
-                     gigabytes(need.bytes) + " (pixels " + gigabytes(need.pixels) + ", patches " +
-                     gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), this machine has " +
-                     gigabytes(static_cast<double>(available)) + ": try " + largest);
-}
-
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

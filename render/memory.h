@@ -1,8 +1,8 @@
 #pragma once
 // The memory guard: what a run will need, estimated before any work from the scene's
 // patches, the image's pixels and the visibility maps, against what the machine has.
-// A run that cannot fit is refused at once (one line, exit 2) instead of being killed
-// by the kernel minutes later. The coefficients were measured on the development
+// A caller refuses a run that cannot fit at once (the command line: one line, exit 2)
+// instead of letting the kernel kill it minutes later. The coefficients were measured on the development
 // machine (peak resident memory, /usr/bin/time; README "Memory"):
 //
 //   about 30 MB + patches x (0.6 KB + 0.7 KB per thread)
@@ -12,24 +12,21 @@
 //         z-buffer; the exact painter, ray casting and arrangements keep no map)
 //
 // The estimate is a mean over the scenes measured, within 25 % of each of them.
-#include "cli.h"
+#include "render/run.h"
 
 #include <cstdint>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 struct MemoryNeed {
     double bytes = 0.0;
     double patches = 0.0, pixels = 0.0, maps = 0.0;  // the parts
 };
-MemoryNeed memory_need(const Command& c, const scenes::Scene& scene);
+MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene);
 
 // The physical memory, or the lowest limit of the process's control group and the
 // groups above it where that is lower (bytes; 0 when none can be read).
 std::uint64_t memory_available();
 
-// Throws UsageError naming the scene, the patches and the pixels when the run needs
-// more than memory_available().
-void require_memory(const Command& c, const scenes::Scene& scene);
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

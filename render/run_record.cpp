@@ -1,17 +1,47 @@
-#include "stats.h"
+#include "render/run_record.h"
 
+#include "render/filters.h"
 #include "render/image_io.h"
 
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 using json = nlohmann::json;
 
-json run_record(const scenes::Scene& scene, const Command& c, const solver::SolverReport& report,
-                const solver::Transport& transport, std::size_t coplanar_overlaps) {
+namespace {
+
+// The values a convergence row may have, by their names in a checkpoint.
+constexpr std::pair<const char*, std::optional<double> ConvergenceRow::*> kRowValues[] = {
+    {"error", &ConvergenceRow::error},
+    {"mean", &ConvergenceRow::mean},
+    {"estimate", &ConvergenceRow::estimate},
+    {"image_estimate", &ConvergenceRow::image_estimate},
+    {"image_l1", &ConvergenceRow::image_l1},
+    {"image_mse", &ConvergenceRow::image_mse}};
+
+json rounds_record(const Rounds& r, const RoundOptions& o) {
+    json rounds = json::array();
+    for (const auto& k : r.rounds)
+        rounds.push_back(
+            {{"scale", k.scale}, {"steps", k.steps}, {"seconds", k.seconds}, {"estimated_error", k.estimate}});
+    json out = {{"image_estimated_error", r.estimate}, {"scale", r.scale}, {"stopped", r.stopped}, {"rounds", rounds}};
+    if (r.field_share >= 0.0) {
+        out["field_share"] = r.field_share;
+        out["steps_share"] = r.steps_share;
+    }
+    if (o.target_error > 0.0) out["target_error"] = o.target_error;
+    if (o.time_budget > 0.0) out["time_budget"] = o.time_budget;
+    return out;
+}
+
+// The scene, the solver's report and the shots' decisions.
+json solve_record(const scenes::Scene& scene, const RunConfig& c, const solver::SolverReport& report,
+                  const solver::Transport& transport, std::size_t coplanar_overlaps) {
     const auto& v = report.visibility;
+    const bool gather = c.gather.gather_rays > 0;
     std::string sky = "none: the scene has no sky (no sky entries in the maps)";
     if (scene.sky)
         sky = std::string(scene.sky->model == scenes::Sky::Model::constant ? "constant" : "CIE overcast") +
@@ -22,7 +52,7 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
     decisions["threads"] = "visibility: " + std::to_string(v.threads) +
                            (v.threads < c.run.threads ? " (this backend runs one at a time)" : "") +
                            " (one backend each; the light moves in order, so any count gives the same result)" +
-                           (c.gather_rays > 0 ? "; final gather and filters: " + std::to_string(c.run.threads) : "");
+                           (gather ? "; final gather and filters: " + std::to_string(c.run.threads) : "");
     for (const auto& [key, value] : report.decisions.items()) decisions[key] = value;
     json stats = {
         {"scene", scene.name},
@@ -42,7 +72,7 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
         {"seed", c.run.seed},
         {"threads", v.threads},
         {"threads_requested", c.run.threads},
-        {"image", {{"width", scene.camera.width}, {"height", scene.camera.height}, {"shading", c.shading}}},
+        {"image", {{"width", scene.camera.width}, {"height", scene.camera.height}, {"shading", shading_name(c.shading)}}},
         {"seconds_first_shot", transport.shot_stats().seconds},
         {"seconds_diffuse_shot", transport.shot_stats().diffuse_seconds},
         {"seconds_visibility", report.seconds_visibility},
@@ -57,23 +87,16 @@ json run_record(const scenes::Scene& scene, const Command& c, const solver::Solv
     return stats;
 }
 
-std::string contacts_line(const scenes::Scene& scene) {
-    if (scene.contact_edges == 0) return "none: no surface touches another inside its patches";
-    return std::to_string(scene.contact_lines) + " lines where surfaces touch inside others cut their patches (" +
-           std::to_string(scene.contact_splits) + " edges split); " + std::to_string(scene.contact_edges) +
-           " contact edges keep the light on their sides (scenes/contacts.h; \"cut_contacts\": false keeps the "
-           "patches as modelled)";
-}
-
-json gather_record(const Command& c, const render::GatherResult& g) {
+// The final gather's settings and figures.
+json gather_record(const RunConfig& c, const GatherResult& g) {
     const auto& o = c.gather;
     return {{"gather_rays", o.gather_rays},
             {"direct_samples", o.direct_samples},
-            {"direct", render::direct_light_name(o.direct)},
+            {"direct", direct_light_name(o.direct)},
             {"glossy_rays", o.glossy_rays},
             {"spp", o.spp},
             {"emission_samples", o.emission_samples},
-            {"filter", render::filter_name(o.filter.filter)},
+            {"filter", filter_name(o.filter.filter)},
             {"filter_radius", g.filter_radius},
             {"eps_normal", o.filter.eps_normal},
             {"eps_depth", o.filter.eps_depth},
@@ -88,8 +111,123 @@ json gather_record(const Command& c, const render::GatherResult& g) {
             {"seconds_samples", g.seconds_samples}};
 }
 
+}  // namespace
+
+json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solver::Transport& transport,
+                      const RunResult& r, const FieldRunFacts& facts) {
+    json stats = solve_record(scene, c, r.report, transport, facts.coplanar_overlaps);
+    const double seconds_solve = r.rounds.seconds_solve, seconds_render = r.rounds.seconds_render;
+    stats["chains"] = 2 * facts.members;
+    stats["ranks"] = facts.members;
+    stats["seconds_total"] = facts.seconds_total;
+    stats["seconds_solve"] = seconds_solve;
+    stats["seconds_render"] = seconds_render;
+    // This run's steps only (a resumed run's solver counts the steps before it too).
+    const long steps_here = r.steps - 2 * facts.resume_steps;
+    const double directions_per_step =
+        r.report.steps > 0 ? static_cast<double>(r.report.directions) / r.report.steps : 1.0;
+    stats["seconds_per_iteration"] = steps_here > 0 ? seconds_solve / steps_here : 0.0;
+    stats["seconds_per_direction"] = steps_here > 0 ? seconds_solve / (steps_here * directions_per_step) : 0.0;
+    stats["mean_radiance"] = r.mean_radiance;
+    if (r.gather) stats["final_gather"] = gather_record(c, *r.gather);
+    json estimate = rounds_record(r.rounds, c.rounds);
+    estimate["field_estimated_error"] = r.field_estimate;
+    stats["estimate"] = estimate;
+    stats["decisions"]["diffuse_shot_choice"] = facts.shot_choice;
+    stats["decisions"]["image"] = r.gather ? "final gather: direct light per sample, indirect at guide rays, " +
+                                                 std::string(filter_name(c.gather.filter.filter)) + " filter"
+                                           : std::string("the patch radiance (") + shading_name(c.shading) +
+                                                 " shading); --gather N for a final gather";
+    stats["decisions"]["rounds"] = r.rounds.stopped;
+    stats["partial"] = r.rounds.interrupted;
+    stats["steps_planned"] = r.planned_steps;
+    if (c.resume)
+        stats["resumed"] = {{"checkpoint", c.resume_file},
+                            {"steps_done", 2 * c.resume->steps_done},
+                            {"seconds_before", facts.seconds_before}};
+    if (!c.checkpoint.empty())
+        stats["checkpoint"] = {{"file", c.checkpoint}, {"steps", 2 * std::max(0L, r.checkpointed)}};
+    if (facts.exact) {
+        stats["exact_radiance"] = *facts.exact;
+        stats["relative_l1_error"] = *r.error;
+    }
+    record_reference(stats, c, r.against);
+    return stats;
+}
+
+json path_trace_record(const scenes::Scene& scene, const RunConfig& c, const TracedImage& traced,
+                       double seconds_total) {
+    return {{"scene", scene.name},
+            {"patches", scene.patch_count()},
+            {"method", "pathtrace"},
+            {"seed", c.run.seed},
+            {"threads_requested", c.run.threads},
+            {"image", {{"width", scene.camera.width}, {"height", scene.camera.height}}},
+            {"path_trace", {{"spp", c.path.spp}, {"paths", traced.traced.paths}, {"rays", traced.traced.rays}}},
+            {"estimate", rounds_record(traced.rounds, c.rounds)},
+            {"seconds_render", traced.traced.seconds},
+            {"seconds_total", seconds_total},
+            {"decisions",
+             {{"image", "brute-force path tracing: next-event estimation and BRDF sampling with the balance "
+                        "heuristic, Russian roulette; unbiased (render/path_tracer.h)"},
+              {"rounds", traced.rounds.stopped}}}};
+}
+
+void record_reference(json& record, const RunConfig& c, const std::optional<Compared>& against) {
+    if (against)
+        record["reference"] = {{"file", c.reference_file}, {"relative_l1", against->relative_l1}, {"mse", against->mse}};
+}
+
+std::string contacts_line(const scenes::Scene& scene) {
+    if (scene.contact_edges == 0) return "none: no surface touches another inside its patches";
+    return std::to_string(scene.contact_lines) + " lines where surfaces touch inside others cut their patches (" +
+           std::to_string(scene.contact_splits) + " edges split); " + std::to_string(scene.contact_edges) +
+           " contact edges keep the light on their sides (scenes/contacts.h; \"cut_contacts\": false keeps the "
+           "patches as modelled)";
+}
+
+json to_json(const ConvergenceRow& r) {
+    json j = {{"steps", r.steps}, {"seconds", r.seconds}, {"round", r.round}};
+    for (const auto& [key, value] : kRowValues)
+        if (r.*value) j[key] = *(r.*value);
+    return j;
+}
+
+ConvergenceRow row_from_json(const json& j) {
+    ConvergenceRow r;
+    r.steps = j.at("steps").get<long>();
+    r.seconds = j.at("seconds").get<double>();
+    r.round = j.at("round").get<long>();
+    for (const auto& [key, value] : kRowValues)
+        if (j.contains(key)) r.*value = j.at(key).get<double>();
+    return r;
+}
+
+void write_convergence_csv(const std::string& path, const std::vector<ConvergenceRow>& rows) {
+    write_atomically(path, [&](const std::string& tmp) {
+        std::ofstream out(tmp);
+        out << "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,"
+               "image_relative_l1,image_mse\n";
+        out.precision(9);
+        auto cell = [&](const std::optional<double>& v) {
+            out << ',';
+            if (v) out << *v;
+        };
+        for (const auto& r : rows) {
+            out << r.steps << ',' << r.seconds;
+            for (const auto* v : {&r.error, &r.mean, &r.estimate}) cell(*v);
+            out << ',';
+            if (r.round > 0) out << r.round;
+            for (const auto* v : {&r.image_estimate, &r.image_l1, &r.image_mse}) cell(*v);
+            out << '\n';
+        }
+        out.close();
+        if (!out) throw std::runtime_error(path + ": write failed");
+    });
+}
+
 void write_json(const std::string& path, const json& doc) {
-    render::write_atomically(path, [&](const std::string& tmp) {
+    write_atomically(path, [&](const std::string& tmp) {
         std::ofstream out(tmp);
         if (!out) throw std::runtime_error(path + ": cannot open for writing");
         out << doc.dump(2) << '\n';
@@ -98,4 +236,4 @@ void write_json(const std::string& path, const json& doc) {
     });
 }
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

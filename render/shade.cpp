@@ -8,10 +8,12 @@ namespace raybundle::render {
 using scenes::Rgb;
 
 Shading parse_shading(const std::string& name) {
-    if (name == "flat") return Shading::Flat;
-    if (name == "smooth") return Shading::Smooth;
+    for (std::size_t k = 0; k < kShadingNames.size(); ++k)
+        if (name == kShadingNames[k]) return static_cast<Shading>(k);
     throw std::invalid_argument("unknown shading '" + name + "' (known: flat, smooth)");
 }
+
+const char* shading_name(Shading s) { return kShadingNames[static_cast<std::size_t>(s)]; }
 
 std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field) {
     const auto& patches = scene.patch_list();

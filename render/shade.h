@@ -12,9 +12,12 @@
 namespace raybundle::render {
 
 enum class Shading { Flat, Smooth };
+// Their names in the enum's order: parsing, messages and the command line's choices.
+inline constexpr std::array<const char*, 2> kShadingNames = {"flat", "smooth"};
 
 // Parses "flat" or "smooth"; throws std::invalid_argument otherwise.
 Shading parse_shading(const std::string& name);
+const char* shading_name(Shading s);
 
 // Per patch, the radiance at its three corners: the area-weighted mean over the
 // patches around the corner's vertex that share the patch's material and its shading

@@ -4,7 +4,11 @@
 // progress. Passed down, never re-declared.
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
 #include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace raybundle::sampling {
 
@@ -35,6 +39,27 @@ public:
     // its own rows of `data` filled; on return every member holds every row. Throws
     // (apps/ranks.h: RankFailed) where another member failed before it got there.
     virtual void share_rows(void* data, std::size_t row_bytes, int rows) const = 0;
+    // The collectives of a run spread over the team (render/run.h), each called by every
+    // member at the same point: sums and maxima over the members, member 0's value, and
+    // sum_k n_k v_k / sum_k n_k over members, summed in member order, in `values` on
+    // every member (zeros where every n_k is 0). A team that shares rows only (a test's
+    // threads) keeps these defaults, which are right for a team of one and refuse more.
+    virtual long sum(long value) const { return alone(value); }
+    virtual double sum(double value) const { return alone(value); }
+    virtual int max(int value) const { return alone(value); }
+    virtual std::uint64_t from_leader(std::uint64_t value) const { return alone(value); }
+    virtual void weighted_mean(std::vector<double>& values, long n) const {
+        if (alone(n) == 0) std::fill(values.begin(), values.end(), 0.0);
+    }
+    // The last exchange of a run: after it only member 0 works (writes the outputs).
+    virtual void finish() const {}
+
+private:
+    template <class T>
+    T alone(T value) const {
+        if (size() > 1) throw std::logic_error("sampling::Team: a team of " + std::to_string(size()) + " without collectives");
+        return value;
+    }
 };
 
 struct RunOptions {

@@ -51,23 +51,20 @@ namespace raybundle::sampling {
 // the walks draw their points themselves; WalkSampler gives them uniform random points.
 enum class SamplerKind { random, halton, sobol, vegas, metropolis };
 
-inline const char* sampler_name(SamplerKind k) {
-    switch (k) {
-        case SamplerKind::random: return "random";
-        case SamplerKind::halton: return "halton";
-        case SamplerKind::sobol: return "sobol";
-        case SamplerKind::vegas: return "vegas";
-        case SamplerKind::metropolis: return "metropolis";
-    }
-    return "?";
-}
+// The samplers' names in the enum's order: one list for parsing, messages and the
+// command line's choices.
+inline constexpr std::array<const char*, 5> kSamplerNames = {"random", "halton", "sobol", "vegas", "metropolis"};
+
+inline const char* sampler_name(SamplerKind k) { return kSamplerNames[static_cast<std::size_t>(k)]; }
 
 // Parses a sampler's name; throws std::invalid_argument listing them.
 inline SamplerKind parse_sampler(const std::string& name) {
-    for (SamplerKind k : {SamplerKind::random, SamplerKind::halton, SamplerKind::sobol, SamplerKind::vegas,
-                          SamplerKind::metropolis})
-        if (name == sampler_name(k)) return k;
-    throw std::invalid_argument("unknown sampler '" + name + "' (known: random, halton, sobol, vegas, metropolis)");
+    std::string known;
+    for (std::size_t k = 0; k < kSamplerNames.size(); ++k) {
+        if (name == kSamplerNames[k]) return static_cast<SamplerKind>(k);
+        known += (k > 0 ? ", " : "") + std::string(kSamplerNames[k]);
+    }
+    throw std::invalid_argument("unknown sampler '" + name + "' (known: " + known + ")");
 }
 
 inline bool adaptive(SamplerKind k) { return k == SamplerKind::vegas || k == SamplerKind::metropolis; }

@@ -3,6 +3,7 @@
 // seed alone.
 #include "render/metrics.h"
 #include "render/progressive.h"
+#include "render/run.h"
 #include "scenes/builtin.h"
 #include "solver/solver.h"
 
@@ -17,48 +18,33 @@ using namespace raybundle;
 
 namespace {
 
-// One chain of a solver, as the image needs it.
-struct Chain final : render::FieldChain {
-    std::unique_ptr<solver::Solver> solver;
-    Chain(const solver::Transport& t, solver::SolverOptions o, std::uint64_t seed, std::uint64_t chain, int threads) {
-        sampling::RunOptions run;
-        run.seed = seed;
-        run.chain = chain;
-        run.threads = threads;
-        solver = solver::make_solver(t, o, run);
-    }
-    void advance(long steps, const sampling::ProgressCallback&) override { solver->advance(steps); }
-    solver::RadianceField field() const override { return solver->field(); }
-    long averaged() const override { return solver->averaged(); }
-};
-
 struct Made {
-    render::FieldImage image;
+    render::RunResult image;
     double true_image_error, true_field_error;
 };
 
-// The homogeneous box (radiance 1 everywhere, so every pixel is 1) made in rounds.
+// The homogeneous box (radiance 1 everywhere, so every pixel is 1) made in rounds by
+// the library's run, as the command line makes it (render/run.h).
 Made homogeneous(const solver::SolverOptions& so, const render::FieldImageOptions& io, const render::RoundOptions& ro,
                  std::uint64_t seed, bool diffuse_shot = false, int threads = 2) {
     auto scene = scenes::make_builtin("homogeneous-box", 0.25);
     scene.camera.width = scene.camera.height = 32;
-    const scenes::RayCaster caster(scene);
-    const solver::Transport transport(scene, solver::ShotOptions{diffuse_shot});
-    solver::SolverOptions per_chain = so;
-    per_chain.steps = render::chain_steps(io.steps, ro);
-    Chain a(transport, per_chain, seed, 0, threads), b(transport, per_chain, seed, 1, threads);
-    sampling::RunOptions run;
-    run.seed = seed;
-    run.threads = threads;
-    auto made = render::field_image(scene, caster, render::PinholeCamera(scene.camera), a, b, io, ro, run);
-    render::Image one(scene.camera.width, scene.camera.height);
-    one.rgb.assign(one.rgb.size(), 1.0f);
-    const double exact = *scene.exact_radiance * a.solver->converged_fraction(*scene.homogeneous_albedo);
-    Made m{std::move(made), 0.0, 0.0};
-    render::Image expected = one;
-    for (auto& v : expected.rgb) v = static_cast<float>(exact);
+    render::RunConfig config;
+    config.solver = so;
+    config.solver.steps = io.steps;
+    config.gather = io.gather_options;
+    if (!io.gather) config.gather.gather_rays = 0;
+    config.shading = io.shading;
+    config.rounds = ro;
+    config.diffuse_shot = diffuse_shot;
+    config.run.seed = seed;
+    config.run.threads = threads;
+    Made m{render::run(scene, config), 0.0, 0.0};
+    const double exact = m.image.record.at("exact_radiance").get<double>();
+    render::Image expected(scene.camera.width, scene.camera.height);
+    expected.rgb.assign(expected.rgb.size(), static_cast<float>(exact));
     m.true_image_error = render::relative_l1(m.image.image, expected);
-    m.true_field_error = m.image.field.relative_l1_error(scene, exact);
+    m.true_field_error = m.image.field->relative_l1_error(scene, exact);
     return m;
 }
 

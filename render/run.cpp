@@ -1,0 +1,417 @@
+#include "render/run.h"
+
+#include "render/camera.h"
+#include "render/gbuffer.h"
+#include "render/metrics.h"
+#include "render/run_record.h"
+#include "render/scene_check.h"
+#include "sampling/streams.h"
+#include "scenes/errors.h"
+#include "scenes/ray_caster.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+
+namespace raybundle::render {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using json = nlohmann::json;
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// The warnings a scene deserves before it is solved, one line each.
+void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const RunHooks& hooks) {
+    if (!hooks.warn) return;
+    const auto& overlaps = summary.overlaps;
+    if (scene.dropped_degenerate > 0)
+        hooks.warn(scene.name + ": dropped " + std::to_string(scene.dropped_degenerate) + " zero-area triangles");
+    if (overlaps.pairs > 0)
+        hooks.warn(scene.name + ": " + std::to_string(overlaps.pairs) +
+                   " pairs of coplanar overlapping patches face the same way (e.g. patches " +
+                   std::to_string(overlaps.first) + " and " + std::to_string(overlaps.second) +
+                   "): no visibility map can order them; the higher patch index is in front");
+    for (const auto& line : winding_warnings(summary)) hooks.warn(scene.name + ": " + line);
+}
+
+// A result with a non-finite value is a failure that names where it appeared (an
+// overflow: coordinates or intensities too large for the arithmetic, or a bug), never
+// an output.
+void require_finite(const Image& image, const std::string& what) {
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x)
+            for (int k = 0; k < 3; ++k)
+                if (!std::isfinite(image.at(x, y)[k]))
+                    throw std::runtime_error(what + ": pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                             ") is not finite (" + std::to_string(image.at(x, y)[k]) +
+                                             " in channel " + "rgb"[k] + "); nothing written");
+}
+
+std::string object_of(const scenes::Scene& scene, std::size_t patch) {
+    const int object = scene.patch_list()[patch].object;
+    return object >= 0 && static_cast<std::size_t>(object) < scene.object_names.size()
+               ? " (" + scene.object_names[static_cast<std::size_t>(object)] + ")"
+               : "";
+}
+
+void require_finite(const solver::RadianceField& field, const scenes::Scene& scene) {
+    for (std::size_t i = 0; i < field.radiance.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            if (!std::isfinite(field.radiance[i][k]))
+                throw std::runtime_error("the radiance of patch " + std::to_string(i) + object_of(scene, i) +
+                                         " is not finite (" + std::to_string(field.radiance[i][k]) + " in channel " +
+                                         "rgb"[k] + "); nothing written");
+}
+
+// One chain of the solver, as the image needs it (render/progressive.h): the solver
+// reports its progress to whichever callback the current advance() was given.
+class SolverChain final : public FieldChain {
+public:
+    SolverChain(const SolverChain&) = delete;  // the solver's callback holds `this`
+    SolverChain& operator=(const SolverChain&) = delete;
+    SolverChain(const solver::Transport& transport, solver::SolverOptions options, sampling::RunOptions run,
+                std::uint64_t chain) {
+        run.chain = chain;
+        run.progress = [this](const sampling::Progress& p) {
+            if (forward_) forward_(p);
+        };
+        solver_ = solver::make_solver(transport, options, run);
+    }
+    void advance(long steps, const sampling::ProgressCallback& progress) override {
+        forward_ = progress;
+        solver_->advance(steps);
+        forward_ = nullptr;
+    }
+    solver::RadianceField field() const override { return solver_->field(); }
+    long averaged() const override { return solver_->averaged(); }
+    const solver::Solver& solver() const { return *solver_; }
+    solver::Solver& solver() { return *solver_; }
+
+private:
+    std::unique_ptr<solver::Solver> solver_;
+    sampling::ProgressCallback forward_;
+};
+
+// Of the first `total` steps of a chain of the run, those of member `rank`: steps
+// rank, rank + members, rank + 2 members, ...
+long steps_of(long total, int rank, int members) { return (total + members - 1 - rank) / members; }
+
+// Chain h of a run spread over a team: chain h of every member, its steps dealt out in
+// turn, its field their mean weighted by the steps each averages. Every member calls
+// advance(), field() and averaged() at the same points (the pipeline's control flow
+// depends on their results alone, which every member shares).
+class TeamChain final : public FieldChain {
+public:
+    TeamChain(SolverChain& mine, const sampling::Team& team) : mine_(mine), team_(team) {}
+    void advance(long steps, const sampling::ProgressCallback& progress) override {
+        const long before = steps_of(total_, team_.rank(), team_.size());
+        total_ += steps;
+        mine_.advance(steps_of(total_, team_.rank(), team_.size()) - before, progress);
+        averaged_ = team_.sum(mine_.averaged());
+    }
+    solver::RadianceField field() const override {
+        solver::RadianceField f = mine_.field();
+        std::vector<double> values;
+        values.reserve(3 * f.radiance.size() + 9 * f.corners.size());
+        for (const auto& rgb : f.radiance) values.insert(values.end(), rgb.data(), rgb.data() + 3);
+        for (const auto& corners : f.corners)
+            for (const auto& rgb : corners) values.insert(values.end(), rgb.data(), rgb.data() + 3);
+        team_.weighted_mean(values, mine_.averaged());
+        const double* v = values.data();
+        for (auto& rgb : f.radiance) rgb = {v[0], v[1], v[2]}, v += 3;
+        for (auto& corners : f.corners)
+            for (auto& rgb : corners) rgb = {v[0], v[1], v[2]}, v += 3;
+        return f;
+    }
+    long averaged() const override { return averaged_; }
+
+private:
+    SolverChain& mine_;
+    const sampling::Team& team_;
+    long total_ = 0, averaged_ = 0;
+};
+
+// Every member must solve the same scene with the same options (the scene files of
+// every node the same): a hash of the run's identity, compared with member 0's.
+void require_same_everywhere(const json& identity, const sampling::Team& team) {
+    const std::uint64_t h = identity_hash(identity);
+    if (team.from_leader(h) != h)
+        throw RunError("the scene " + identity["scene"]["name"].get<std::string>() + " (" +
+                       std::to_string(identity["scene"]["patches"].get<std::size_t>()) +
+                       " patches) or the options differ from rank 0's: every node must read the same scene file "
+                       "and be given the same options");
+}
+
+// Both chains' work in one report: counts and seconds added, the rest from chain 0.
+solver::SolverReport combined(const solver::SolverReport& a, const solver::SolverReport& b) {
+    solver::SolverReport r = a;
+    r.steps += b.steps;
+    r.directions += b.directions;
+    r.seconds_visibility += b.seconds_visibility;
+    r.seconds_transport += b.seconds_transport;
+    r.entries_total += b.entries_total;
+    return r;
+}
+
+std::optional<Compared> compare(const std::optional<Image>& ref, const Image& image) {
+    if (!ref) return std::nullopt;
+    return Compared{relative_l1(image, *ref), mse(image, *ref)};
+}
+
+// A CSV row at the end of a round: the image's estimate, and its true error where a
+// reference is given.
+void add_image_columns(ConvergenceRow& row, const Snapshot& s, const std::optional<Image>& reference) {
+    row.round = s.round;
+    row.image_estimate = s.image_estimate;
+    if (const auto against = compare(reference, *s.image)) {
+        row.image_l1 = against->relative_l1;
+        row.image_mse = against->mse;
+    }
+}
+
+// The chains restored from a checkpoint, checked against the run: a state of another
+// method or option set, or more steps than the run's, is another run's checkpoint.
+void resume_chains(const std::string& file, const Checkpoint& k, const std::array<solver::Solver*, 2>& chains,
+                   long steps_per_chain) {
+    for (std::size_t h = 0; h < 2; ++h) {
+        try {
+            solver::StateReader in(k.states[h]);
+            chains[h]->restore(in);
+            in.finish();
+        } catch (const solver::StateError& e) {
+            throw CheckpointError(file + ": chain " + std::to_string(h) + ": " + e.what());
+        }
+    }
+    if (k.steps_done < 0 || k.steps_done > steps_per_chain || chains[0]->report().steps != k.steps_done)
+        throw CheckpointError(file + ": " + std::to_string(k.steps_done) + " steps done does not fit the run's " +
+                              std::to_string(steps_per_chain));
+}
+
+std::vector<ConvergenceRow> rows_from(const std::string& file, const json& saved) {
+    std::vector<ConvergenceRow> rows;
+    try {
+        for (const auto& r : saved) rows.push_back(row_from_json(r));
+    } catch (const json::exception& e) {
+        throw CheckpointError(file + ": its convergence rows are damaged (" + e.what() + ")");
+    }
+    return rows;
+}
+
+// What happens between steps (FieldImageOptions::pause): a checkpoint when one is due
+// (every checkpoint_steps steps or checkpoint_seconds, and when a stop is asked for),
+// and false once a stop is asked for. Spread over a team, the members stop together.
+// The seconds in a checkpoint are the solve's, a resumed run's before included.
+class Pauses {
+public:
+    Pauses(const RunConfig& c, const RunHooks& hooks, json identity, std::array<solver::Solver*, 2> chains,
+           const std::vector<ConvergenceRow>& rows, long resumed_steps, double seconds_before)
+        : c_(c), hooks_(hooks), identity_(std::move(identity)), chains_(chains), rows_(rows),
+          seconds_before_(seconds_before),
+          next_(c.checkpoint_steps > 0 ? (2 * resumed_steps / c.checkpoint_steps + 1) * c.checkpoint_steps : 0) {}
+
+    bool operator()(long done) {
+        const int asked = hooks_.stop_requested ? hooks_.stop_requested() : 0;
+        const sampling::Team* team = c_.run.team;
+        const int sig = team && team->size() > 1 ? team->max(asked) : asked;
+        signal_ = sig;
+        if (!c_.checkpoint.empty()) {
+            const bool due = sig != 0 || (c_.checkpoint_steps > 0 && 2 * done >= next_) ||
+                             (c_.checkpoint_seconds > 0.0 && since(last_) >= c_.checkpoint_seconds);
+            if (due && done != checkpointed_) {
+                try {
+                    save(done);
+                } catch (const std::exception& e) {
+                    // A full disk must not end the run: the previous checkpoint stays, and
+                    // the next one is tried when due.
+                    if (hooks_.warn) hooks_.warn(std::string("checkpoint ") + e.what() + "; the run goes on");
+                }
+                last_ = Clock::now();
+                while (c_.checkpoint_steps > 0 && next_ <= 2 * done) next_ += c_.checkpoint_steps;
+            }
+        }
+        return sig == 0;
+    }
+    long checkpointed() const { return checkpointed_; }
+    int signal() const { return signal_; }
+
+private:
+    void save(long done) {
+        Checkpoint k;
+        k.identity = identity_;
+        k.steps_done = done;
+        k.seconds = seconds_before_ + since(start_);
+        for (const auto& r : rows_) k.rows.push_back(to_json(r));
+        for (const solver::Solver* chain : chains_) {
+            solver::StateWriter out;
+            chain->save(out);
+            k.states.push_back(out.bytes());
+        }
+        write_checkpoint(c_.checkpoint, k, hooks_.temporaries);
+        checkpointed_ = done;
+    }
+
+    const RunConfig& c_;
+    const RunHooks& hooks_;
+    json identity_;
+    std::array<solver::Solver*, 2> chains_;
+    const std::vector<ConvergenceRow>& rows_;
+    double seconds_before_;
+    long next_;  // the step count (both chains) of the next checkpoint by steps
+    Clock::time_point start_ = Clock::now(), last_ = start_;
+    long checkpointed_ = -1;
+    int signal_ = 0;
+};
+
+// The diffuse shot: as given, or on for diffuse scenes with area lights, whose direct
+// light it makes exact up to its quadrature. The decision and why.
+std::pair<bool, std::string> decide_diffuse_shot(const scenes::Scene& scene, const std::optional<bool>& given) {
+    if (given) return {*given, std::string(*given ? "--diffuse-shot" : "--no-diffuse-shot") + " given"};
+    const bool on = scene.has_emission() && !scene.has_glossy();
+    return {on, on                   ? "on: a diffuse scene with area lights"
+                : scene.has_glossy() ? "off: the scene has glossy materials"
+                                     : "off: the scene has no area lights"};
+}
+
+// `--method pathtrace`: the reference image, no radiance field.
+RunResult path_trace_run(const scenes::Scene& scene, const scenes::RayCaster& caster, const RunConfig& c,
+                         Clock::time_point t_start) {
+    const PinholeCamera camera(scene.camera);
+    RunResult out;
+    const auto traced = traced_image(scene, caster, camera, c.path, c.rounds, c.run, [&](const Snapshot& s) {
+        ConvergenceRow row;
+        row.seconds = s.seconds;
+        add_image_columns(row, s, c.reference);
+        out.rows.push_back(row);
+    });
+    require_finite(traced.traced.image, "the image");
+    out.image = traced.traced.image;
+    out.rounds = traced.rounds;
+    out.against = compare(c.reference, out.image);
+    out.record = path_trace_record(scene, c, traced, since(t_start));
+    record_reference(out.record, c, out.against);
+    return out;
+}
+
+}  // namespace
+
+RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& hooks) {
+    const auto t_start = Clock::now();
+    const sampling::Team* team = c.run.team && c.run.team->size() > 1 ? c.run.team : nullptr;
+    const json identity = run_identity(c.identity, scene);
+    if (c.resume) require_same_run(c.resume_file, c.resume->identity, identity);
+    if (team) require_same_everywhere(identity, *team);
+    const scenes::RayCaster caster(scene);
+    // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
+    const SceneSummary summary = summarize(scene, caster, c.run.threads, 128 * 128);
+    warn_about(scene, summary, hooks);
+    if (c.solver.method == "pathtrace") return path_trace_run(scene, caster, c, t_start);
+
+    // The first shot (point lights) and the diffuse shot, once, before any direction.
+    solver::ShotOptions shots = c.shots;
+    std::string shot_choice;
+    std::tie(shots.diffuse_shot, shot_choice) = decide_diffuse_shot(scene, c.diffuse_shot);
+    const solver::Transport transport(scene, shots, c.run);
+    // Two independent chains, whose difference estimates the error (render/progressive.h).
+    // Spread over a team, each member runs its share of both (TeamChain).
+    const int rank = team ? team->rank() : 0, members = team ? team->size() : 1;
+    solver::SolverOptions per_chain = c.solver;
+    per_chain.steps = chain_steps(c.solver.steps, c.rounds);
+    solver::SolverOptions mine = per_chain;
+    mine.steps = std::max(1L, steps_of(per_chain.steps, rank, members));
+    const auto first_chain = 2 * static_cast<std::uint64_t>(rank);
+    SolverChain chain_a(transport, mine, c.run, first_chain), chain_b(transport, mine, c.run, first_chain + 1);
+    std::optional<TeamChain> team_a, team_b;
+    if (team) team_a.emplace(chain_a, *team), team_b.emplace(chain_b, *team);
+    FieldChain& run_a = team ? static_cast<FieldChain&>(*team_a) : chain_a;
+    FieldChain& run_b = team ? static_cast<FieldChain&>(*team_b) : chain_b;
+    // What the method converges to on a scene with a known answer (walks truncated at D
+    // bounces: a known fraction of it on a homogeneous scene).
+    std::optional<double> exact;
+    if (scene.exact_radiance) {
+        exact = scene.exact_radiance;
+        if (scene.homogeneous_albedo) *exact *= chain_a.solver().converged_fraction(*scene.homogeneous_albedo);
+    }
+
+    FieldImageOptions image_options;
+    image_options.steps = c.solver.steps;
+    image_options.gather = c.gather.gather_rays > 0;
+    image_options.gather_options = c.gather;
+    image_options.shading = c.shading;
+    RunResult out;
+    std::vector<ConvergenceRow>& rows = out.rows;
+    double seconds_before = 0.0;  // of a resumed run's solve
+    if (c.record_every >= 0) image_options.record_every = c.record_every > 0 ? c.record_every : std::max(2L, c.solver.steps / 100);
+    const auto observe = [&](const Snapshot& s) {
+        if (c.record_every < 0) return;
+        ConvergenceRow row;
+        row.steps = s.steps;
+        row.seconds = seconds_before + s.seconds;
+        if (exact) row.error = s.field->relative_l1_error(scene, *exact);
+        row.mean = s.field->mean_radiance(scene);
+        if (s.field_estimate >= 0.0) row.estimate = s.field_estimate;
+        if (s.image) add_image_columns(row, s, c.reference);
+        rows.push_back(row);
+    };
+    // Going on from a checkpoint; checkpoints and stops between steps.
+    if (c.resume) {
+        resume_chains(c.resume_file, *c.resume, {&chain_a.solver(), &chain_b.solver()}, per_chain.steps);
+        image_options.resume_steps = c.resume->steps_done;
+        seconds_before = c.resume->seconds;
+        rows = rows_from(c.resume_file, c.resume->rows);
+    }
+    Pauses pauses(c, hooks, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps,
+                  seconds_before);
+    image_options.pause = [&pauses](long done) { return pauses(done); };
+    // Pauses no shorter than the solver's batches of directions (4 per thread).
+    image_options.pause_every = std::max(16L, 4L * c.run.threads);
+    // From here a first stop request ends the solve and makes the image of the steps done.
+    if (hooks.stoppable) hooks.stoppable();
+    const PinholeCamera camera(scene.camera);
+    std::optional<FieldImage> made_or_none;
+    try {
+        made_or_none = field_image(scene, caster, camera, run_a, run_b, image_options, c.rounds, c.run, observe);
+    } catch (const Interrupted& e) {
+        const int asked = hooks.stop_requested ? hooks.stop_requested() : 0;
+        throw RunInterrupted(e.what(), team ? pauses.signal() : asked, pauses.checkpointed());
+    }
+    FieldImage& made = *made_or_none;
+    require_finite(made.field, scene);
+    require_finite(made.image, "the image");
+    // Every member's work in the report.
+    out.report = combined(chain_a.solver().report(), chain_b.solver().report());
+    if (team) {
+        out.report.steps = team->sum(out.report.steps);
+        out.report.directions = team->sum(out.report.directions);
+        out.report.entries_total = static_cast<std::size_t>(team->sum(static_cast<long>(out.report.entries_total)));
+        out.report.seconds_visibility = team->sum(out.report.seconds_visibility);
+        out.report.seconds_transport = team->sum(out.report.seconds_transport);
+        team->finish();
+    }
+    out.signal = team ? pauses.signal() : (hooks.stop_requested ? hooks.stop_requested() : 0);
+    out.checkpointed = pauses.checkpointed();
+    out.planned_steps = 2 * per_chain.steps;
+    out.steps = made.steps;
+    out.mean_radiance = made.field.mean_radiance(scene);
+    out.field_estimate = made.field_estimate;
+    if (exact) out.error = made.field.relative_l1_error(scene, *exact);
+    out.against = compare(c.reference, made.image);
+    out.rounds = made.rounds;
+
+    out.image = std::move(made.image);
+    out.gather = std::move(made.gather);
+    out.field = std::move(made.field);
+    FieldRunFacts facts;
+    facts.coplanar_overlaps = summary.overlaps.pairs;
+    facts.members = members;
+    facts.seconds_total = since(t_start);
+    facts.shot_choice = shot_choice;
+    facts.resume_steps = image_options.resume_steps;
+    facts.seconds_before = seconds_before;
+    facts.exact = exact;
+    out.record = field_run_record(scene, c, transport, out, facts);
+    return out;
+}
+
+}  // namespace raybundle::render

@@ -1,0 +1,134 @@
+// The run as a library call (render/run.h): every method through the one call the
+// command line makes, the path tracer, the decisions it records, checkpoints of
+// another run refused, and results that depend on the seed alone.
+#include "render/run.h"
+#include "scenes/builtin.h"
+#include "solver/solver.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <string>
+
+using namespace raybundle;
+
+namespace {
+
+scenes::Scene small_box() {
+    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
+    scene.camera.width = scene.camera.height = 24;
+    return scene;
+}
+
+render::RunConfig patch_image(const std::string& method, long steps) {
+    render::RunConfig config;
+    config.solver.method = method;
+    config.solver.steps = steps;
+    if (method != "iteration") config.solver.depth = 4;
+    config.gather.gather_rays = 0;  // the patch image
+    config.run.threads = 2;
+    return config;
+}
+
+}  // namespace
+
+TEST_CASE("run: every method converges on the homogeneous box within its known bias", "[render][run]") {
+    // The exact radiance is 1; walks truncated at D = 4 bounces converge to 1 - 2^-5
+    // (the diffuse shot, on by default in this diffuse scene with area lights, adds
+    // the first bounce exactly: D + 1 bounces), stochastic iteration to 1. Each method
+    // at a budget of about 2,000 visibility maps: its field's relative L1 error against
+    // what it converges to within 3 %, its mean within 1 %, and the run's own estimate
+    // of the error within a factor 3 of the true one.
+    const auto method = GENERATE(from_range(solver::method_names()));
+    const auto scene = small_box();
+    const long steps = method == "iteration" ? 2000 : 500;
+    const render::RunResult r = render::run(scene, patch_image(method, steps));
+    const double exact = r.record.at("exact_radiance").get<double>();
+    const double expected = method == "iteration" ? 1.0 : 1.0 - std::ldexp(1.0, -6);
+    INFO(method << ": mean " << r.mean_radiance << ", converges to " << exact << ", error " << *r.error
+                << ", estimated " << r.field_estimate);
+    CHECK(exact == Approx(expected));
+    REQUIRE(r.error);
+    CHECK(*r.error < 0.03);
+    CHECK(std::abs(r.mean_radiance - exact) < 0.01 * exact);
+    CHECK(r.field_estimate > *r.error / 3.0);
+    CHECK(r.field_estimate < *r.error * 3.0);
+    CHECK(r.record.at("decisions").at("diffuse_shot_choice") == "on: a diffuse scene with area lights");
+    CHECK(r.record.at("method") == method);
+    CHECK(r.record.at("chains") == 2);
+    CHECK(r.steps == steps);
+}
+
+TEST_CASE("run: the same seed gives the same image for any thread count, another seed another", "[render][run]") {
+    const auto scene = small_box();
+    auto config = patch_image("bidirectional", 40);
+    config.gather = render::RunConfig::default_gather();
+    config.gather.gather_rays = 4;
+    config.gather.spp = 2;
+    config.run.threads = 1;
+    const auto a = render::run(scene, config);
+    config.run.threads = 3;
+    const auto b = render::run(scene, config);
+    config.run.seed = 2;
+    const auto c = render::run(scene, config);
+    CHECK(a.image.rgb == b.image.rgb);
+    bool same_field = a.field->radiance.size() == b.field->radiance.size();
+    for (std::size_t i = 0; same_field && i < a.field->radiance.size(); ++i)
+        same_field = (a.field->radiance[i] == b.field->radiance[i]).all();
+    CHECK(same_field);
+    CHECK(a.image.rgb != c.image.rgb);
+    REQUIRE(a.gather);
+    CHECK(a.record.at("final_gather").at("gather_rays") == 4);
+}
+
+TEST_CASE("run: the path tracer has no field, and a reference is compared", "[render][run][pathtrace]") {
+    const auto scene = small_box();
+    render::RunConfig config;
+    config.solver.method = "pathtrace";
+    config.path.spp = 8;
+    config.run.threads = 2;
+    const auto traced = render::run(scene, config);
+    CHECK_FALSE(traced.field);
+    CHECK(traced.record.at("method") == "pathtrace");
+    // The homogeneous box is 1 everywhere: the path tracer's image too, within its noise.
+    double mean = 0.0;
+    for (float v : traced.image.rgb) mean += v / static_cast<double>(traced.image.rgb.size());
+    CHECK(mean == Approx(1.0).epsilon(0.02));
+    // Against itself as the reference: no error.
+    config.reference = traced.image;
+    config.reference_file = "itself.exr";
+    const auto again = render::run(scene, config);
+    REQUIRE(again.against);
+    CHECK(again.against->relative_l1 == 0.0);
+    CHECK(again.record.at("reference").at("file") == "itself.exr");
+}
+
+TEST_CASE("run: a checkpoint of another run is refused, naming the file and the difference", "[render][run]") {
+    const auto scene = small_box();
+    auto config = patch_image("iteration", 50);
+    config.identity = {{"--iterations", {"50"}}};
+    render::Checkpoint other;
+    other.identity = render::run_identity({{"--iterations", {"60"}}}, scene);
+    config.resume = other;
+    config.resume_file = "other.ckpt";
+    CHECK_THROWS_WITH(render::run(scene, config),
+                      Catch::StartsWith("other.ckpt: made by another run: --iterations was 60, now 50"));
+}
+
+TEST_CASE("run: a stop asked for ends the solve at the next pause, the image made from the steps done",
+          "[render][run]") {
+    const auto scene = small_box();
+    auto config = patch_image("walk", 400);
+    render::RunHooks hooks;
+    bool stoppable = false;
+    hooks.stoppable = [&] { stoppable = true; };
+    hooks.stop_requested = [] { return 15; };
+    const auto r = render::run(scene, config, hooks);
+    CHECK(stoppable);
+    CHECK(r.signal == 15);
+    CHECK(r.rounds.interrupted);
+    CHECK(r.steps > 0);
+    CHECK(r.steps < r.planned_steps);
+    CHECK(r.record.at("partial") == true);
+    CHECK(r.checkpointed == -1);  // none asked for
+}
