@@ -1,0 +1,78 @@
+#include "scenes/mesh_readers.h"
+
+#include <sstream>
+
+namespace raybundle::scenes::mesh_detail {
+
+// ---------------------------------------------------------------------------- OBJ
+// Read here rather than through OpenMesh, which keeps one normal per vertex: `v` and
+// `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
+// negative = relative), polygons split into a fan from their first corner; other
+// lines are ignored. Every index must name an element defined before it.
+MeshData read_obj(std::istream& in, const std::string& shown) {
+    MeshData data;
+    std::vector<Vec3> normals;
+    bool any_normals = false;
+    std::vector<std::array<Vec3, 3>> corner_normals;
+    std::string line;
+    long line_no = 0;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const std::string where = "line " + std::to_string(line_no);
+        std::istringstream ls(line);
+        std::string tag;
+        ls >> tag;
+        if (tag == "v") {
+            data.vertices.push_back(read_coordinates(line.substr(line.find('v') + 1), shown, where));
+        } else if (tag == "vn") {
+            const Vec3 n = read_coordinates(line.substr(line.find("vn") + 2), shown, where, "normal");
+            if (!(n.norm() > 0.0)) throw SceneError(shown, where, "normal " + vector_text(n) + " has zero length");
+            normals.push_back(n.normalized());
+        } else if (tag == "f") {
+            std::vector<int> vs;
+            std::vector<Vec3> ns;
+            std::string corner;
+            while (ls >> corner) {
+                // "v", "v/vt", "v//vn" or "v/vt/vn": the first and the third field.
+                const auto slash = corner.find('/');
+                const auto slash2 = slash == std::string::npos ? std::string::npos : corner.find('/', slash + 1);
+                auto index = [&](const std::string& text, long count, const char* kind, const char* kinds) {
+                    long idx = 0;
+                    std::size_t used = 0;
+                    try {
+                        idx = std::stol(text, &used);
+                    } catch (const std::exception&) {
+                        used = 0;
+                    }
+                    if (used == 0 || used != text.size())
+                        throw SceneError(shown, where, "malformed face corner '" + corner + "'");
+                    const long resolved = idx < 0 ? count + idx + 1 : idx;
+                    if (resolved < 1 || resolved > count)
+                        throw SceneError(shown, where,
+                                         std::string("face references ") + kind + " " + std::to_string(idx) +
+                                             ", but only " + std::to_string(count) + " " +
+                                             (count == 1 ? kind + std::string(" is") : kinds + std::string(" are")) +
+                                             " defined before it");
+                    return static_cast<int>(resolved - 1);
+                };
+                const long nv = static_cast<long>(data.vertices.size()), nn = static_cast<long>(normals.size());
+                vs.push_back(index(corner.substr(0, slash), nv, "vertex", "vertices"));
+                if (slash2 != std::string::npos && slash2 + 1 < corner.size())
+                    ns.push_back(normals[index(corner.substr(slash2 + 1), nn, "normal", "normals")]);
+            }
+            check_triangle_fan(static_cast<long>(vs.size()), shown, where);
+            if (!ns.empty() && ns.size() != vs.size())
+                throw SceneError(shown, where,
+                                 "face gives normals at " + std::to_string(ns.size()) + " of its " +
+                                     std::to_string(vs.size()) + " corners");
+            any_normals = any_normals || !ns.empty();
+            for (const auto& t : add_polygon(data, vs, shown, where))
+                corner_normals.push_back(ns.empty() ? std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}
+                                                    : std::array<Vec3, 3>{ns[t[0]], ns[t[1]], ns[t[2]]});
+        }
+    }
+    if (any_normals) data.normals = std::move(corner_normals);
+    return data;
+}
+
+}  // namespace raybundle::scenes::mesh_detail
