@@ -7,8 +7,9 @@
 # the ratio of each sampler's mean to random's, and the mean of the run's own estimate of
 # that error (from its two chains' disagreement). The command line's own path: two chains
 # of 500 walks each (their difference is the run's error estimate), the default
-# backend and map. Writes CSV to standard output (docs/benchmarks.md, "Quasi-random
-# walks").
+# backend and map; one thread (the results are the same for any count, and one thread
+# leaves the other core to the tests beside it). Writes CSV to standard output
+# (docs/benchmarks.md, "Quasi-random walks").
 # Usage: bench/run_qmc.sh [RAYBUNDLE] [SEEDS]   (default build/apps/raybundle, 5 seeds)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -25,7 +26,7 @@ for method in walk combined bidirectional; do
     for sampler in random halton sobol; do
       for seed in $(seq 1 "$seeds"); do
         "$raybundle" solve --builtin homogeneous-box --method "$method" --depth 5 --iterations 1000 --gather 0 \
-          --sampler "$sampler" "$shot" --seed "$seed" -q -o "$work/x.pfm" --stats "$work/s.json"
+          --sampler "$sampler" "$shot" --seed "$seed" --threads 1 -q -o "$work/x.pfm" --stats "$work/s.json"
         python3 -c "import json,sys; d = json.load(open(sys.argv[1]))
 print(d['relative_l1_error'], d['estimate']['field_estimated_error'])" "$work/s.json"
       done > "$work/errors"
