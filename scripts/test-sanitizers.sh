@@ -10,7 +10,10 @@
 # comparison on the partition scene ("partition": 37 runs of the CLI, whose Metropolis
 # code the unit tests run as well) and the quasi-random walks against random ones ("qmc":
 # 90 runs of the CLI; the samplers' unit tests run here) are left to the normal build,
-# to keep CI within 30 minutes on 2 cores. Extra arguments go to ctest (e.g.
+# to keep CI within 30 minutes on 2 cores. So is "rounds: the steps' share follows where
+# the noise is": it measures what rounds fit in a 3 s time budget, and under the
+# sanitizers' slowdown too few fit for its probe (field share 0.57 where it asserts
+# < 0.5, on the 2-core development machine); the normal build asserts it. Extra arguments go to ctest (e.g.
 # -R cli).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,4 +26,4 @@ cmake --build build-sanitize -j "$jobs"
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0"
-ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$|^qmc$" "$@"
+ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$|^qmc$|^rounds: the steps. share" "$@"
