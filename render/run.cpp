@@ -1,7 +1,6 @@
 #include "render/run.h"
 
 #include "render/camera.h"
-#include "render/gbuffer.h"
 #include "render/metrics.h"
 #include "render/run_record.h"
 #include "render/scene_check.h"
