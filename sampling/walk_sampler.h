@@ -47,8 +47,8 @@
 
 namespace raybundle::sampling {
 
-// vegas and metropolis adapt to the image (sampling/adaptive.h, solver/global_walks.h):
-// the walks draw their points themselves; WalkSampler gives them uniform random points.
+// vegas and metropolis adapt to the image (sampling/adaptive.h, solver/walk_source.h):
+// they draw their points themselves, WalkSampler refuses them.
 enum class SamplerKind { random, halton, sobol, vegas, metropolis };
 
 // The samplers' names in the enum's order: one list for parsing, messages and the
@@ -176,6 +176,9 @@ public:
         if (depth > limit)
             throw std::invalid_argument(std::string("the ") + sampler_name(kind) + " sampler supports walks of depth " +
                                         "up to " + std::to_string(limit) + ", got " + std::to_string(depth));
+        if (adaptive(kind))
+            throw std::invalid_argument(std::string("the ") + sampler_name(kind) +
+                                        " sampler adapts to the image: its walks come from solver/walk_source.h");
         const int dims = 2 * depth;
         Rng shift_rng(seed, streams::kWalkShifts[chain]);
         if (kind == SamplerKind::halton) {
@@ -202,8 +205,8 @@ public:
         const int dims = 2 * depth_;
         point_.resize(static_cast<std::size_t>(dims));
         switch (kind_) {
-            case SamplerKind::vegas:
-            case SamplerKind::metropolis:
+            case SamplerKind::vegas:       // refused by the constructor
+            case SamplerKind::metropolis:  // (no default: the compiler checks the cases)
             case SamplerKind::random: {
                 Rng rng(seed_, streams::kWalks(chain_, m, 32));  // one stream per walk
                 for (int k = 0; k < dims; ++k) point_[k] = rng.uniform();

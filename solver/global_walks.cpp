@@ -1,6 +1,7 @@
 #include "solver/global_walks.h"
 
 #include "sampling/streams.h"
+#include "sampling/walk_sampler.h"
 #include "scenes/errors.h"
 
 #include <algorithm>
@@ -22,13 +23,6 @@ const char* walk_method_name(WalkMethod m) {
 }
 
 namespace {
-
-constexpr int kVegasBins = 8;      // per direction, bins x bins over the unit square
-constexpr long kVegasPhase = 64;   // walks between refinements
-constexpr int kMetropolisChains = 4;
-constexpr long kFirstRefresh = 16;       // Metropolis steps before the large steps' density is first learnt
-constexpr double kRefreshGrowth = 1.25;  // then refreshed after 1.25 times as many
-constexpr double kLearningShare = 0.2;   // of the steps after the seeds: learning, then the density is fixed
 
 double binomial(int n, int k) {
     double r = 1.0;
@@ -97,12 +91,9 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
       options_(checked(options)),
       run_(run),
       glossy_(transport.glossy()),
-      sampler_(options.sampler, options.depth, run.seed, run.chain),
-      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)),
-      adaptive_rng_(run.seed, sampling::streams::kAdaptiveWalks[run.chain]),
-      vegas_(options.depth, kVegasBins),
-      learner_(options.depth),
-      exposure_(options.depth) {
+      source_(make_walk_source(options_, run, transport.patches())),
+      point_(static_cast<std::size_t>(2 * options.depth), 0.0),
+      jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
     dirs_.resize(static_cast<std::size_t>(D));
@@ -143,16 +134,9 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     } else {
         report_.decisions["shading"] = "once at the end (purely diffuse scene)";
     }
-    if (sampling::adaptive(options.sampler)) {
+    if (source_->adapts()) {
         weights_ = importance_weights(t_, glossy_);
-        point_.assign(static_cast<std::size_t>(2 * D), 0.0);
-        proposal_ = point_;
-        if (options.sampler == sampling::SamplerKind::metropolis) {
-            chains_.assign(kMetropolisChains, Chain{point_, std::vector<Rgb>(n, Rgb::Zero()), 0.0, {}});
-            seed_sum_.assign(n, Rgb::Zero());
-            vectors += kMetropolisChains + 1;
-        }
-        report_.bytes_per_patch = vectors * sizeof(Rgb);
+        report_.bytes_per_patch = (vectors + source_->vectors()) * sizeof(Rgb);
         report_.decisions["importance"] =
             "the image's luminance of a walk, from " + std::to_string(weights_.rays) + " camera rays (" +
             std::to_string(static_cast<int>(std::lround(100.0 * weights_.covered))) + " % meet a patch's front)";
@@ -161,27 +145,8 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
 
 SolverReport GlobalWalks::report() const {
     SolverReport r = report_;
-    if (options_.sampler == sampling::SamplerKind::vegas) {
-        r.details["vegas"] = {{"bins", std::to_string(kVegasBins) + "x" + std::to_string(kVegasBins)},
-                              {"phase_walks", kVegasPhase},
-                              {"refinements", vegas_.refinements()}};
-    } else if (options_.sampler == sampling::SamplerKind::metropolis) {
-        r.details["metropolis"] = {{"chains", kMetropolisChains},
-                                   {"mutation_size", options_.mutation_size},
-                                   {"large_step", options_.large_step},
-                                   {"seed_walks", seeds_done_},
-                                   {"seeding", seeding_},
-                                   {"exposure", exposure()},
-                                   {"exposure_walks", exposure_.samples()},
-                                   {"density_refreshes", exposure_.periods() - 1},
-                                   {"learning_steps", learnt_},
-                                   {"image_steps", imaged_},
-                                   {"importance_floor", floor_},
-                                   {"proposed", proposed_},
-                                   {"acceptance_rate", proposed_ > 0 ? acceptance_sum_ / proposed_ : 0.0},
-                                   {"accepted", proposed_ > 0 ? static_cast<double>(accepted_) / proposed_ : 0.0}};
-    }
-    if (sampling::adaptive(options_.sampler)) r.details["image_coverage"] = weights_.covered;
+    source_->report(r);
+    if (source_->adapts()) r.details["image_coverage"] = weights_.covered;
     return r;
 }
 
@@ -328,136 +293,26 @@ void GlobalWalks::evaluate() {
 double GlobalWalks::evaluate_at(const double* point) {
     for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampling::uniform_sphere(point[2 * d], point[2 * d + 1]);
     evaluate();
-    return importance();
-}
-
-double GlobalWalks::importance() const {
+    if (!source_->adapts()) return 0.0;
     double sum = 0.0;
     for (std::size_t p = 0; p < walk_.size(); ++p) sum += luminance(weights_.weight[p] * walk_[p]);
     return std::max(0.0, sum);
 }
 
-void GlobalWalks::advance_vegas() {
-    const double p = vegas_.sample(adaptive_rng_, point_.data());
-    const double importance = evaluate_at(point_.data());
-    for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += walk_[i] / p;
-    vegas_.accumulate(point_.data(), importance / p);
-    if (++phase_walks_ == kVegasPhase) {
-        vegas_.refine();
-        phase_walks_ = 0;
-    }
-}
-
-long GlobalWalks::learning_steps() const {
-    if (!(options_.large_step > 0.0)) return 0;  // nothing draws from the density
-    return std::max(1L, static_cast<long>(kLearningShare * static_cast<double>(options_.steps - seed_target())));
-}
-
-long GlobalWalks::seed_target() const {
-    if (options_.seed_walks > 0) return options_.seed_walks;
-    return std::max(1L, static_cast<long>(SolverOptions::kAutoSeedShare * static_cast<double>(options_.steps)));
-}
-
-// One seed walk: a uniform walk, a sample of the exposure and of the seeds' field, and
-// offered to every chain's reservoir (8.1.2's draw in proportion to the importance).
-void GlobalWalks::seed_metropolis() {
-    for (double& u : point_) u = adaptive_rng_.uniform();
-    const double importance = evaluate_at(point_.data());
-    for (std::size_t i = 0; i < seed_sum_.size(); ++i) seed_sum_[i] += walk_[i];
-    exposure_.add(point_.data(), importance);
-    ++seeds_done_;
-    for (Chain& c : chains_) {
-        // A walk that lights nothing is never picked: no random number spent on it.
-        if (importance > 0.0 && c.seeds.offer(importance, adaptive_rng_.uniform())) {
-            c.point = point_;
-            c.estimate = walk_;
-            c.importance = importance;
-        }
-    }
-}
-
-// The seeds are done (and one of them brought light to the image): the floor, and the
-// chains' first walks are their picks.
-void GlobalWalks::start_chains() {
-    floor_ = 0.01 * exposure_.mean();
-    for (Chain& c : chains_) c.importance += floor_;
-    next_refresh_ = kFirstRefresh;
-    seeding_ = false;
-}
-
-void GlobalWalks::advance_metropolis() {
-    if (seeding_) {
-        // Where the image is lit through a small opening every seed may miss it: the
-        // seeding goes on until one brings light to the image (in a scene whose image
-        // stays dark, the whole run is uniform walks).
-        seed_metropolis();
-        if (seeds_done_ >= seed_target() && exposure_.mean() > 0.0) start_chains();
-        return;
-    }
-    Chain& c = chains_[static_cast<std::size_t>(proposed_ % kMetropolisChains)];
-    const int size = 2 * options_.depth;
-    // A large step draws the walk anew from the learnt density p (sampling/mixture.h):
-    // an independence proposal, accepted by the Metropolis-Hastings ratio
-    // I(z') p(z) / (I(z) p(z')). A small step perturbs the walk (symmetric).
-    const bool large = adaptive_rng_.uniform() < options_.large_step;
-    double proposal_over_current = 1.0;  // p(z') / p(z) for a large step
-    if (large) {
-        const sampling::DirectionMixture& p = exposure_.current();
-        proposal_over_current = p.sample(adaptive_rng_, proposal_.data()) / p.density(c.point.data());
-    } else {
-        sampling::Mutation{options_.mutation_size}(c.point.data(), proposal_.data(), size, adaptive_rng_);
-    }
-    const double raw = evaluate_at(proposal_.data()), importance = raw + floor_;
-    if (large) exposure_.add(proposal_.data(), raw);  // an independent walk: a sample of b
-    const double a = std::min(1.0, importance / (c.importance * proposal_over_current));
-    if (learnt_ < learning_steps()) {
-        // Learning: the density learns from the step's expected value (both walks,
-        // weighed by a) and is refreshed now and then; the step stays out of the image.
-        learner_.learn(proposal_.data(), a);
-        learner_.learn(c.point.data(), 1.0 - a);
-        ++learnt_;
-        if (learnt_ == next_refresh_ || learnt_ == learning_steps()) {
-            exposure_.draw_from(learner_.mixture(), std::sqrt(1.0 + static_cast<double>(learnt_)));
-            next_refresh_ = std::max(next_refresh_ + 1, static_cast<long>(kRefreshGrowth * static_cast<double>(next_refresh_)));
-        }
-    } else {
-        // The expected value of the step (004 section 8.2): both walks, weighed by a;
-        // the exposure b multiplies the sum when it is read (field()).
-        const double new_weight = a / importance, old_weight = (1.0 - a) / c.importance;
-        for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += new_weight * walk_[i] + old_weight * c.estimate[i];
-        ++imaged_;
-    }
-    ++proposed_;
-    acceptance_sum_ += a;
-    if (adaptive_rng_.uniform() < a) {
-        c.point = proposal_;
-        c.estimate.swap(walk_);
-        c.importance = importance;
-        ++accepted_;
-    }
-}
-
 void GlobalWalks::advance(long total) {
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
-        if (options_.sampler == sampling::SamplerKind::vegas) {
-            advance_vegas();
-        } else if (options_.sampler == sampling::SamplerKind::metropolis) {
-            advance_metropolis();
-        } else {
-            sampler_.start_walk(static_cast<std::uint64_t>(walks_done_));
-            for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampler_.direction(d);
-            evaluate();
-            for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += walk_[i];
-        }
+        source_->propose(walks_done_, point_.data());
+        const double importance = evaluate_at(point_.data());
+        source_->accept(walk_, importance, sum_);
         ++walks_done_;
         ++report_.steps;
         run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
     }
 }
 
-// Between walks only the sums, the jitters' generator and the correction carry over
-// (the sampler gives walk m from m alone; the walk's vectors start anew).
+// Between walks the sums, the jitters' generator, the correction and the source's
+// state carry over (the walk's vectors start anew).
 void GlobalWalks::save(StateWriter& out) const {
     out.tag(walk_method_name(method_));
     out.put(walks_done_);
@@ -467,40 +322,8 @@ void GlobalWalks::save(StateWriter& out) const {
     out.put(correction_dir_);
     out.put(correction_both_);
     out.put(correction_scale_);
-    if (sampling::adaptive(options_.sampler)) {
-        out.tag(sampling::sampler_name(options_.sampler));
-        out.put(adaptive_rng_);
-        out.put(floor_);
-        out.put(vegas_.weights());
-        out.put(vegas_.sums());
-        out.put(vegas_.refinements());
-        out.put(phase_walks_);
-        out.put(seeds_done_);
-        out.put(seeding_);
-        out.put(seed_sum_);
-        for (const Chain& c : chains_) {
-            out.put(c.point);
-            out.put(c.estimate);
-            out.put(c.importance);
-            out.put(c.seeds.total);
-        }
-        out.put(learner_.counts());
-        out.put(learner_.totals());
-        out.put(learner_.marginals());
-        out.put(learner_.marginal_total());
-        out.put(learnt_);
-        out.put(next_refresh_);
-        out.put(imaged_);
-        out.put(exposure_.current().uniform);
-        out.put(exposure_.current().weights);
-        out.put(exposure_.current().cells);
-        out.put(exposure_.trust());  // its count first, which restore() bounds before allocating
-        out.put(exposure_.counts());
-        out.put(exposure_.sums());
-        out.put(proposed_);
-        out.put(accepted_);
-        out.put(acceptance_sum_);
-    }
+    out.tag(sampling::sampler_name(options_.sampler));
+    source_->save(out);
     save_counters(out, report_);
 }
 
@@ -513,73 +336,17 @@ void GlobalWalks::restore(StateReader& in) {
     in.get(correction_dir_);
     in.get(correction_both_);
     in.get(correction_scale_);
-    if (sampling::adaptive(options_.sampler)) {
-        in.expect(sampling::sampler_name(options_.sampler));
-        in.get(adaptive_rng_);
-        in.get(floor_);
-        const std::size_t cells = vegas_.weights().size();
-        in.get(vegas_.weights());
-        in.get(vegas_.sums());
-        if (vegas_.weights().size() != cells || vegas_.sums().size() != cells)
-            throw StateError("VEGAS tables of another depth");
-        in.get(vegas_.refinements());
-        vegas_.update_cdf();
-        in.get(phase_walks_);
-        in.get(seeds_done_);
-        in.get(seeding_);
-        in.get(seed_sum_);  // the reader checks the sizes, here and below
-        for (Chain& c : chains_) {
-            in.get(c.point);
-            in.get(c.estimate);
-            in.get(c.importance);
-            in.get(c.seeds.total);
-        }
-        in.get(learner_.counts());
-        in.get(learner_.totals());
-        in.get(learner_.marginals());
-        in.get(learner_.marginal_total());
-        in.get(learnt_);
-        in.get(next_refresh_);
-        in.get(imaged_);
-        sampling::DirectionMixture& p = exposure_.current();
-        in.get(p.uniform);
-        in.get(p.weights);
-        in.get(p.cells);
-        if (!p.valid(options_.depth)) throw StateError("a Metropolis density out of range");
-        std::uint64_t periods = 0;
-        in.get(periods);
-        // Each period takes 24 bytes: a count the bytes left cannot hold is refused
-        // before anything is allocated.
-        if (periods < 1 || periods > in.left() / 24) throw StateError("a Metropolis period count out of range");
-        exposure_.trust().resize(periods);
-        exposure_.counts().resize(periods);
-        exposure_.sums().resize(periods);
-        for (std::uint64_t k = 0; k < periods; ++k) {
-            in.get(exposure_.trust()[k]);
-            if (!(exposure_.trust()[k] > 0.0)) throw StateError("a Metropolis trust out of range");
-        }
-        in.get(exposure_.counts());
-        in.get(exposure_.sums());
-        for (const Chain& c : chains_)
-            for (double u : c.point)
-                if (!(u >= 0.0 && u <= 1.0)) throw StateError("a Metropolis walk outside the unit cube");
-        in.get(proposed_);
-        in.get(accepted_);
-        in.get(acceptance_sum_);
-    }
+    in.expect(sampling::sampler_name(options_.sampler));
+    source_->restore(in);
     restore_counters(in, report_);
 }
 
 RadianceField GlobalWalks::field() const {
-    if (options_.sampler != sampling::SamplerKind::metropolis) return t_.field_from(sum_, walks_done_, to_eye_);
-    if (imaged_ == 0) return t_.field_from(seed_sum_, seeds_done_, to_eye_);
-    std::vector<Rgb> scaled = sum_;
-    for (Rgb& v : scaled) v *= exposure();
-    return t_.field_from(scaled, imaged_, to_eye_);
-}
-
-double GlobalWalks::exposure() const {
-    return exposure_.samples() > 0 ? exposure_.mean() + floor_ : 0.0;
+    const WalkMean mean = source_->mean(sum_, walks_done_);
+    if (mean.scale == 1.0) return t_.field_from(mean.sum, mean.count, to_eye_);
+    std::vector<Rgb> scaled = mean.sum;
+    for (Rgb& v : scaled) v *= mean.scale;
+    return t_.field_from(scaled, mean.count, to_eye_);
 }
 
 }  // namespace raybundle::solver

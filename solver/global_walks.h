@@ -31,56 +31,18 @@
 // scenes keep the whole table, each entry with the direction it arrived along, and
 // evaluate the radiance towards the eye per walk.
 //
-// Importance sampling for the image (004 sections 7-8; sampler vegas or metropolis):
-// every walk's estimate X(z) is a vector over patches, and its importance
-// I(z) = sum_p Y(w_p X_p(z)) is the luminance it adds to the image
+// Where the directions come from is the walk source's business (solver/walk_source.h:
+// uniform random or quasi-random points, VEGAS, Metropolis): it proposes each walk's
+// point, the walk is computed here, and the source accepts it into the sum. For the
+// sources that adapt to the image, every walk's estimate X(z) (a vector over patches)
+// has an importance I(z) = sum_p Y(w_p X_p(z)): the luminance it adds to the image
 // (solver/importance.h).
-//
-//   vegas       the walk's point is drawn from the separable tables of
-//               sampling/adaptive.h (an 8 x 8 table per direction), its estimate is
-//               X(z) / p(z) (eq. 33, unbiased for any tables), and the tables are
-//               refined from the importance after every phase of 64 walks. The
-//               tables' floor keeps p > 0 where the camera sees nothing, so that the
-//               light of unseen patches is still estimated.
-//   metropolis  (eq. 37-41) 4 chains per solver chain, taking steps in turn (a fixed
-//               count: the result does not depend on the threads). The first
-//               `seed_walks` walks of the chain's budget (default 30 % of them; more while
-//               none brings light to the image) are uniform seed walks: each chain's
-//               first walk is one of them, picked in proportion to its importance
-//               (8.1.2: the chains start in the stationary distribution; one weighted
-//               reservoir per chain, so that no seed is evaluated twice). The
-//               importance gets a floor f, 1 % of the seeds' mean (the light of walks
-//               the camera does not see keeps a chance). Then every step either
-//               perturbs the chain's walk (sampling::Mutation, delta = mutation_size;
-//               accepted with a = min(1, I(z') / I(z))) or, with probability
-//               large_step, draws a new walk from a density p learnt from the chains
-//               (sampling/mixture.h: a mixture of one-direction components, since light
-//               through an opening needs one of the walk's directions in its cone;
-//               accepted with a = min(1, I(z') p(z) / (I(z) p(z')))). The next 20 % of
-//               the steps after the seeds teach the density (refreshed after 16, 20,
-//               25, ... of them and at the last) and stay out of the image (none
-//               with large_step 0); then it is fixed, so that
-//               the chains are plain Metropolis-Hastings (adapting all along biased the
-//               homogeneous box by 3 % at 1,200 walks). Every other step adds the
-//               expected value of both walks (8.2): b (a X(z') / I(z') + (1 - a) X(z) / I(z)),
-//               the field is their mean. The exposure b (8.1.3), the integral of the
-//               importance, comes from every independent walk: the seeds (uniform) and
-//               the large steps (from p), each density's sum of I / p weighed by a trust
-//               fixed in advance (sampling::MixtureEstimate): far less heavy-tailed than
-//               the uniform walks' mean, and unbiased. Until the first image step the
-//               field is the seeds' mean (a run of random walks). averaged() counts
-//               every walk, seeds included, so that it grows with the run as the
-//               pipeline's rounds need. Consistent, not unbiased: b is estimated, and
-//               004 section 8.4 bounds the start-up bias
-//               (tests/solver/test_importance_sampling.cpp).
 //
 // Options read: steps (walks), depth, unbiased, sampler, mutation_size, large_step,
 // seed_walks. Call order: see solver.h.
-#include "sampling/adaptive.h"
-#include "sampling/mixture.h"
-#include "sampling/walk_sampler.h"
 #include "solver/importance.h"
 #include "solver/solver.h"
+#include "solver/walk_source.h"
 #include "visibility/parallel.h"
 
 #include <cstdint>
@@ -130,14 +92,9 @@ private:
     void walk_combined(bool both);
     // One walk along dirs_ (computes the matrices): its estimate into walk_.
     void evaluate();
-    // The walk at `point` (2 depth coordinates), into walk_; its importance.
+    // The walk at `point` (2 depth coordinates), into walk_; its importance (0 for a
+    // source that does not adapt).
     double evaluate_at(const double* point);
-    double importance() const;  // of walk_, without the floor
-    void advance_vegas();
-    void advance_metropolis();
-    void seed_metropolis();
-    void start_chains();
-    long seed_target() const;
     // The geometry matrices of the walk's directions, dirs_ -> matrices_.
     void transfer_all();
     // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
@@ -153,7 +110,8 @@ private:
     SolverOptions options_;
     sampling::RunOptions run_;
     bool glossy_;
-    sampling::WalkSampler sampler_;
+    std::unique_ptr<WalkSource> source_;
+    std::vector<double> point_;  // the walk's 2 depth coordinates
     sampling::Rng jitter_;
     std::vector<Vec3> dirs_;
     std::vector<Vec3> to_eye_;
@@ -177,35 +135,7 @@ private:
     long walks_done_ = 0;
     SolverReport report_;
 
-    // Importance sampling (vegas, metropolis).
-    ImportanceWeights weights_;
-    sampling::Rng adaptive_rng_;
-    std::vector<double> point_, proposal_;
-    double floor_ = 0.0;
-    sampling::VegasTables vegas_;
-    long phase_walks_ = 0;
-    struct Chain {
-        std::vector<double> point;
-        std::vector<Rgb> estimate;
-        double importance = 0.0;  // with the floor
-        sampling::Reservoir seeds;  // seeding: picks the first walk in proportion to importance
-    };
-    std::vector<Chain> chains_;
-    std::vector<Rgb> seed_sum_;  // per patch: the seed walks' sum (the field until the first step)
-    bool seeding_ = true;
-    // The large steps' density, learnt from the chains' steps and refreshed after
-    // kFirstRefresh, then kRefreshGrowth times more, steps, and at the last learning
-    // step.
-    sampling::MixtureLearner learner_;
-    long learnt_ = 0, next_refresh_ = 0, imaged_ = 0;  // learning steps, then the image's
-    long learning_steps() const;
-    // The exposure b without the floor, from every independent walk (the seeds,
-    // uniform, and the large steps, from the density of their period): each density's
-    // sum of I / p_k, weighed by a trust fixed in advance.
-    sampling::MixtureEstimate exposure_;
-    double exposure() const;
-    long seeds_done_ = 0, proposed_ = 0, accepted_ = 0;
-    double acceptance_sum_ = 0.0;
+    ImportanceWeights weights_;  // for a source that adapts
 };
 
 }  // namespace raybundle::solver

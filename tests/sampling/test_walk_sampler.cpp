@@ -198,4 +198,7 @@ TEST_CASE("walk samplers: bad arguments are refused with a message", "[sampling]
     CHECK_THROWS_WITH(WalkSampler(SamplerKind::sobol, 16, 1), Catch::Contains("up to 15"));
     CHECK_THROWS_WITH(WalkSampler(SamplerKind::random, 0, 1), Catch::Contains(">= 1"));
     CHECK_THROWS_WITH(parse_sampler("owen"), Catch::Contains("known: random, halton, sobol"));
+    // The adaptive samplers draw their points themselves (solver/walk_source.h).
+    CHECK_THROWS_WITH(WalkSampler(SamplerKind::vegas, 5, 1), Catch::Contains("adapts to the image"));
+    CHECK_THROWS_WITH(WalkSampler(SamplerKind::metropolis, 5, 1), Catch::Contains("adapts to the image"));
 }

@@ -7,6 +7,7 @@
 #include "scenes/brdf.h"
 #include "solver/global_walks.h"
 #include "solver/stochastic_iteration.h"
+#include "solver/walk_source.h"
 #include "visibility/backend.h"
 
 #include <catch2/catch.hpp>
@@ -225,4 +226,44 @@ TEST_CASE("walks: unbiased walks need independent consecutive walks (random dire
         CHECK_THROWS_WITH(solver::GlobalWalks(transport, *backend, WalkMethod::walk, opt, {}),
                           Catch::Contains("unbiased: needs the random sampler"));
     }
+}
+
+TEST_CASE("walk sources: one per sampler, the call order kept, and an unknown one named", "[solver][walks]") {
+    solver::SolverOptions opt;
+    opt.depth = 3;
+    opt.steps = 40;
+    const std::size_t patches = 7;
+    for (std::size_t k = 0; k < sampling::kSamplerNames.size(); ++k) {
+        opt.sampler = static_cast<sampling::SamplerKind>(k);
+        INFO(sampling::kSamplerNames[k]);
+        auto source = solver::make_walk_source(opt, {}, patches);
+        CHECK(source->adapts() == sampling::adaptive(opt.sampler));
+        // A few walks of made-up estimates: every point in the unit cube, every sum finite.
+        std::vector<scenes::Rgb> sum(patches, scenes::Rgb::Zero());
+        std::vector<double> point(6);
+        for (long m = 0; m < opt.steps; ++m) {
+            source->propose(m, point.data());
+            for (double u : point) CHECK((u >= 0.0 && u < 1.0));
+            std::vector<scenes::Rgb> estimate(patches, scenes::Rgb::Constant(point[0]));
+            source->accept(estimate, point[1], sum);
+        }
+        const solver::WalkMean mean = source->mean(sum, opt.steps);
+        CHECK(mean.count > 0);
+        CHECK(std::isfinite(mean.scale));
+        for (const auto& v : mean.sum) CHECK(v.allFinite());
+        // save, go on, restore into a fresh source, go on: the same points.
+        solver::StateWriter out;
+        source->save(out);
+        std::vector<double> a(6), b(6);
+        source->propose(opt.steps, a.data());
+        auto again = solver::make_walk_source(opt, {}, patches);
+        solver::StateReader in(out.bytes());
+        again->restore(in);
+        in.finish();
+        again->propose(opt.steps, b.data());
+        CHECK(a == b);
+    }
+    opt.sampler = static_cast<sampling::SamplerKind>(sampling::kSamplerNames.size());
+    CHECK_THROWS_WITH(solver::make_walk_source(opt, {}, patches),
+                      Catch::Contains("unknown sampler") && Catch::Contains("known: random, halton, sobol, vegas, metropolis"));
 }
