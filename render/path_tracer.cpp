@@ -1,7 +1,7 @@
 #include "render/path_tracer.h"
 
+#include "render/direct_light.h"
 #include "render/gbuffer.h"
-#include "render/lights.h"
 #include "sampling/rng.h"
 #include "sampling/strata.h"
 #include "sampling/streams.h"
@@ -27,8 +27,7 @@ constexpr int kRouletteFrom = 3;  // vertices before Russian roulette starts
 class PathTracer {
 public:
     PathTracer(const scenes::Scene& scene, const scenes::RayCaster& caster)
-        : scene_(scene), caster_(caster), patches_(scene.patch_list()), lights_(scene),
-          offset_(1e-5 * scene.bounds_radius()) {}
+        : scene_(scene), caster_(caster), patches_(scene.patch_list()), lighting_(scene, caster) {}
 
     // Radiance arriving at `eye` along -d (the path's first ray leaves eye along d).
     Rgb radiance(Vec3 from, Vec3 d, sampling::Rng& rng, long& rays) const {
@@ -45,47 +44,21 @@ public:
             const double cos_y = -patch.normal.dot(d);
             if (cos_y <= 0.0) break;  // the back of a one-sided patch: black
             // Shading with the interpolated normal, unless the eye is below its horizon.
-            Vec3 n = scene_.shading_normal(hit.patch, hit.b1, hit.b2);
-            if (n.dot(d) >= 0.0) n = patch.normal;
+            const Vec3 to_eye = -d, n = lighting_.shading_normal(hit.patch, hit.b1, hit.b2, to_eye);
             const auto& m = scene_.material_of(hit.patch);
-            const Vec3 x = from + hit.t * d, to_eye = -d;
+            const Vec3 x = from + hit.t * d;
+            // Light met by the BRDF's direction, weighed against the light point drawn
+            // at the previous vertex (balance heuristic).
             if (m.emissive()) {
-                double w = 1.0;
-                if (last_pdf > 0.0) {
-                    const double pl = lights_.pdf_solid_angle(hit.patch, hit.t, cos_y);
-                    w = last_pdf / (last_pdf + pl);
-                }
+                const double w = last_pdf > 0.0 ? lighting_.emitter_weight(hit.patch, hit.t, cos_y, last_pdf) : 1.0;
                 L += throughput * m.emission * w;
             }
-            const Vec3 origin = x + offset_ * (patch.normal + to_eye);
+            const Vec3 origin = lighting_.origin(x, patch.normal, to_eye);
             // Next-event estimation: one point of an area light, every point light.
-            if (!lights_.empty()) {
-                const auto s = lights_.sample(rng.uniform(), rng.uniform(), rng.uniform());
-                const Vec3 dl = s.point - origin;
-                const double r = dl.norm();
-                const Vec3 w = dl / r;
-                const double cos_x = n.dot(w), cos_l = -patches_[s.patch].normal.dot(w);
-                if (r > 0.0 && cos_x > 0.0 && cos_l > 0.0) {
-                    ++rays;
-                    if (!caster_.intersect(origin, w, 0.0, r * (1.0 - 1e-5)).valid()) {
-                        const double pl = lights_.pdf_solid_angle(s.patch, r, cos_l);
-                        const double pb = scenes::brdf_pdf(m, n, to_eye, w);
-                        L += throughput * scenes::brdf(m, n, -w, to_eye) * scene_.material_of(s.patch).emission *
-                             (cos_x / (pl + pb));
-                    }
-                }
-            }
-            for (const auto& light : scene_.point_lights) {
-                const Vec3 dl = light.position - origin;
-                const double r = dl.norm();
-                if (r <= 0.0) continue;
-                const Vec3 w = dl / r;
-                const double cos_x = n.dot(w);
-                if (cos_x <= 0.0) continue;
-                ++rays;
-                if (caster_.intersect(origin, w, 0.0, r * (1.0 - 1e-5)).valid()) continue;
-                L += throughput * scenes::brdf(m, n, -w, to_eye) * light.intensity * (cos_x / (r * r));
-            }
+            const DirectLighting::Surface at{m, n, origin, to_eye};
+            if (!lighting_.lights().empty())
+                lighting_.add_light_point(at, lighting_.draw_light(rng), Lobe::full, throughput, L, rays);
+            lighting_.add_point_lights(at, throughput, L, rays);
             // Continue along a direction drawn from the BRDF.
             const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
             const auto s = scenes::sample_brdf(m, n, to_eye, u1, u2, u3);
@@ -109,8 +82,7 @@ private:
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
     const std::vector<scenes::Patch>& patches_;
-    AreaLights lights_;
-    double offset_;
+    DirectLighting lighting_;
 };
 
 }  // namespace

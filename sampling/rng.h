@@ -5,6 +5,12 @@
 //
 // Call order: Rng(seed, stream) -> uniform()/next_u64() ... ; state()/set_state() to
 // save a generator and go on with it later (checkpoints).
+//
+// Draw into named variables, one declaration after another, never as two arguments of
+// one call: f(rng.uniform(), rng.uniform()) leaves the order to the compiler (GCC goes
+// right to left, Clang left to right), and the same seed would give another result
+// with another compiler. Where a call of that kind was replaced, the variables keep
+// the order GCC gave it, so that results stayed bit-identical ("y first").
 #include <array>
 #include <cstdint>
 

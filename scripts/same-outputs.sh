@@ -2,7 +2,8 @@
 # Whether two builds of raybundle write the same outputs for the same commands: for a
 # refactoring that must not change a result. Runs a set of solves (every built-in
 # scene, the examples, every method and sampler family, the patch image and the final
-# gather, rounds to a target error, the path tracer, a checkpoint resumed) with each
+# gather (both direct-light methods), rounds to a target error, the path
+# tracer on the box and on glossy and point-lit scenes, a checkpoint resumed) with each
 # program and compares every file they write byte for byte: images, per-patch CSV and
 # PLY; the stats and the convergence CSV without their timings (keys and columns of
 # seconds); the summary line without its seconds.
@@ -37,10 +38,21 @@ run_all() {  # BIN DIR
   run terrain --builtin fractal-terrain --width 48 --height 32 --iterations 100 --gather 8 --spp 2
   run glossy "$examples/cornell-glossy.json" --width 48 --height 48 --iterations 100 --gather 8 --spp 2
   run doorway "$examples/doorway.json" --width 48 --height 48 --iterations 100 --gather 8 --spp 2
+  run sampled "$examples/cornell-glossy.json" --width 32 --height 32 --iterations 100 --gather 8 --spp 2 \
+    --direct sampled
+  run minimal "$examples/minimal.json" --width 32 --height 32 --iterations 100 --gather 8 --spp 2
+  run window "$examples/window.json" --width 32 --height 32 --iterations 100 --gather 8
   run target --builtin cornell-box --width 32 --height 32 --target-error 0.05 --gather 8 --spp 2
-  mkdir -p "$dir/pathtrace"
-  (cd "$dir/pathtrace" && { "$bin" solve --builtin cornell-box --width 32 --height 32 --method pathtrace --spp 16 \
-    -q -o img.exr --stats stats.json --csv conv.csv >out.txt 2>err.txt; echo "exit $?" >>out.txt; })
+  trace() {  # NAME SCENE ARGS...: the path tracer (no field: no patch outputs)
+    local name=$1
+    shift
+    mkdir -p "$dir/$name"
+    (cd "$dir/$name" && { "$bin" solve "$@" --method pathtrace -q -o img.exr --stats stats.json --csv conv.csv \
+      >out.txt 2>err.txt; echo "exit $?" >>out.txt; })
+  }
+  trace pathtrace --builtin cornell-box --width 32 --height 32 --spp 16
+  trace pathtrace-glossy "$examples/cornell-glossy.json" --width 24 --height 24 --spp 8
+  trace pathtrace-minimal "$examples/minimal.json" --width 24 --height 24 --spp 8
   mkdir -p "$dir/resume"
   (cd "$dir/resume" && {
     "$bin" solve --builtin cornell-box --width 32 --height 32 --iterations 200 --checkpoint c.ckpt \

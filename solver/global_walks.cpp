@@ -152,7 +152,10 @@ SolverReport GlobalWalks::report() const {
 
 void GlobalWalks::transfer_all() {
     jitters_.clear();
-    for (std::size_t d = 0; d < dirs_.size(); ++d) jitters_.emplace_back(jitter_.uniform(), jitter_.uniform());
+    for (std::size_t d = 0; d < dirs_.size(); ++d) {
+        const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
+        jitters_.emplace_back(x, y);
+    }
     const auto t0 = Clock::now();
     backends_.transfer_batch(dirs_, jitters_, matrices_);
     report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();

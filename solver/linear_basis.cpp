@@ -101,7 +101,8 @@ void LinearIteration::advance(long total) {
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
         const Vec3 w = directions_.next();
-        const Eigen::Vector2d offset(jitter_.uniform(), jitter_.uniform());
+        const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
+        const Eigen::Vector2d offset(x, y);
         // Radiance at every corner: its node's emission and reflection of the last step.
         for (std::size_t c = 0; c < corner_out_.size(); ++c) {
             const std::uint32_t k = node_of_corner_[c];

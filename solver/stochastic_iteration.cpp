@@ -240,7 +240,10 @@ void StochasticIteration::advance(long total) {
             } else {
                 ws.push_back(directions_.next());
             }
-            for (int d = 0; d < per_step; ++d) offsets.emplace_back(jitter_.uniform(), jitter_.uniform());
+            for (int d = 0; d < per_step; ++d) {
+                const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
+                offsets.emplace_back(x, y);
+            }
         }
         const auto t0 = Clock::now();
         backends_.transfer_batch(ws, offsets, matrices_);

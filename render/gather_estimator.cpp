@@ -1,0 +1,121 @@
+#include "render/gather_estimator.h"
+
+#include "render/shade.h"
+#include "sampling/directions.h"
+#include "sampling/strata.h"
+#include "scenes/brdf.h"
+#include "scenes/frame.h"
+
+#include <cmath>
+
+namespace raybundle::render {
+
+using scenes::Rgb;
+using scenes::Vec3;
+
+namespace {
+
+// How often a secondary ray goes on before it reads the field, and how near a hit
+// must be, in sizes (square roots of the area) of the patch it meets, to go on.
+constexpr int kBounces = 2;
+constexpr double kNear = 2.0;
+
+// The mean over `count` directions of reading(u1, u2), the directions' points of the
+// unit square stratified (sampling/strata.h).
+template <class Reading>
+Rgb stratified_mean(int count, sampling::Rng& rng, Reading reading) {
+    const sampling::Strata strata(count);
+    Rgb sum = Rgb::Zero();
+    for (int k = 0; k < count; ++k) {
+        const double r1 = rng.uniform(), r2 = rng.uniform();
+        const auto [u1, u2] = strata.point(k, r1, r2);
+        sum += reading(u1, u2);
+    }
+    return sum / count;
+}
+
+}  // namespace
+
+GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster,
+                                 const solver::RadianceField& field, const GatherOptions& options)
+    : scene_(scene), caster_(caster), patches_(scene.patch_list()), lighting_(scene, caster),
+      analytic_(options.direct == DirectLight::analytic), near_hits_(options.near_hits) {
+    corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
+}
+
+Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int samples,
+                            sampling::Rng& rng, long& rays) const {
+    const DirectLighting::Surface at{scene_.material_of(p), n, lighting_.origin(x, patches_[p].normal, to_eye), to_eye};
+    Rgb sum = Rgb::Zero();
+    if (!lighting_.lights().empty() && samples > 0)
+        sum = analytic_ ? lighting_.analytic(at, samples, rng, rays) : lighting_.sampled(at, samples, rng, rays);
+    lighting_.add_point_lights(at, Rgb::Ones(), sum, rays);
+    return sum;
+}
+
+Rgb GatherEstimator::indirect(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count,
+                              sampling::Rng& rng, long& rays) const {
+    Vec3 u, v;
+    scenes::orthonormal_basis(n, u, v);
+    const Vec3 from = lighting_.origin(x, patches_[p].normal, to_eye);
+    return stratified_mean(count, rng, [&](double u1, double u2) -> Rgb {
+        const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
+        ++rays;
+        return field_along(from, w, rng, rays);
+    });
+}
+
+Rgb GatherEstimator::glossy(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count,
+                            sampling::Rng& rng, long& rays) const {
+    const auto& m = scene_.material_of(p);
+    const Vec3 from = lighting_.origin(x, patches_[p].normal, to_eye);
+    return stratified_mean(count, rng, [&](double u1, double u2) -> Rgb {
+        const auto s = scenes::sample_glossy(m, n, to_eye, u1, u2);
+        const double cos_x = n.dot(s.direction);
+        if (cos_x <= 0.0 || s.pdf <= 0.0) return Rgb::Zero();
+        ++rays;
+        return scenes::brdf_glossy(m, n, -s.direction, to_eye) * (cos_x / s.pdf) *
+               field_along(from, s.direction, rng, rays);
+    });
+}
+
+Rgb GatherEstimator::field_along(const Vec3& from, const Vec3& w, sampling::Rng& rng, long& rays, int bounce) const {
+    const auto hit = caster_.intersect(from, w);
+    if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
+    if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
+    if (bounce < kBounces && (scene_.material_of(hit.patch).glossy() ||
+                              (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
+        return bounce_at(hit, from + hit.t * w, -w, rng, rays, bounce + 1);
+    const auto& c = corners_[hit.patch];
+    const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
+    return (L - scene_.material_of(hit.patch).emission).max(0.0);
+}
+
+Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
+                               long& rays, int bounce) const {
+    const std::size_t q = static_cast<std::size_t>(hit.patch);
+    const auto& m = scene_.material_of(q);
+    const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
+    const DirectLighting::Surface at{m, n, lighting_.origin(y, patches_[q].normal, w_out), w_out};
+    Rgb L = Rgb::Zero();
+    if (!lighting_.lights().empty())
+        lighting_.add_light_point(at, lighting_.draw_light(rng), Lobe::full, Rgb::Ones(), L, rays);
+    lighting_.add_point_lights(at, Rgb::Ones(), L, rays);
+    // u3 first: the order GCC gave the one-line call this replaces (sampling/rng.h).
+    const double u3 = rng.uniform(), u2 = rng.uniform(), u1 = rng.uniform();
+    const auto s = scenes::sample_brdf(m, n, w_out, u1, u2, u3);
+    const Vec3& w = s.direction;
+    const double cos_x = n.dot(w);
+    if (cos_x <= 0.0 || s.pdf <= 0.0) return L;
+    const Rgb f = scenes::brdf(m, n, -w, w_out) * (cos_x / s.pdf);
+    ++rays;
+    const auto next = caster_.intersect(at.from, w);
+    if (next.valid() && lighting_.lights().probability(next.patch) > 0.0) {
+        const double cos_y = -patches_[next.patch].normal.dot(w);
+        if (cos_y > 0.0)
+            L += f * scene_.material_of(next.patch).emission * lighting_.emitter_weight(next.patch, next.t, cos_y, s.pdf);
+    }
+    return L + f * field_along(at.from, w, rng, rays, bounce);
+}
+
+}  // namespace raybundle::render

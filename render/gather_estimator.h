@@ -1,0 +1,74 @@
+#pragma once
+// What the final gather estimates at one surface point seen by a camera sample
+// (render/final_gather.h has the three passes that drive it): the direct light
+// (render/direct_light.h), the glossy reflection of the solved field, and the incident
+// indirect radiance the field reflects along gather rays.
+//
+// A gather or glossy ray reads the field where it hits, except where the field is a
+// poor stand-in: at a glossy surface (the field holds its radiance towards the camera
+// only) and at a hit closer than twice the size of the patch it meets (the patch's
+// mean radiance differs most from the radiance at the hit point in corners and along
+// contact lines). There the path goes on, up to two bounces in a row: one light point
+// and one BRDF direction (balance heuristic), what the direction meets reflecting the
+// field.
+//
+// Thread-safe: every method is const; randomness comes from the caller's generator.
+#include "render/direct_light.h"
+#include "render/final_gather.h"
+#include "sampling/rng.h"
+#include "scenes/ray_caster.h"
+#include "solver/radiance_field.h"
+
+#include <array>
+#include <vector>
+
+namespace raybundle::render {
+
+class GatherEstimator {
+public:
+    // The scene, the caster and the field must outlive it.
+    GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
+                    const GatherOptions& options);
+
+    scenes::Vec3 shading_normal(std::size_t p, double b1, double b2, const scenes::Vec3& to_eye) const {
+        return lighting_.shading_normal(p, b1, b2, to_eye);
+    }
+    // Direct light leaving x (on patch p, front side, shading normal n) towards
+    // `to_eye`, from `samples` light samples and every point light; its emission not
+    // included.
+    scenes::Rgb direct(std::size_t p, const scenes::Vec3& x, const scenes::Vec3& n, const scenes::Vec3& to_eye,
+                       int samples, sampling::Rng& rng, long& rays) const;
+    // Incident indirect radiance at x: the mean over `count` cosine-weighted rays
+    // (stratified, sampling/strata.h) of the radiance the field reflects at their hits.
+    scenes::Rgb indirect(std::size_t p, const scenes::Vec3& x, const scenes::Vec3& n, const scenes::Vec3& to_eye,
+                         int count, sampling::Rng& rng, long& rays) const;
+    // Glossy reflection of the field at x (a glossy material): the mean over `count`
+    // directions drawn from the Phong lobe (stratified) of the lobe's weight times the
+    // radiance the field reflects at their hits.
+    scenes::Rgb glossy(std::size_t p, const scenes::Vec3& x, const scenes::Vec3& n, const scenes::Vec3& to_eye,
+                       int count, sampling::Rng& rng, long& rays) const;
+
+private:
+    // The radiance arriving at `from` along -w that the solved field reflects (the hit
+    // patch's smooth radiance less its emission, which direct light counts; nothing
+    // from the back of a patch; the sky where the ray leaves the scene), or bounce_at()
+    // where the path goes on.
+    scenes::Rgb field_along(const scenes::Vec3& from, const scenes::Vec3& w, sampling::Rng& rng, long& rays,
+                            int bounce = 0) const;
+    // The radiance a surface met by a secondary ray sends back towards it, its
+    // emission excluded: one light point and one BRDF direction (balance heuristic for
+    // the light they meet) plus every point light; what the direction meets reflects
+    // the field (field_along).
+    scenes::Rgb bounce_at(const scenes::RayHit& hit, const scenes::Vec3& y, const scenes::Vec3& w_out,
+                          sampling::Rng& rng, long& rays, int bounce) const;
+
+    const scenes::Scene& scene_;
+    const scenes::RayCaster& caster_;
+    const std::vector<scenes::Patch>& patches_;
+    DirectLighting lighting_;
+    bool analytic_;
+    bool near_hits_;
+    std::vector<std::array<scenes::Rgb, 3>> corners_;
+};
+
+}  // namespace raybundle::render
