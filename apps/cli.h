@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -17,6 +18,9 @@
 namespace raybundle::apps {
 
 // The user's command line is wrong: one line, exit code 2.
+// The images --aov DIR writes, DIR/<name>.exr.
+inline constexpr std::array<const char*, 5> kAovNames = {"direct", "indirect", "indirect-filtered", "normal", "depth"};
+
 struct UsageError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };

@@ -1,9 +1,9 @@
 // The options of `raybundle solve` and `raybundle check`, and the checks only the
 // command line can make.
 #include "cli.h"
-#include "outputs.h"
 
 #include "render/image_io.h"
+#include "render/output_set.h"
 #include "scenes/errors.h"
 #include "scenes/threads.h"
 #include "visibility/backend.h"
@@ -85,6 +85,7 @@ const std::map<std::string, std::string> kFlags = {
     {"shading", "--shading"},     {"output", "-o"},
     {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
     {"emission_samples", "--emission-samples"},
+    {"checkpoint", "--checkpoint"}, {"resume", "--resume"},
 };
 
 // The flags that do not change what a run computes: its outputs, its thread count (the
@@ -334,10 +335,7 @@ void check_command(const CLI::App& cmd, Command& c) {
     r.resume_file = c.resume;
     // Every output names a file that can be written, and no two outputs, nor an output
     // and an input, the same file (compared once resolved: ./d/x.exr is d/x.exr).
-    struct Named {
-        std::string path, flag;
-    };
-    std::vector<Named> outputs;
+    std::vector<render::NamedFile> outputs;
     for (const auto& image : c.images) {
         try {
             render::image_format(image);
@@ -355,25 +353,16 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* name : kAovNames) outputs.push_back({c.aov + "/" + name + ".exr", "--aov"});
     }
     if (!r.checkpoint.empty()) outputs.push_back({r.checkpoint, "--checkpoint"});
-    std::vector<Named> inputs;
+    std::vector<render::NamedFile> inputs;
     if (!c.scene_file.empty()) inputs.push_back({c.scene_file, "the scene file"});
     if (!c.reference.empty()) inputs.push_back({c.reference, "the --reference image"});
     // --resume F --checkpoint F goes on writing the checkpoint it resumed from.
-    if (!c.resume.empty() && (r.checkpoint.empty() || resolved_path(c.resume) != resolved_path(r.checkpoint)))
+    if (!c.resume.empty() && (r.checkpoint.empty() || render::resolved_path(c.resume) != render::resolved_path(r.checkpoint)))
         inputs.push_back({c.resume, "the --resume checkpoint"});
-    std::vector<std::string> resolved;
-    for (const auto& out : outputs) {
-        check_output_path(out.path, out.flag);
-        resolved.push_back(resolved_path(out.path));
-    }
-    for (std::size_t a = 0; a < outputs.size(); ++a) {
-        for (std::size_t b = a + 1; b < outputs.size(); ++b)
-            if (resolved[a] == resolved[b])
-                throw UsageError(outputs[a].flag + " " + outputs[a].path + " and " + outputs[b].flag + " " +
-                                 outputs[b].path + " name the same file");
-        for (const auto& in : inputs)
-            if (resolved[a] == resolved_path(in.path))
-                throw UsageError(outputs[a].flag + " " + outputs[a].path + ": is " + in.flag + " (it would be overwritten)");
+    try {
+        render::check_outputs(outputs, inputs);
+    } catch (const render::OutputError& e) {
+        throw UsageError(e.what());
     }
 }
 

@@ -13,6 +13,8 @@
 //
 // Call order: install_signal_handlers() once, before the first temporary; track a
 // temporary before creating it, untrack it once renamed or removed.
+#include "render/image_io.h"
+
 #include <string>
 
 namespace raybundle::apps {
@@ -28,5 +30,7 @@ std::string signal_name(int sig);
 // when all slots are taken (the file is then removed on failures only).
 int track_temporary(const std::string& path);
 void untrack_temporary(int slot);
+// The two above as a tracker for render::OutputSet and render::run's checkpoints.
+inline render::TemporaryTracker signal_tracker() { return {track_temporary, untrack_temporary}; }
 
 }  // namespace raybundle::apps

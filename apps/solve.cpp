@@ -1,15 +1,15 @@
 // `raybundle solve`: load -> check memory -> render::run -> write, and the summary line.
 #include "cli.h"
-#include "outputs.h"
 #include "progress.h"
 #include "ranks.h"
 #include "signals.h"
 
 #include "render/image_io.h"
 #include "render/memory.h"
+#include "render/output_set.h"
 #include "render/patch_io.h"
 #include "render/run_record.h"
-#include "sampling/streams.h"
+#include "scenes/errors.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -19,62 +19,7 @@ namespace raybundle::apps {
 
 namespace {
 
-// What a run spread over ranks cannot do: one line, before any work.
-void require_spreadable(const Command& c, const Ranks& ranks) {
-    const std::string n = std::to_string(ranks.size());
-    if (c.config.solver.method == "pathtrace")
-        throw UsageError("--method pathtrace runs in one process: it is the reference, not spread over " + n + " ranks");
-    if (c.config.rounds.time_budget > 0.0)
-        throw UsageError("--time-budget on " + n + " ranks: how far the rounds go would depend on the machines' speed; "
-                         "give --iterations or --target-error");
-    if (!c.config.checkpoint.empty() || !c.resume.empty())
-        throw UsageError(std::string(c.config.checkpoint.empty() ? "--resume" : "--checkpoint") +
-                         " works in one process, not on " + n + " ranks");
-    if (2 * static_cast<std::uint64_t>(ranks.size()) > sampling::streams::kMaxChains)
-        throw UsageError(n + " ranks: at most " + std::to_string(sampling::streams::kMaxChains / 2) +
-                         " (two independent chains each)");
-}
-
-std::string gigabytes(double bytes) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
-    return text;
-}
-
-// A run that cannot fit is refused before any work (render/memory.h), naming what to
-// make smaller.
-void require_memory(const Command& c, const scenes::Scene& scene) {
-    const std::uint64_t available = render::memory_available();
-    const render::MemoryNeed need = render::memory_need(c.config, scene);
-    if (available == 0 || need.bytes <= static_cast<double>(available)) return;
-    const std::string largest = need.pixels >= std::max(need.patches, need.maps)
-                                    ? "a smaller image (--width, --height)"
-                                : need.patches >= need.maps ? "larger patches (--patch-size)"
-                                                            : "a smaller --resolution or another --visibility";
-    throw UsageError(scene.name + ": " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
-                     " pixels and " + std::to_string(scene.patch_count()) + " patches need about " +
-                     gigabytes(need.bytes) + " (pixels " + gigabytes(need.pixels) + ", patches " +
-                     gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), this machine has " +
-                     gigabytes(static_cast<double>(available)) + ": try " + largest);
-}
-
-// --reference: read before any work, so that a wrong size stops the run at once.
-std::optional<render::Image> load_reference(const Command& c, const scenes::Scene& scene) {
-    if (c.reference.empty()) return std::nullopt;
-    render::Image ref;
-    try {
-        ref = render::read_exr(c.reference);
-    } catch (const std::runtime_error& e) {
-        throw UsageError(std::string("--reference ") + e.what());
-    }
-    if (ref.width != scene.camera.width || ref.height != scene.camera.height)
-        throw UsageError("--reference " + c.reference + ": " + std::to_string(ref.width) + "x" +
-                         std::to_string(ref.height) + " pixels, the image is " + std::to_string(scene.camera.width) +
-                         "x" + std::to_string(scene.camera.height));
-    return ref;
-}
-
-// The outputs asked for, all written or none (apps/outputs.h).
+// The outputs asked for, all written or none (render/output_set.h).
 void write_outputs(const Command& c, const scenes::Scene& scene, const render::RunResult& r) {
     render::OutputSet outputs(signal_tracker());
     for (const auto& path : c.images)
@@ -133,7 +78,6 @@ void print_summary(const Command& c, const scenes::Scene& scene, const render::R
 
 int solve(const Command& c, Ranks& ranks) {
     install_signal_handlers();
-    if (ranks.spread()) require_spreadable(c, ranks);
     ProgressBar bar(c.quiet || !ranks.leader());
     render::RunConfig config = c.config;
     config.run.progress = [&](const sampling::Progress& p) { bar(p); };
@@ -142,8 +86,12 @@ int solve(const Command& c, Ranks& ranks) {
     try {
         if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
         const scenes::Scene scene = load_scene(c);
-        require_memory(c, scene);
-        config.reference = load_reference(c, scene);
+        render::require_memory(config, scene);
+        try {
+            if (!c.reference.empty()) config.reference = render::read_reference(c.reference, scene);
+        } catch (const scenes::OptionError& e) {
+            throw UsageError("--reference " + e.problem());  // the problem names the file
+        }
         render::RunHooks hooks;
         hooks.warn = [&](const std::string& line) {
             bar.clear();

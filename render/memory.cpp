@@ -66,4 +66,29 @@ std::uint64_t memory_available() {
     return total;
 }
 
+namespace {
+
+std::string gigabytes(double bytes) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
+    return text;
+}
+
+}  // namespace
+
+void require_memory(const RunConfig& c, const scenes::Scene& scene) {
+    const std::uint64_t available = memory_available();
+    const MemoryNeed need = memory_need(c, scene);
+    if (available == 0 || need.bytes <= static_cast<double>(available)) return;
+    const std::string largest = need.pixels >= std::max(need.patches, need.maps)
+                                    ? "a smaller image (--width, --height)"
+                                : need.patches >= need.maps ? "larger patches (--patch-size)"
+                                                            : "a smaller --resolution or another --visibility";
+    throw RunError(scene.name + ": " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
+                   " pixels and " + std::to_string(scene.patch_count()) + " patches need about " +
+                   gigabytes(need.bytes) + " (pixels " + gigabytes(need.pixels) + ", patches " +
+                   gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), this machine has " +
+                   gigabytes(static_cast<double>(available)) + ": try " + largest);
+}
+
 }  // namespace raybundle::render

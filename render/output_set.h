@@ -9,6 +9,7 @@
 #include "render/image_io.h"
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,6 +37,25 @@ private:
     std::vector<std::pair<std::string, std::string>> staged_;  // temporary, target
     std::vector<int> slots_;                                    // the tracker's
 };
+
+// An output that must not be written, or outputs that clash: the message names the
+// file and what asked for it.
+struct OutputError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// A file a run writes or reads, and what names it for the user (a flag, "the scene file").
+struct NamedFile {
+    std::string path, name;
+};
+
+// Before any work: throws OutputError where an output cannot or must not be written
+// (a directory, a device, a FIFO or a socket, which writing would replace with a file;
+// a read-only file, refused even for root, who could replace it; a path below a file;
+// a directory that cannot be written or made), where two outputs name one file, or
+// where an output is one of the inputs (it would be overwritten). Paths are compared
+// once resolved: ./d/x.exr is d/x.exr.
+void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs);
 
 // The file `path` names once the directories and links that exist are resolved:
 // "./d/x.exr", "d/../d/x.exr" and a link to d/x.exr all give one name.

@@ -1,6 +1,7 @@
 #include "render/run.h"
 
 #include "render/camera.h"
+#include "render/image_io.h"
 #include "render/metrics.h"
 #include "render/run_record.h"
 #include "render/scene_check.h"
@@ -141,6 +142,23 @@ void require_same_everywhere(const json& identity, const sampling::Team& team) {
                        std::to_string(identity["scene"]["patches"].get<std::size_t>()) +
                        " patches) or the options differ from rank 0's: every node must read the same scene file "
                        "and be given the same options");
+}
+
+// What a run spread over a team cannot do (run.h).
+void require_spreadable(const RunConfig& c, const sampling::Team& team) {
+    const std::string n = std::to_string(team.size());
+    if (c.solver.method == "pathtrace")
+        throw scenes::OptionError("method", "pathtrace runs in one process: it is the reference, not spread over " + n +
+                                                " ranks");
+    if (c.rounds.time_budget > 0.0)
+        throw scenes::OptionError("time_budget", "on " + n + " ranks: how far the rounds go would depend on the machines' "
+                                                 "speed; give --iterations or --target-error");
+    if (!c.checkpoint.empty() || c.resume)
+        throw scenes::OptionError(c.checkpoint.empty() ? "resume" : "checkpoint",
+                                  "works in one process, not on " + n + " ranks");
+    if (2 * static_cast<std::uint64_t>(team.size()) > sampling::streams::kMaxChains)
+        throw RunError(n + " ranks: at most " + std::to_string(sampling::streams::kMaxChains / 2) +
+                       " (two independent chains each)");
 }
 
 // Both chains' work in one report: counts and seconds added, the rest from chain 0.
@@ -298,6 +316,7 @@ RunResult path_trace_run(const scenes::Scene& scene, const scenes::RayCaster& ca
 RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& hooks) {
     const auto t_start = Clock::now();
     const sampling::Team* team = c.run.team && c.run.team->size() > 1 ? c.run.team : nullptr;
+    if (team) require_spreadable(c, *team);
     const json identity = run_identity(c.identity, scene);
     if (c.resume) require_same_run(c.resume_file, c.resume->identity, identity);
     if (team) require_same_everywhere(identity, *team);
@@ -411,6 +430,20 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& ho
     facts.exact = exact;
     out.record = field_run_record(scene, c, transport, out, facts);
     return out;
+}
+
+Image read_reference(const std::string& path, const scenes::Scene& scene) {
+    Image ref;
+    try {
+        ref = read_exr(path);
+    } catch (const std::runtime_error& e) {
+        throw scenes::OptionError("reference", e.what());
+    }
+    if (ref.width != scene.camera.width || ref.height != scene.camera.height)
+        throw scenes::OptionError("reference", path + ": " + std::to_string(ref.width) + "x" + std::to_string(ref.height) +
+                                                   " pixels, the image is " + std::to_string(scene.camera.width) + "x" +
+                                                   std::to_string(scene.camera.height));
+    return ref;
 }
 
 }  // namespace raybundle::render

@@ -133,6 +133,15 @@ struct RunError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// Refuses, before any work, what a run spread over a team (RunOptions::team, more
+// than one member) cannot do: the path tracer (the reference runs alone), a time
+// budget (how far the rounds go would depend on the machines' speed), checkpoints,
+// more members than independent chains. OptionError naming the option, or RunError.
 RunResult run(const scenes::Scene& scene, const RunConfig& config, const RunHooks& hooks = {});
+
+// The reference image of a run (RunConfig::reference), read before any work: throws
+// OptionError("reference") naming the file when it cannot be read as an EXR or its size
+// is not the scene camera's.
+Image read_reference(const std::string& path, const scenes::Scene& scene);
 
 }  // namespace raybundle::render
