@@ -3,7 +3,7 @@
 // are parsed straight into the library's run configuration (render::RunConfig) and the
 // scene overrides; the command line adds only what it alone knows: the files to write,
 // and its own checks. Libraries report bad options in their own terms (OptionError),
-// which flag_of() turns into flags.
+// which Flags::flag_of() turns into flags.
 #include "render/run.h"
 #include "scenes/loader.h"
 
@@ -27,6 +27,27 @@ struct UsageError : std::runtime_error {
 
 class Ranks;  // apps/ranks.h
 
+// The command line's options, one row per flag (apps/options.cpp): the library option
+// it sets and whether it is part of the run's identity.
+enum class Identity { no, yes };
+class Flags {
+public:
+    void row(const char* option, Identity identity, CLI::Option* flag);
+    // The flag that sets a library option (OptionError::option()), or the name itself.
+    std::string flag_of(const std::string& option) const;
+    // The options part of a run's identity (render/checkpoint.h): every identity flag
+    // given, with its values as given.
+    nlohmann::json identity() const;
+
+private:
+    struct Row {
+        std::string option;
+        bool identity;
+        CLI::Option* flag;
+    };
+    std::vector<Row> rows_;
+};
+
 struct Command {
     // The scene.
     std::string scene_file, builtin;
@@ -44,6 +65,7 @@ struct Command {
     long csv_every = 0;
     bool quiet = false;
     std::string resume;  // the checkpoint to go on from
+    Flags flags;         // the table the flags above were added from
 };
 
 // The options of `solve` (and the scene options of `check`) on their subcommand.
@@ -57,8 +79,5 @@ scenes::Scene load_scene(const Command& c);
 // `raybundle solve` (on every rank of `ranks`) and `raybundle check`: exit codes.
 int solve(const Command& c, Ranks& ranks);
 int check_scene(const Command& c);
-
-// The flag that sets a library option (OptionError::option()), or the name itself.
-std::string flag_of(const std::string& option);
 
 }  // namespace raybundle::apps

@@ -5,16 +5,13 @@
 #include "render/image_io.h"
 #include "render/output_set.h"
 #include "scenes/errors.h"
-#include "scenes/threads.h"
 #include "visibility/backend.h"
 
 #include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <optional>
-#include <set>
 
 namespace raybundle::apps {
 
@@ -71,204 +68,163 @@ CLI::IsMember choices(const std::array<const char*, N>& names) {
     return CLI::IsMember(std::vector<std::string>(names.begin(), names.end()));
 }
 
-// The library's option names and the flags that set them.
-const std::map<std::string, std::string> kFlags = {
-    {"method", "--method"},       {"basis", "--basis"},
-    {"steps", "--iterations"},    {"both_ways", "--one-way"}, {"ambient", "--ambient"}, {"frame", "--frame"},
-    {"depth", "--depth"},         {"unbiased", "--unbiased"},
-    {"sampler", "--sampler"},     {"visibility", "--visibility"}, {"mutation_size", "--mutation-size"},
-    {"large_step", "--large-step"}, {"seed_walks", "--seed-walks"},
-    {"resolution", "--resolution"}, {"diffuse_shot", "--diffuse-shot"},
-    {"gather_rays", "--gather"},  {"direct_samples", "--direct-samples"},
-    {"spp", "--spp"},             {"filter", "--filter"},
-    {"direct", "--direct"},       {"glossy_rays", "--glossy-rays"},
-    {"shading", "--shading"},     {"output", "-o"},
-    {"target_error", "--target-error"}, {"time_budget", "--time-budget"},
-    {"emission_samples", "--emission-samples"},
-    {"checkpoint", "--checkpoint"}, {"resume", "--resume"},
-};
+}  // namespace
 
-// The flags that do not change what a run computes: its outputs, its thread count (the
-// same result for any), its chatter, and the checkpoint flags themselves.
-const std::set<std::string> kNotIdentity = {"--output", "--exposure", "--stats", "--csv",  "--csv-every",
-                                            "--patches", "--ply",     "--aov",   "--reference", "--quiet",
-                                            "--threads", "--checkpoint", "--checkpoint-every", "--resume",
-                                            "--help", "scene"};
+// The one list of the command line's options is the rows that add_scene_options and
+// add_solve_options make: each row adds its flag (bound to the library's field, so the
+// default shown is the library's) and says which library option it sets (the name an
+// OptionError gives, for flag_of) and whether it is part of the run's identity (what a
+// checkpoint must match to be resumed: everything that decides the result; not the
+// outputs, the thread count, the chatter or the checkpoint flags themselves).
+void Flags::row(const char* option, Identity identity, CLI::Option* flag) {
+    rows_.push_back({option, identity == Identity::yes, flag});
+}
 
-// The options part of a run's identity (render/checkpoint.h): every flag given that
-// decides the result, with its values as given.
-nlohmann::json options_identity(const CLI::App& cmd) {
+std::string Flags::flag_of(const std::string& option) const {
+    for (const Row& r : rows_)
+        if (option == r.option) return r.flag->get_name();
+    return option;
+}
+
+nlohmann::json Flags::identity() const {
     nlohmann::json options = nlohmann::json::object();
-    for (const CLI::Option* o : cmd.get_options()) {
-        if (o->count() == 0) continue;
-        const std::string name = o->get_name();
-        if (kNotIdentity.count(name) > 0) continue;
-        options[name] = o->results();
-    }
+    for (const Row& r : rows_)
+        if (r.identity && r.flag->count() > 0) options[r.flag->get_name()] = r.flag->results();
     return options;
 }
 
-}  // namespace
-
-std::string flag_of(const std::string& option) {
-    const auto it = kFlags.find(option);
-    return it == kFlags.end() ? option : it->second;
-}
-
 void add_scene_options(CLI::App& cmd, Command& c) {
-    cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md)");
-    cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)");
-    cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)");
+    Flags& f = c.flags;
+    f.row("", Identity::no, cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md)"));
+    f.row("", Identity::yes, cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)"));
+    f.row("", Identity::yes, cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)"));
     auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check) {
-        cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
-                                             help)
-            ->check(check);
+        f.row(key, Identity::yes,
+              cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
+                                                   help)
+                  ->check(check));
     };
     shortcut("--patch-size", "patch_size", "refine until no patch edge is longer (-D patch_size=L)", kPositive);
     shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384));
     shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384));
     shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);
-    cmd.add_option("--threads", c.config.run.threads, "threads (default: all cores; the same result for any count)")
-        ->check(CLI::Range(1, 1024));
-    c.config.run.threads = hardware_threads();
+    f.row("threads", Identity::no,
+          cmd.add_option("--threads", c.config.run.threads, "threads (default: all cores; the same result for any count)")
+              ->check(CLI::Range(1, 1024)));
 }
 
 void add_solve_options(CLI::App& cmd, Command& c) {
     add_scene_options(cmd, c);
+    Flags& f = c.flags;
     solver::SolverOptions& s = c.config.solver;
-    cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several");
-    cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite);
-    cmd.add_option("--method", s.method,
-                   "iteration | walk | combined | bidirectional; or pathtrace: no solve, a reference image by "
-                   "brute-force path tracing (--spp paths per pixel, default 256)")
-        ->capture_default_str();
-    cmd.add_option("--iterations", s.steps, "stochastic iteration steps, or walks for the walk methods")
-        ->capture_default_str()
-        ->check(CLI::Range(1L, 1000000000L));
-    cmd.add_option("--depth", s.depth, "walks: directions (bounces) per walk")->capture_default_str();
-    cmd.add_flag("--unbiased", s.unbiased, "walks: correct the next walk's emission with this walk's last bounce");
-    cmd.add_option_function<std::string>(
-           "--sampler", [&s](const std::string& v) { s.sampler = sampling::parse_sampler(v); },
-           "walk directions: random | halton | sobol, or importance-sampled for the image: vegas | metropolis")
-        ->check(choices(sampling::kSamplerNames));
-    cmd.add_option("--mutation-size", s.mutation_size,
-                   "metropolis: the perturbation's extent in the walk's unit cube")
-        ->capture_default_str()
-        ->check(CLI::Range(1e-6, 1.0));
-    cmd.add_option("--large-step", s.large_step,
-                   "metropolis: the probability of an independent new walk, from the density learnt from the chains")
-        ->capture_default_str()
-        ->check(CLI::Range(0.0, 1.0));
-    cmd.add_option("--seed-walks", s.seed_walks,
-                   "metropolis: the first N walks of each chain are uniform seeds, whose importance picks the "
-                   "starting walks (0: 30 % of the walks)")
-        ->capture_default_str()
-        ->check(CLI::Range(0L, 1000000000L));
-    cmd.add_flag("--both-ways,!--one-way", s.both_ways,
-                 "iteration: every geometry matrix serves w and -w (default), or w only");
-    auto on_off = [&cmd](const char* on, const char* off, std::optional<bool>& value, const std::string& help) {
-        cmd.add_flag_callback(on, [&value] { value = true; }, help);
-        cmd.add_flag_callback(off, [&value] { value = false; }, "not " + std::string(on));
+    render::GatherOptions& g = c.config.gather;
+    constexpr auto yes = Identity::yes, no = Identity::no;
+    // An option bound to a field, its default (the library's) shown.
+    auto value = [&cmd](const char* names, auto& field, const std::string& help) {
+        return cmd.add_option(names, field, help)->capture_default_str();
     };
-    on_off("--ambient", "--no-ambient", s.ambient,
+    // An option whose value a library parser turns into the field (an enum's names).
+    auto parsed = [&cmd](const char* names, auto set, const std::string& help) {
+        return cmd.add_option_function<std::string>(names, set, help);
+    };
+    // A pair of flags that set an optional<bool> (unset: the library decides).
+    auto on_off = [&](const char* option, const char* on, const char* off, std::optional<bool>& v, const std::string& help) {
+        f.row(option, yes, cmd.add_flag_callback(on, [&v] { v = true; }, help));
+        f.row(option, yes, cmd.add_flag_callback(off, [&v] { v = false; }, "not " + std::string(on)));
+    };
+    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several"));
+    f.row("", no, cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite));
+    f.row("method", yes, value("--method", s.method, "iteration | walk | combined | bidirectional; or pathtrace: no solve, a "
+                                                      "reference image by brute-force path tracing (--spp paths per pixel, default 256)"));
+    f.row("steps", yes, value("--iterations", s.steps, "stochastic iteration steps, or walks for the walk methods")
+                            ->check(CLI::Range(1L, 1000000000L)));
+    f.row("depth", yes, value("--depth", s.depth, "walks: directions (bounces) per walk"));
+    f.row("unbiased", yes, cmd.add_flag("--unbiased", s.unbiased, "walks: correct the next walk's emission with this walk's last bounce"));
+    f.row("sampler", yes, parsed("--sampler", [&s](const std::string& v) { s.sampler = sampling::parse_sampler(v); },
+                                 "walk directions: random | halton | sobol, or importance-sampled for the image: vegas | metropolis")
+                              ->check(choices(sampling::kSamplerNames)));
+    f.row("mutation_size", yes, value("--mutation-size", s.mutation_size, "metropolis: the perturbation's extent in the walk's unit cube")
+                                    ->check(CLI::Range(1e-6, 1.0)));
+    f.row("large_step", yes, value("--large-step", s.large_step, "metropolis: the probability of an independent new walk, from "
+                                                                 "the density learnt from the chains")
+                                 ->check(CLI::Range(0.0, 1.0)));
+    f.row("seed_walks", yes, value("--seed-walks", s.seed_walks, "metropolis: the first N walks of each chain are uniform seeds, "
+                                                                 "whose importance picks the starting walks (0: 30 % of the walks)")
+                                 ->check(CLI::Range(0L, 1000000000L)));
+    f.row("both_ways", yes, cmd.add_flag("--both-ways,!--one-way", s.both_ways,
+                                         "iteration: every geometry matrix serves w and -w (default), or w only"));
+    on_off("ambient", "--ambient", "--no-ambient", s.ambient,
            "iteration: the ambient control variate and start (default: on where an albedo passes sqrt(3)/2, "
            "docs/stability.md)");
-    on_off("--frame", "--no-frame", s.frame,
+    on_off("frame", "--frame", "--no-frame", s.frame,
            "iteration: every step along the three axes of a random orthogonal frame (default: on where an albedo "
            "passes sqrt(3)/2; diffuse scenes)");
-    cmd.add_option("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)")->capture_default_str();
-    cmd.add_option("--visibility", s.visibility, "visibility backend (see `raybundle backends`)")->capture_default_str();
-    cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
-        ->check(CLI::Range(1, 16384));
-    cmd.add_flag_callback("--diffuse-shot", [&c] { c.config.diffuse_shot = true; },
-                          "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse "
-                          "scenes with area lights");
-    cmd.add_flag_callback("--no-diffuse-shot", [&c] { c.config.diffuse_shot = false; }, "no diffuse shot");
-    cmd.add_option("--seed", c.config.run.seed, "random seed; the same seed gives bit-identical output")
-        ->check(kDigits)
-        ->capture_default_str();
-    cmd.add_option_function<std::string>(
-           "--shading", [&c](const std::string& v) { c.config.shading = render::parse_shading(v); },
-           "patch image: smooth | flat")
-        ->check(choices(render::kShadingNames))
-        ->default_str(render::shading_name(c.config.shading));
-    render::GatherOptions& g = c.config.gather;
-    cmd.add_option("--gather", g.gather_rays,
-                   "final gather with N rays per pixel for the indirect light (0: the patch image instead)")
-        ->capture_default_str()
-        ->check(CLI::Range(0, 1 << 20));
-    cmd.add_option("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
-        ->capture_default_str()
-        ->check(CLI::Range(0, 1 << 16));
-    cmd.add_option("--spp", g.spp, "final gather: camera samples per pixel (pathtrace: paths per pixel)")
-        ->capture_default_str()
-        ->check(CLI::Range(1, 1 << 20));
-    cmd.add_option("--emission-samples", g.emission_samples,
-                   "final gather with --spp > 1: camera rays per pixel, besides the spp samples, for the emission and "
-                   "sky the camera sees (0: the spp samples see them)")
-        ->capture_default_str()
-        ->check(CLI::Range(0, 1 << 16));
-    cmd.add_option_function<std::string>(
-           "--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
-           "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
-        ->check(choices(render::kDirectLightNames));
-    cmd.add_option("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
-        ->capture_default_str()
-        ->check(CLI::Range(0, 1 << 16));
-    cmd.add_option_function<std::string>(
-           "--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
-           "final gather: guided | bilateral | atrous | none")
-        ->check(choices(render::kFilterNames));
-    cmd.add_option("--filter-radius", g.filter.radius,
-                   "guided and bilateral filters: window radius in pixels (0: 3 at 256^2, in proportion to the image "
-                   "size, less with more gather rays per pass)")
-        ->capture_default_str()
-        ->check(CLI::Range(0, 1024));
-    cmd.add_option("--eps-normal", g.filter.eps_normal, "guided filter: regularisation of the normals")
-        ->capture_default_str()
-        ->check(kPositive);
-    cmd.add_option("--eps-depth", g.filter.eps_depth, "guided filter: regularisation of the depth")
-        ->capture_default_str()
-        ->check(kPositive);
-    cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR");
-    cmd.add_option("--reference", c.reference,
-                   "an EXR of the same size (e.g. from --method pathtrace): the image's relative L1 error and MSE "
-                   "against it go into the summary line and the stats")
-        ->check(CLI::ExistingFile);
-    cmd.add_option("--target-error", c.config.rounds.target_error,
-                   "render in rounds until the image's estimated relative L1 error is at most E (e.g. 0.01)")
-        ->check(kPositive & CLI::Range(0.0, 1.0));
-    cmd.add_option("--time-budget", c.config.rounds.time_budget,
-                   "render in rounds for about S seconds (the first round always runs)")
-        ->check(kPositive);
-    cmd.add_option("--stats", c.stats, "run statistics (JSON)");
-    cmd.add_option("--csv", c.csv,
-                   "convergence: iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,"
-                   "image_estimated_error,image_relative_l1,image_mse");
-    cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")
-        ->check(CLI::Range(1L, 1000000000L));
-    cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b");
-    cmd.add_option("--ply", c.ply, "per-patch PLY with radiance colours (MeshLab)");
-    cmd.add_flag("-q,--quiet", c.quiet, "no progress bar and no summary line");
-    cmd.add_option("--checkpoint", c.config.checkpoint,
-                   "write the solver's state to FILE every --checkpoint-every, and when interrupted, to go on with "
-                   "--resume FILE (one-round runs: not with --target-error, --time-budget or pathtrace)");
-    cmd.add_option_function<std::string>(
-           "--checkpoint-every",
-           [&c](const std::string& v) {
-               if (v.back() == 's') {
-                   c.config.checkpoint_seconds = std::stod(v.substr(0, v.size() - 1));
-                   c.config.checkpoint_steps = 0;
-               } else {
-                   c.config.checkpoint_steps = std::stol(v);
-                   c.config.checkpoint_seconds = 0.0;
-               }
-           },
-           "N steps (over both chains, as --iterations counts them) or Ss seconds between checkpoints (default 60s)")
-        ->check(kEvery);
-    cmd.add_option("--resume", c.resume,
-                   "go on from a checkpoint of the same command (outputs, --threads and --quiet may differ): the "
-                   "result is bit-identical to an uninterrupted run");
+    f.row("basis", yes, value("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)"));
+    f.row("visibility", yes, value("--visibility", s.visibility, "visibility backend (see `raybundle backends`)"));
+    f.row("resolution", yes, cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
+                                 ->check(CLI::Range(1, 16384)));
+    on_off("diffuse_shot", "--diffuse-shot", "--no-diffuse-shot", c.config.diffuse_shot,
+           "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse scenes with area lights");
+    f.row("seed", yes, value("--seed", c.config.run.seed, "random seed; the same seed gives bit-identical output")->check(kDigits));
+    f.row("shading", yes, parsed("--shading", [&c](const std::string& v) { c.config.shading = render::parse_shading(v); },
+                                 "patch image: smooth | flat")
+                              ->check(choices(render::kShadingNames))
+                              ->default_str(render::shading_name(c.config.shading)));
+    f.row("gather_rays", yes, value("--gather", g.gather_rays, "final gather with N rays per pixel for the indirect light (0: the "
+                                                               "patch image instead)")
+                                  ->check(CLI::Range(0, 1 << 20)));
+    f.row("direct_samples", yes, value("--direct-samples", g.direct_samples, "final gather: light sample pairs per camera sample")
+                                     ->check(CLI::Range(0, 1 << 16)));
+    f.row("spp", yes, value("--spp", g.spp, "final gather: camera samples per pixel (pathtrace: paths per pixel)")
+                          ->check(CLI::Range(1, 1 << 20)));
+    f.row("emission_samples", yes,
+          value("--emission-samples", g.emission_samples, "final gather with --spp > 1: camera rays per pixel, besides the spp "
+                                                          "samples, for the emission and sky the camera sees (0: the spp samples see them)")
+              ->check(CLI::Range(0, 1 << 16)));
+    f.row("direct", yes, parsed("--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
+                                "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
+                             ->check(choices(render::kDirectLightNames)));
+    f.row("glossy_rays", yes, value("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
+                                  ->check(CLI::Range(0, 1 << 16)));
+    f.row("filter", yes, parsed("--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
+                                "final gather: guided | bilateral | atrous | none")
+                             ->check(choices(render::kFilterNames)));
+    f.row("filter_radius", yes, value("--filter-radius", g.filter.radius, "guided and bilateral filters: window radius in pixels (0: 3 "
+                                                                          "at 256^2, in proportion to the image size, less with more gather rays per pass)")
+                                    ->check(CLI::Range(0, 1024)));
+    f.row("eps_normal", yes, value("--eps-normal", g.filter.eps_normal, "guided filter: regularisation of the normals")->check(kPositive));
+    f.row("eps_depth", yes, value("--eps-depth", g.filter.eps_depth, "guided filter: regularisation of the depth")->check(kPositive));
+    f.row("", no, cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR"));
+    f.row("reference", no, cmd.add_option("--reference", c.reference, "an EXR of the same size (e.g. from --method pathtrace): the "
+                                                                      "image's relative L1 error and MSE against it go into the summary line and the stats")
+                               ->check(CLI::ExistingFile));
+    f.row("target_error", yes, cmd.add_option("--target-error", c.config.rounds.target_error,
+                                              "render in rounds until the image's estimated relative L1 error is at most E (e.g. 0.01)")
+                                   ->check(kPositive & CLI::Range(0.0, 1.0)));
+    f.row("time_budget", yes, cmd.add_option("--time-budget", c.config.rounds.time_budget,
+                                             "render in rounds for about S seconds (the first round always runs)")
+                                  ->check(kPositive));
+    f.row("", no, cmd.add_option("--stats", c.stats, "run statistics (JSON)"));
+    f.row("", no, cmd.add_option("--csv", c.csv, "convergence: iteration,seconds,relative_l1_error,mean_radiance,estimated_error,"
+                                                 "round,image_estimated_error,image_relative_l1,image_mse"));
+    f.row("", no, cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")
+                      ->check(CLI::Range(1L, 1000000000L)));
+    f.row("", no, cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b"));
+    f.row("", no, cmd.add_option("--ply", c.ply, "per-patch PLY with radiance colours (MeshLab)"));
+    f.row("", no, cmd.add_flag("-q,--quiet", c.quiet, "no progress bar and no summary line"));
+    f.row("checkpoint", no, cmd.add_option("--checkpoint", c.config.checkpoint, "write the solver's state to FILE every "
+                                                                                "--checkpoint-every, and when interrupted, to go on with --resume FILE (one-round runs: "
+                                                                                "not with --target-error, --time-budget or pathtrace)"));
+    f.row("", no, parsed("--checkpoint-every",
+                         [&c](const std::string& v) {
+                             const bool seconds = v.back() == 's';
+                             c.config.checkpoint_seconds = seconds ? std::stod(v.substr(0, v.size() - 1)) : 0.0;
+                             c.config.checkpoint_steps = seconds ? 0 : std::stol(v);
+                         },
+                         "N steps (over both chains, as --iterations counts them) or Ss seconds between checkpoints (default 60s)")
+                      ->check(kEvery));
+    f.row("resume", no, cmd.add_option("--resume", c.resume, "go on from a checkpoint of the same command (outputs, --threads and "
+                                                             "--quiet may differ): the result is bit-identical to an uninterrupted run"));
 }
 
 void check_command(const CLI::App& cmd, Command& c) {
@@ -328,7 +284,7 @@ void check_command(const CLI::App& cmd, Command& c) {
             throw UsageError(std::string(flag) + " works for runs of one round: not with " +
                              (r.rounds.target_error > 0.0 ? "--target-error" : "--time-budget"));
     }
-    r.identity = options_identity(cmd);
+    r.identity = c.flags.identity();
     r.run.progress_every = c.csv_every;
     if (!c.csv.empty()) r.record_every = c.csv_every;
     r.reference_file = c.reference;

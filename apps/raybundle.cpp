@@ -105,7 +105,7 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
     } catch (const rb::scenes::SceneError& e) {
         return fail(e.what(), kExitBadInput);
     } catch (const rb::scenes::OptionError& e) {
-        return fail(rb::apps::flag_of(e.option()) + ": " + e.problem(), kExitBadInput);
+        return fail(c.flags.flag_of(e.option()) + ": " + e.problem(), kExitBadInput);
     } catch (const std::exception& e) {
         return fail(e.what(), kExitFailure);
     }

@@ -43,25 +43,8 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
     outputs.commit();
 }
 
-// The summary line.
+// The summary line: the run's (render/run_record.h) and the files written.
 void print_summary(const Command& c, const scenes::Scene& scene, const render::RunResult& r) {
-    if (!r.field) {
-        std::printf("%s: %zu patches, path traced %ld paths per pixel in %.2f s", scene.name.c_str(),
-                    scene.patch_count(),
-                    r.record["path_trace"]["paths"].get<long>() / (static_cast<long>(scene.camera.width) * scene.camera.height),
-                    r.record["seconds_render"].get<double>());
-    } else {
-        std::printf("%s: %zu patches, %s %ld steps in %.2f s", scene.name.c_str(), scene.patch_count(),
-                    r.report.method.c_str(), r.report.steps, r.rounds.seconds_solve);
-        if (r.gather) std::printf(", final gather %.2f s", r.rounds.seconds_render);
-        std::printf(", mean radiance %.6g", r.mean_radiance);
-        if (r.error) std::printf(", relative L1 error %.3g", *r.error);
-    }
-    if (r.rounds.estimate >= 0.0)
-        std::printf(", estimated error %.2g %% (%zu round%s)", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
-                    r.rounds.rounds.size() == 1 ? "" : "s");
-    if (r.against)
-        std::printf(", against the reference: relative L1 %.4g, MSE %.4g", r.against->relative_l1, r.against->mse);
     std::vector<std::string> written = c.images;
     if (r.gather && !c.aov.empty()) written.push_back(c.aov + "/");
     const auto files = r.field ? std::vector<const std::string*>{&c.stats, &c.csv, &c.patches_csv, &c.ply}
@@ -69,9 +52,8 @@ void print_summary(const Command& c, const scenes::Scene& scene, const render::R
     for (const auto* path : files)
         if (!path->empty()) written.push_back(*path);
     std::string wrote;
-    for (const auto& path : written) wrote += (wrote.empty() ? "" : ", ") + path;
-    if (!wrote.empty()) std::printf("; wrote %s", wrote.c_str());
-    std::printf("\n");
+    for (const auto& path : written) wrote += (wrote.empty() ? "; wrote " : ", ") + path;
+    std::printf("%s%s\n", render::summary(scene, r).c_str(), wrote.c_str());
 }
 
 }  // namespace

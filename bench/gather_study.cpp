@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
 
     if (filters->parsed()) {
         render::GatherOptions base;
+        base.emission_samples = 0;
         base.spp = spp;
         base.gather_rays = gather;
         base.direct_samples = direct;
@@ -132,6 +133,7 @@ int main(int argc, char** argv) {
 
     // Pipeline: run time against error.
     render::GatherOptions ro;
+    ro.spp = 1;
     ro.gather_rays = 2048;
     ro.direct_samples = 256;
     ro.filter.filter = render::Filter::none;
@@ -143,6 +145,7 @@ int main(int argc, char** argv) {
         for (int n : {4, 16, 64})
             for (auto f : {render::Filter::none, render::Filter::guided}) {
                 render::GatherOptions o;
+                o.spp = 1;
                 o.gather_rays = n;
                 o.direct_samples = n;  // direct and indirect sampling refined together
                 o.filter.filter = f;

@@ -71,20 +71,21 @@ inline constexpr std::array<const char*, 2> kDirectLightNames = {"analytic", "sa
 DirectLight parse_direct_light(const std::string& name);  // throws OptionError
 const char* direct_light_name(DirectLight d);
 
+// The defaults are a run's (render::RunConfig::gather, the command line's flags).
 struct GatherOptions {
     int gather_rays = 64;     // N, per guide sample
-    int direct_samples = 16;  // K, per camera sample
+    int direct_samples = 8;   // K, per camera sample
     int glossy_rays = 16;     // per camera sample on a glossy surface
     DirectLight direct = DirectLight::analytic;
     // Gather rays that hit closer than twice the size of the patch they meet go on
     // one more bounce instead of reading the field there (the contact bias).
     bool near_hits = true;
-    int spp = 1;              // camera samples per pixel (the first is the guide)
+    int spp = 16;             // camera samples per pixel (the first is the guide)
     // With spp > 1: camera rays per pixel, besides the spp samples, for what the camera
     // sees unlit, emission and the sky (one ray each, no light computed); 0: the spp
     // samples see it. Cheap samples for the brightest edges of an image (a light, a
     // window).
-    int emission_samples = 0;
+    int emission_samples = 64;
     // Which pass of a progressive image this is (render/progressive.h): its own
     // random streams, below sampling::streams::kMaxPasses.
     std::uint64_t pass = 0;

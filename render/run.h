@@ -29,6 +29,7 @@
 #include "render/shade.h"
 #include "sampling/run.h"
 #include "scenes/scene.h"
+#include "scenes/threads.h"
 #include "solver/solver.h"
 #include "solver/transport.h"
 
@@ -48,8 +49,8 @@ struct RunConfig {
     solver::SolverOptions solver;
     solver::ShotOptions shots;               // the first shot's and diffuse shot's settings
     std::optional<bool> diffuse_shot;        // unset: on for diffuse scenes with area lights
-    sampling::RunOptions run;                // seed, threads, progress, team
-    GatherOptions gather = default_gather(); // gather_rays 0: the patch image instead
+    sampling::RunOptions run = all_cores();  // seed, threads (default: all cores), progress, team
+    GatherOptions gather;                    // gather_rays 0: the patch image instead
     Shading shading = Shading::Smooth;       // the patch image
     PathTraceOptions path;                   // --method pathtrace
     RoundOptions rounds;                     // target error, time budget
@@ -70,13 +71,10 @@ struct RunConfig {
 
     // The final gather's defaults: 64 gather rays, 16 camera samples per pixel, 8 light
     // sample pairs, 64 emission samples.
-    static GatherOptions default_gather() {
-        GatherOptions g;
-        g.gather_rays = 64;
-        g.spp = 16;
-        g.direct_samples = 8;
-        g.emission_samples = 64;
-        return g;
+    static sampling::RunOptions all_cores() {
+        sampling::RunOptions r;
+        r.threads = hardware_threads();
+        return r;
     }
 };
 

@@ -236,4 +236,25 @@ void write_json(const std::string& path, const json& doc) {
     });
 }
 
+std::string summary(const scenes::Scene& scene, const RunResult& r) {
+    std::string out;
+    auto print = [&out](const char* format, auto... values) { out += strprintf(format, values...); };
+    if (!r.field) {
+        print("%s: %zu patches, path traced %ld paths per pixel in %.2f s", scene.name.c_str(), scene.patch_count(),
+              r.record["path_trace"]["paths"].get<long>() / (static_cast<long>(scene.camera.width) * scene.camera.height),
+              r.record["seconds_render"].get<double>());
+    } else {
+        print("%s: %zu patches, %s %ld steps in %.2f s", scene.name.c_str(), scene.patch_count(),
+              r.report.method.c_str(), r.report.steps, r.rounds.seconds_solve);
+        if (r.gather) print(", final gather %.2f s", r.rounds.seconds_render);
+        print(", mean radiance %.6g", r.mean_radiance);
+        if (r.error) print(", relative L1 error %.3g", *r.error);
+    }
+    if (r.rounds.estimate >= 0.0)
+        print(", estimated error %.2g %% (%zu round%s)", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
+              r.rounds.rounds.size() == 1 ? "" : "s");
+    if (r.against) print(", against the reference: relative L1 %.4g, MSE %.4g", r.against->relative_l1, r.against->mse);
+    return out;
+}
+
 }  // namespace raybundle::render

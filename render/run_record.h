@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
 #include <optional>
 #include <string>
 
@@ -31,6 +32,19 @@ void record_reference(nlohmann::json& record, const RunConfig& c, const std::opt
 
 // What the contacts between surfaces did to the scene (scenes/contacts.h), in a line.
 std::string contacts_line(const scenes::Scene& scene);
+
+// printf's formatting, into a string of any length.
+template <class... Values>
+std::string strprintf(const char* format, Values... values) {
+    const int n = std::snprintf(nullptr, 0, format, values...);
+    std::string text(static_cast<std::size_t>(n > 0 ? n : 0), '\0');
+    std::snprintf(text.data(), text.size() + 1, format, values...);
+    return text;
+}
+
+// One line on a run: the scene, its patches, the method and steps (or the paths per
+// pixel traced), the seconds, the mean radiance, the errors known and estimated.
+std::string summary(const scenes::Scene& scene, const RunResult& r);
 
 nlohmann::json to_json(const ConvergenceRow& row);
 // Throws nlohmann::json::exception for a row of other keys or types.

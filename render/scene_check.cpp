@@ -2,10 +2,13 @@
 
 #include "render/camera.h"
 #include "render/gbuffer.h"
+#include "render/run_record.h"
 #include "sampling/directions.h"
 #include "scenes/frame.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 namespace raybundle::render {
@@ -98,6 +101,61 @@ std::vector<std::string> winding_warnings(const SceneSummary& summary) {
         lines.push_back(line.str());
     }
     return lines;
+}
+
+namespace {
+
+std::string vec3(const scenes::Vec3& v) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "(%.4g, %.4g, %.4g)", v.x(), v.y(), v.z());
+    return buf;
+}
+
+double percent(double part, double whole) { return whole > 0.0 ? 100.0 * part / whole : 0.0; }
+
+}  // namespace
+
+std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
+    const scenes::Camera& cam = scene.camera;
+    std::string out;
+    auto print = [&out](const char* format, auto... values) { out += strprintf(format, values...); };
+
+    print("scene       %s\n", scene.name.c_str());
+    print("patches     %zu after refinement (%zu vertices), area %.6g\n", s.patches, s.vertices, s.area);
+    if (scene.dropped_degenerate > 0) print("            %zu zero-area triangles dropped\n", scene.dropped_degenerate);
+    print("contacts    %s\n", contacts_line(scene).c_str());
+    print("bounds      %s .. %s\n", vec3(s.lo).c_str(), vec3(s.hi).c_str());
+    print("materials   %zu:", scene.materials.size());
+    for (const auto& m : scene.materials)
+        print(" %s%s%s%s", m.name.c_str(), m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "",
+                    m.two_sided ? " (two-sided)" : "");
+    print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
+    print("lights      %zu emissive patches (area %.6g), %zu point lights\n", s.emissive_patches, s.emissive_area,
+                scene.point_lights.size());
+    print("sky         %s\n", !scene.sky                                            ? "none"
+                                    : scene.sky->model == scenes::Sky::Model::constant ? "constant"
+                                                                                          : "CIE overcast");
+    print("camera      eye %s, target %s, fov_y %g, %d x %d\n", vec3(cam.eye).c_str(), vec3(cam.target).c_str(),
+                cam.fov_y, cam.width, cam.height);
+    print("            %zu patches face the camera (%.1f %%), %zu are seen through a pixel centre\n",
+                s.facing_camera, percent(s.facing_camera, s.patches), s.seen_by_camera);
+    if (scene.sky)
+        print("unseen      not counted: with a sky, a front that sees no surface sees the sky\n");
+    else
+        print("unseen      %zu patches whose front side sees no surface and no camera%s\n", s.unseen,
+                    s.unseen > 0 ? " (inverted winding?)" : "");
+    print("objects     %zu\n", s.objects.size());
+    for (const auto& o : s.objects) {
+        print("  %-24s %8zu patches  area %.4g", o.name.c_str(), o.patches, o.area);
+        if (o.back_pixels > 0) print("  back seen in %ld pixels", o.back_pixels);
+        if (o.unseen_area > 0.0) print("  front unseen: %.0f %%", percent(o.unseen_area, o.area));
+        out += "\n";
+    }
+    if (s.overlaps.pairs > 0)
+        print("overlaps    %zu pairs of coplanar overlapping patches face the same way (e.g. %u and %u)\n",
+                    s.overlaps.pairs, s.overlaps.first, s.overlaps.second);
+    for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
+    return out;
 }
 
 }  // namespace raybundle::render

@@ -45,4 +45,8 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
 // One line per object that shows a sign of inverted winding.
 std::vector<std::string> winding_warnings(const SceneSummary& summary);
 
+// What `raybundle check` prints: the scene's patches, contacts, bounds, materials,
+// lights, sky, camera, what the camera and the patches see, its objects and warnings.
+std::string describe(const scenes::Scene& scene, const SceneSummary& summary);
+
 }  // namespace raybundle::render

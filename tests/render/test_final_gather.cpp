@@ -1,5 +1,6 @@
 // The final gather (003): exact answers on the homogeneous box, agreement with the
 // patch image, the filters' ordering of 003 Fig. 8, and the geometry-aware lookup.
+#include "gather_options.h"
 #include "render/final_gather.h"
 #include "render/metrics.h"
 #include "render/gbuffer.h"
@@ -99,7 +100,7 @@ TEST_CASE("final gather: spread over a team by rows, every member makes the imag
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
     for (const int spp : {1, 3}) {
-        render::GatherOptions o;
+        render::GatherOptions o = guide_only_gather();
         o.gather_rays = 8;
         o.direct_samples = 2;
         o.spp = spp;
@@ -141,7 +142,7 @@ TEST_CASE("final gather: the homogeneous box is 1 everywhere within noise", "[re
     const auto field = solve(scene, 2000);
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 1024;
     o.direct_samples = 256;
     o.filter.filter = render::Filter::none;
@@ -172,7 +173,7 @@ TEST_CASE("final gather: the Cornell box agrees with the smooth patch image away
     const auto field = solve(scene, 4000, true);
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 256;
     o.direct_samples = 64;
     o.filter.filter = render::Filter::none;
@@ -209,7 +210,7 @@ TEST_CASE("final gather: emission samples of their own take the noise off a ligh
     const auto field = solve(scene, 500, true);
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 4;
     o.direct_samples = 2;
     o.spp = 4;
@@ -288,7 +289,7 @@ TEST_CASE("geometry-aware lookup: no indirect light across a depth discontinuity
     const auto field = solve(s, 3000, true);
     const scenes::RayCaster caster(s);
     const render::PinholeCamera camera(s.camera);
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 64;
     o.direct_samples = 16;
     o.filter.filter = render::Filter::none;
@@ -318,7 +319,7 @@ TEST_CASE("final gather: guided <= bilateral and <= A-Trous, all far below unfil
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
     for (const int spp : {1, 4}) {
-        render::GatherOptions base;
+        render::GatherOptions base = guide_only_gather();
         base.spp = spp;
         base.direct_samples = 64;
         base.gather_rays = 16;
@@ -397,7 +398,7 @@ TEST_CASE("final gather: the sky lights an open plane (rho L_sky)", "[render][ga
     const auto field = solve(s, 200);
     const scenes::RayCaster caster(s);
     const render::PinholeCamera camera(s.camera);
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 256;
     o.filter.filter = render::Filter::none;
     const auto r = render::final_gather(s, caster, field, camera, o, {});
@@ -449,7 +450,7 @@ TEST_CASE("final gather: no light leaks through a partition that stands on a ful
         solver->run();
         const auto field = solver->field();
         const scenes::RayCaster caster(scene);
-        render::GatherOptions o;
+        render::GatherOptions o = guide_only_gather();
         o.gather_rays = 16;
         o.spp = 4;
         const auto r = render::final_gather(scene, caster, field, render::PinholeCamera(scene.camera), o, {});

@@ -1,5 +1,6 @@
 // The reference path tracer (render/path_tracer.h): exact on the homogeneous box; and
 // the final gather against it on a diffuse and a glossy Cornell box.
+#include "gather_options.h"
 #include "render/final_gather.h"
 #include "render/metrics.h"
 #include "render/path_tracer.h"
@@ -48,7 +49,7 @@ render::Image gather(const scenes::Scene& scene, const scenes::RayCaster& caster
     so.steps = 16000;
     auto solver = solver::make_solver(transport, so, {});
     solver->run();
-    render::GatherOptions o;
+    render::GatherOptions o = guide_only_gather();
     o.gather_rays = 256;
     o.direct_samples = 16;
     o.glossy_rays = glossy_rays;

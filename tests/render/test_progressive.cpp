@@ -1,6 +1,7 @@
 // The image in rounds (render/progressive.h): the error estimate against the true
 // error where the answer is exact, a target error reached, and runs that depend on the
 // seed alone.
+#include "gather_options.h"
 #include "render/metrics.h"
 #include "render/progressive.h"
 #include "render/run.h"
@@ -89,6 +90,7 @@ TEST_CASE("error estimate: within a factor 2 of the true error on the homogeneou
         so.unbiased = c.unbiased;
         if (std::string(c.method) != "iteration") so.depth = 4;
         render::FieldImageOptions io;
+        io.gather_options = guide_only_gather();
         io.steps = c.steps;
         io.gather = c.gather;
         io.gather_options.gather_rays = c.gather_rays;
@@ -134,6 +136,7 @@ TEST_CASE("error estimate: the path tracer's halves on the homogeneous box", "[r
 TEST_CASE("target error: rounds until the estimate is below it, and the truth follows", "[render][progressive]") {
     solver::SolverOptions so;
     render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
     io.steps = 200;
     io.gather_options.gather_rays = 16;
     io.gather_options.spp = 4;
@@ -160,6 +163,7 @@ TEST_CASE("target error: rounds until the estimate is below it, and the truth fo
 TEST_CASE("time budget: rounds until it is spent, at least one", "[render][progressive]") {
     solver::SolverOptions so;
     render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
     io.steps = 40;
     io.gather_options.gather_rays = 4;
     io.gather_options.spp = 1;
@@ -181,6 +185,7 @@ TEST_CASE("time budget: rounds until it is spent, at least one", "[render][progr
 TEST_CASE("rounds: the same seed gives the same image, for any thread count", "[render][progressive]") {
     solver::SolverOptions so;
     render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
     io.steps = 100;
     io.gather_options.gather_rays = 8;
     io.gather_options.spp = 4;
@@ -197,6 +202,7 @@ TEST_CASE("rounds: the same seed gives the same image, for any thread count", "[
 TEST_CASE("rounds: bad options are refused by name", "[render][progressive]") {
     solver::SolverOptions so;
     render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
     render::RoundOptions ro;
     ro.target_error = -1.0;
     CHECK_THROWS_WITH(homogeneous(so, io, ro, 1), Catch::Contains("must be a finite number >= 0"));
@@ -214,6 +220,7 @@ TEST_CASE("rounds: the steps' share follows where the noise is", "[render][progr
     ro.target_error = 0.002;
     ro.time_budget = 3.0;
     render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
     io.steps = 20;
     io.gather_options.gather_rays = 64;
     io.gather_options.spp = 16;

@@ -62,7 +62,7 @@ TEST_CASE("run: every method converges on the homogeneous box within its known b
 TEST_CASE("run: the same seed gives the same image for any thread count, another seed another", "[render][run]") {
     const auto scene = small_box();
     auto config = patch_image("bidirectional", 40);
-    config.gather = render::RunConfig::default_gather();
+    config.gather = render::GatherOptions{};  // the run's defaults
     config.gather.gather_rays = 4;
     config.gather.spp = 2;
     config.run.threads = 1;

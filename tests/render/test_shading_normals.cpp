@@ -1,5 +1,6 @@
 // Shading normals in the renderer: the G-buffer's shading normal next to the patch
 // normal, and the smooth patch image averaging corners that share a shading normal.
+#include "gather_options.h"
 #include "render/camera.h"
 #include "render/final_gather.h"
 #include "render/gbuffer.h"
@@ -114,7 +115,7 @@ TEST_CASE("final gather and path tracer: a coarse sphere shades like a fine one"
         }
         solver::RadianceField field;
         field.radiance.assign(scene.patch_count(), Rgb::Zero());
-        render::GatherOptions o;
+        render::GatherOptions o = guide_only_gather();
         o.gather_rays = 1;
         o.spp = 16;
         return render::final_gather(scene, caster, field, camera, o, {}).image;
