@@ -17,10 +17,10 @@
 
 namespace raybundle::apps {
 
-// The user's command line is wrong: one line, exit code 2.
 // The images --aov DIR writes, DIR/<name>.exr.
 inline constexpr std::array<const char*, 5> kAovNames = {"direct", "indirect", "indirect-filtered", "normal", "depth"};
 
+// The user's command line is wrong: one line, exit code 2.
 struct UsageError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
@@ -32,7 +32,9 @@ class Ranks;  // apps/ranks.h
 enum class Identity { no, yes };
 class Flags {
 public:
-    void row(const char* option, Identity identity, CLI::Option* flag);
+    // `shown`: the name error messages give the flag, where it is not CLI11's
+    // (--one-way for "--both-ways,!--one-way", -o for "-o,--output").
+    void row(const char* option, Identity identity, CLI::Option* flag, const char* shown = nullptr);
     // The flag that sets a library option (OptionError::option()), or the name itself.
     std::string flag_of(const std::string& option) const;
     // The options part of a run's identity (render/checkpoint.h): every identity flag
@@ -44,6 +46,7 @@ private:
         std::string option;
         bool identity;
         CLI::Option* flag;
+        std::string shown;
     };
     std::vector<Row> rows_;
 };

@@ -5,7 +5,6 @@
 #include "render/image_io.h"
 #include "render/output_set.h"
 #include "scenes/errors.h"
-#include "visibility/backend.h"
 
 #include <sys/stat.h>
 
@@ -76,13 +75,13 @@ CLI::IsMember choices(const std::array<const char*, N>& names) {
 // OptionError gives, for flag_of) and whether it is part of the run's identity (what a
 // checkpoint must match to be resumed: everything that decides the result; not the
 // outputs, the thread count, the chatter or the checkpoint flags themselves).
-void Flags::row(const char* option, Identity identity, CLI::Option* flag) {
-    rows_.push_back({option, identity == Identity::yes, flag});
+void Flags::row(const char* option, Identity identity, CLI::Option* flag, const char* shown) {
+    rows_.push_back({option, identity == Identity::yes, flag, shown ? shown : flag->get_name()});
 }
 
 std::string Flags::flag_of(const std::string& option) const {
     for (const Row& r : rows_)
-        if (option == r.option) return r.flag->get_name();
+        if (option == r.option) return r.shown;
     return option;
 }
 
@@ -132,7 +131,8 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         f.row(option, yes, cmd.add_flag_callback(on, [&v] { v = true; }, help));
         f.row(option, yes, cmd.add_flag_callback(off, [&v] { v = false; }, "not " + std::string(on)));
     };
-    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several"));
+    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several"),
+          "-o");
     f.row("", no, cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite));
     f.row("method", yes, value("--method", s.method, "iteration | walk | combined | bidirectional; or pathtrace: no solve, a "
                                                       "reference image by brute-force path tracing (--spp paths per pixel, default 256)"));
@@ -152,7 +152,8 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                                                                  "whose importance picks the starting walks (0: 30 % of the walks)")
                                  ->check(CLI::Range(0L, 1000000000L)));
     f.row("both_ways", yes, cmd.add_flag("--both-ways,!--one-way", s.both_ways,
-                                         "iteration: every geometry matrix serves w and -w (default), or w only"));
+                                         "iteration: every geometry matrix serves w and -w (default), or w only"),
+          "--one-way");
     on_off("ambient", "--ambient", "--no-ambient", s.ambient,
            "iteration: the ambient control variate and start (default: on where an albedo passes sqrt(3)/2, "
            "docs/stability.md)");

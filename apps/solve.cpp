@@ -11,7 +11,6 @@
 #include "render/run_record.h"
 #include "scenes/errors.h"
 
-#include <algorithm>
 #include <cstdio>
 #include <iostream>
 
@@ -66,6 +65,7 @@ int solve(const Command& c, Ranks& ranks) {
     if (ranks.spread()) config.run.team = &ranks;
     // The checkpoint to go on from: read first (a wrong file stops the run at once).
     try {
+        if (ranks.spread()) render::require_spreadable(config, ranks.size());
         if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
         const scenes::Scene scene = load_scene(c);
         render::require_memory(config, scene);

@@ -23,7 +23,10 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr char kMagic[] = "raybundle checkpoint 1\n";
+// The format's number: 2 since the walk sources (solver/walk_source.h) save their own
+// state after a tag of the sampler.
+constexpr char kMagic[] = "raybundle checkpoint 2\n";
+constexpr char kMagicPrefix[] = "raybundle checkpoint ";
 constexpr std::uint32_t kByteOrder = 0x01020304u;
 // The largest checkpoint read: two chains of 10^7 patches with the ambient variate's
 // vectors are about 3 GB.
@@ -154,7 +157,13 @@ Checkpoint read_checkpoint(const std::string& path) {
         throw CheckpointError(e.what());
     }
     const std::size_t magic = sizeof kMagic - 1;
-    if (bytes.compare(0, magic, kMagic) != 0) throw bad(path, "not a raybundle checkpoint");
+    if (bytes.compare(0, magic, kMagic) != 0) {
+        const std::size_t prefix = sizeof kMagicPrefix - 1;
+        if (bytes.compare(0, prefix, kMagicPrefix) != 0) throw bad(path, "not a raybundle checkpoint");
+        const std::size_t end = bytes.find('\n', prefix);
+        throw bad(path, "a checkpoint of format " + bytes.substr(prefix, std::min<std::size_t>(end, prefix + 8) - prefix) +
+                            " (another raybundle); this one reads format " + std::string(kMagic + prefix, magic - prefix - 1));
+    }
     std::size_t at = magic;
     auto take = [&](void* p, std::size_t n) {
         if (bytes.size() - at < n) throw bad(path, "the checkpoint ends early (a truncated or damaged file)");

@@ -144,23 +144,6 @@ void require_same_everywhere(const json& identity, const sampling::Team& team) {
                        "and be given the same options");
 }
 
-// What a run spread over a team cannot do (run.h).
-void require_spreadable(const RunConfig& c, const sampling::Team& team) {
-    const std::string n = std::to_string(team.size());
-    if (c.solver.method == "pathtrace")
-        throw scenes::OptionError("method", "pathtrace runs in one process: it is the reference, not spread over " + n +
-                                                " ranks");
-    if (c.rounds.time_budget > 0.0)
-        throw scenes::OptionError("time_budget", "on " + n + " ranks: how far the rounds go would depend on the machines' "
-                                                 "speed; give --iterations or --target-error");
-    if (!c.checkpoint.empty() || c.resume)
-        throw scenes::OptionError(c.checkpoint.empty() ? "resume" : "checkpoint",
-                                  "works in one process, not on " + n + " ranks");
-    if (2 * static_cast<std::uint64_t>(team.size()) > sampling::streams::kMaxChains)
-        throw RunError(n + " ranks: at most " + std::to_string(sampling::streams::kMaxChains / 2) +
-                       " (two independent chains each)");
-}
-
 // Both chains' work in one report: counts and seconds added, the rest from chain 0.
 solver::SolverReport combined(const solver::SolverReport& a, const solver::SolverReport& b) {
     solver::SolverReport r = a;
@@ -316,7 +299,7 @@ RunResult path_trace_run(const scenes::Scene& scene, const scenes::RayCaster& ca
 RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& hooks) {
     const auto t_start = Clock::now();
     const sampling::Team* team = c.run.team && c.run.team->size() > 1 ? c.run.team : nullptr;
-    if (team) require_spreadable(c, *team);
+    if (team) require_spreadable(c, team->size());
     const json identity = run_identity(c.identity, scene);
     if (c.resume) require_same_run(c.resume_file, c.resume->identity, identity);
     if (team) require_same_everywhere(identity, *team);
@@ -430,6 +413,21 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& ho
     facts.exact = exact;
     out.record = field_run_record(scene, c, transport, out, facts);
     return out;
+}
+
+void require_spreadable(const RunConfig& c, int members) {
+    const std::string n = std::to_string(members);
+    if (c.solver.method == "pathtrace")
+        throw RunError("--method pathtrace runs in one process: it is the reference, not spread over " + n + " ranks");
+    if (c.rounds.time_budget > 0.0)
+        throw RunError("--time-budget on " + n + " ranks: how far the rounds go would depend on the machines' speed; "
+                       "give --iterations or --target-error");
+    if (!c.checkpoint.empty() || c.resume || !c.resume_file.empty())
+        throw RunError(std::string(c.checkpoint.empty() ? "--resume" : "--checkpoint") + " works in one process, not on " +
+                       n + " ranks");
+    if (2 * static_cast<std::uint64_t>(members) > sampling::streams::kMaxChains)
+        throw RunError(n + " ranks: at most " + std::to_string(sampling::streams::kMaxChains / 2) +
+                       " (two independent chains each)");
 }
 
 Image read_reference(const std::string& path, const scenes::Scene& scene) {

@@ -69,8 +69,6 @@ struct RunConfig {
     std::string resume_file;
     nlohmann::json identity = nlohmann::json::object();
 
-    // The final gather's defaults: 64 gather rays, 16 camera samples per pixel, 8 light
-    // sample pairs, 64 emission samples.
     static sampling::RunOptions all_cores() {
         sampling::RunOptions r;
         r.threads = hardware_threads();
@@ -125,16 +123,19 @@ struct RunInterrupted : Interrupted {
     long checkpointed;  // as RunResult::checkpointed
 };
 
-// A run the members of a team cannot do together (they read different scenes or were
-// given different options).
+// A run that cannot be done: the members of a team read different scenes or were given
+// different options, or there are more of them than independent chains; or it needs
+// more memory than the machine has (render/memory.h).
 struct RunError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-// Refuses, before any work, what a run spread over a team (RunOptions::team, more
-// than one member) cannot do: the path tracer (the reference runs alone), a time
-// budget (how far the rounds go would depend on the machines' speed), checkpoints,
-// more members than independent chains. OptionError naming the option, or RunError.
+// What a run spread over a team of `members` processes cannot do, refused before any
+// work (RunError, the flags named): the path tracer (the reference runs alone), a time
+// budget (how far the rounds go would depend on the machines' speed), checkpoints, more
+// members than independent chains. run() calls it for a team of more than one.
+void require_spreadable(const RunConfig& config, int members);
+
 RunResult run(const scenes::Scene& scene, const RunConfig& config, const RunHooks& hooks = {});
 
 // The reference image of a run (RunConfig::reference), read before any work: throws

@@ -11,7 +11,8 @@
 //
 // c_p is the share of the image where the camera sees patch p's front: a grid of at
 // most 128 x 128 camera rays (the image's aspect kept), cast once. A patch the camera
-// does not see weighs 0 (solver/global_walks.h says how its light is still estimated).
+// does not see weighs 0 (solver/walk_source_vegas.cpp and walk_source_metropolis.cpp
+// say how its light is still estimated).
 #include "solver/transport.h"
 
 #include <vector>

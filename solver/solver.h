@@ -61,7 +61,7 @@ struct SolverOptions {
     int depth = 5;          // walks: directions (bounces) per walk
     bool unbiased = false;  // walks: each walk's last bounce corrects the next one's emission (4.3)
     sampling::SamplerKind sampler = sampling::SamplerKind::random;  // walks: their directions
-    // Walks with the vegas and metropolis samplers (solver/global_walks.h): the
+    // Walks with the vegas and metropolis samplers (solver/walk_source.h): the
     // Metropolis perturbation's extent (delta, in the unit cube of the walk's 2D
     // coordinates), its probability of a large step, and its seed walks per chain (the
     // first walks of the chain's `steps`; 0: kAutoSeedShare of them).

@@ -1,5 +1,5 @@
 #pragma once
-// A solver's state as bytes, for checkpoints (apps/checkpoint.h): what advance()
+// A solver's state as bytes, for checkpoints (render/checkpoint.h): what advance()
 // changes, written by Solver::save() and read back by Solver::restore(), so that a
 // restored solver goes on bit-identically.
 //

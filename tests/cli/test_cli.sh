@@ -17,6 +17,7 @@ failed=0
 skipped=0
 fail() { echo "FAIL: $*"; failed=$((failed + 1)); }
 skip() { echo "SKIP: $*"; skipped=$((skipped + 1)); }
+check() { if [ "$1" -eq 0 ]; then passed=$((passed + 1)); else fail "$2"; fi; }
 
 camera='"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "width": 32, "height": 32}'
 materials='"materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}}'
@@ -260,7 +261,6 @@ fi
 
 # check STATUS MESSAGE: count a check (STATUS first: it is expanded before any $(...)
 # in the message runs).
-check() { if [ "$1" -eq 0 ]; then passed=$((passed + 1)); else fail "$2"; fi; }
 
 # --version and help.
 "$bin" --version >v.txt 2>err.txt

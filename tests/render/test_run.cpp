@@ -1,6 +1,8 @@
 // The run as a library call (render/run.h): every method through the one call the
 // command line makes, the path tracer, the decisions it records, checkpoints of
 // another run refused, and results that depend on the seed alone.
+#include "../scenes/temp_dir.h"
+#include "render/checkpoint.h"
 #include "render/run.h"
 #include "scenes/builtin.h"
 #include "solver/solver.h"
@@ -113,6 +115,24 @@ TEST_CASE("run: a checkpoint of another run is refused, naming the file and the 
     config.resume_file = "other.ckpt";
     CHECK_THROWS_WITH(render::run(scene, config),
                       Catch::StartsWith("other.ckpt: made by another run: --iterations was 60, now 50"));
+}
+
+TEST_CASE("run: a checkpoint of an older format, and what a team cannot do, are refused in one line", "[render][run]") {
+    test::TempDir dir;
+    const std::string old = dir.write("old.ckpt", "raybundle checkpoint 1\n" + std::string(64, '\0'));
+    CHECK_THROWS_WITH(render::read_checkpoint(old),
+                      Catch::Contains("old.ckpt") && Catch::Contains("a checkpoint of format 1") &&
+                          Catch::Contains("this one reads format 2"));
+    auto config = patch_image("iteration", 50);
+    CHECK_NOTHROW(render::require_spreadable(config, 2));
+    CHECK_THROWS_WITH(render::require_spreadable(config, 1000), Catch::StartsWith("1000 ranks: at most"));
+    config.rounds.time_budget = 5.0;
+    CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--time-budget on 2 ranks"));
+    config = patch_image("iteration", 50);
+    config.checkpoint = "c.ckpt";
+    CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--checkpoint works in one process"));
+    config = patch_image("pathtrace", 1);
+    CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--method pathtrace runs in one process"));
 }
 
 TEST_CASE("run: a stop asked for ends the solve at the next pause, the image made from the steps done",
