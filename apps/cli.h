@@ -4,6 +4,7 @@
 // scene overrides; the command line adds only what it alone knows: the files to write,
 // and its own checks. Libraries report bad options in their own terms (OptionError),
 // which Flags::flag_of() turns into flags.
+#include "render/output_set.h"
 #include "render/run.h"
 #include "scenes/loader.h"
 
@@ -69,6 +70,7 @@ struct Command {
     bool quiet = false;
     std::string resume;  // the checkpoint to go on from
     Flags flags;         // the table the flags above were added from
+    std::vector<render::NamedFile> outputs, inputs;  // by check_command(); the meshes added in solve()
 };
 
 // The options of `solve` (and the scene options of `check`) on their subcommand.

@@ -3,7 +3,6 @@
 #include "cli.h"
 
 #include "render/image_io.h"
-#include "render/output_set.h"
 #include "scenes/errors.h"
 
 #include <sys/stat.h>
@@ -292,7 +291,7 @@ void check_command(const CLI::App& cmd, Command& c) {
     r.resume_file = c.resume;
     // Every output names a file that can be written, and no two outputs, nor an output
     // and an input, the same file (compared once resolved: ./d/x.exr is d/x.exr).
-    std::vector<render::NamedFile> outputs;
+    std::vector<render::NamedFile>& outputs = c.outputs;
     for (const auto& image : c.images) {
         try {
             render::image_format(image);
@@ -310,17 +309,13 @@ void check_command(const CLI::App& cmd, Command& c) {
         for (const char* name : kAovNames) outputs.push_back({c.aov + "/" + name + ".exr", "--aov"});
     }
     if (!r.checkpoint.empty()) outputs.push_back({r.checkpoint, "--checkpoint"});
-    std::vector<render::NamedFile> inputs;
+    std::vector<render::NamedFile>& inputs = c.inputs;
     if (!c.scene_file.empty()) inputs.push_back({c.scene_file, "the scene file"});
     if (!c.reference.empty()) inputs.push_back({c.reference, "the --reference image"});
     // --resume F --checkpoint F goes on writing the checkpoint it resumed from.
     if (!c.resume.empty() && (r.checkpoint.empty() || render::resolved_path(c.resume) != render::resolved_path(r.checkpoint)))
         inputs.push_back({c.resume, "the --resume checkpoint"});
-    try {
-        render::check_outputs(outputs, inputs);
-    } catch (const render::OutputError& e) {
-        throw UsageError(e.what());
-    }
+    render::check_outputs(outputs, inputs);  // OutputError: exit 2
 }
 
 scenes::Scene load_scene(const Command& c) {

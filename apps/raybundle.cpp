@@ -102,6 +102,8 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
         return e.code;
     } catch (const rb::apps::UsageError& e) {
         return fail(e.what(), kExitBadInput);
+    } catch (const rb::render::OutputError& e) {
+        return fail(e.what(), kExitBadInput);
     } catch (const rb::scenes::SceneError& e) {
         return fail(e.what(), kExitBadInput);
     } catch (const rb::scenes::OptionError& e) {

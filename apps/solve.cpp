@@ -68,6 +68,7 @@ int solve(const Command& c, Ranks& ranks) {
         if (ranks.spread()) render::require_spreadable(config, ranks.size());
         if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
         const scenes::Scene scene = load_scene(c);
+        render::check_outputs(c.outputs, render::with_scene_files(c.inputs, scene));  // its meshes too
         render::require_memory(config, scene);
         try {
             if (!c.reference.empty()) config.reference = render::read_reference(c.reference, scene);

@@ -1,6 +1,7 @@
 #include "render/checkpoint.h"
 
 #include "render/image_io.h"
+#include "render/memory.h"
 #include "scenes/errors.h"
 #include "scenes/mesh_file.h"
 #include "visibility/exact_spans.h"
@@ -11,6 +12,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 
 #ifndef RAYBUNDLE_VERSION
@@ -31,6 +34,10 @@ constexpr std::uint32_t kByteOrder = 0x01020304u;
 // The largest checkpoint read: two chains of 10^7 patches with the ambient variate's
 // vectors are about 3 GB.
 constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{16} << 30;
+// The largest step count and solve time a header may hold: the command line's limit on
+// --iterations, and a hundred years.
+constexpr long kMaxSteps = 1000000000L;
+constexpr double kMaxSeconds = 3.2e9;
 
 struct Fnv {
     std::uint64_t h = 0xcbf29ce484222325ull;
@@ -99,6 +106,36 @@ void put_block(std::string& out, const std::string& block) {
     out += block;
 }
 
+// The header's values of the types and in the ranges a run writes them: anything else
+// is refused here, naming the value, before the run uses it.
+void check_header(const std::string& path, const json& h) {
+    auto need = [&path](bool ok, const std::string& what) {
+        if (!ok) throw bad(path, "its header is damaged (" + what + ")");
+    };
+    auto string_at = [](const json& o, const char* key) { return o.is_object() && o.contains(key) && o[key].is_string(); };
+    need(h.is_object(), "not a JSON object");
+    need(h.contains("identity") && h["identity"].is_object(), "identity: not an object");
+    const json& id = h["identity"];
+    need(string_at(id, "version"), "identity.version: not a string");
+    need(id.contains("scene") && string_at(id["scene"], "name") && string_at(id["scene"], "hash") &&
+             id["scene"].contains("patches") && id["scene"]["patches"].is_number_unsigned(),
+         "identity.scene: not a name, a hash and a patch count");
+    need(id.contains("options") && id["options"].is_object(), "identity.options: not an object");
+    for (const auto& [flag, values] : id["options"].items()) {
+        bool strings = values.is_array();
+        for (const auto& v : values) strings = strings && v.is_string();
+        need(strings, "identity.options." + flag + ": not a list of strings");
+    }
+    need(h.contains("steps_done") && h["steps_done"].is_number_unsigned() &&
+             h["steps_done"].get<std::uint64_t>() <= static_cast<std::uint64_t>(kMaxSteps),
+         "steps_done: not a step count in 0.." + std::to_string(kMaxSteps));
+    need(h.contains("seconds") && h["seconds"].is_number() && h["seconds"].get<double>() >= 0.0 &&
+             h["seconds"].get<double>() <= kMaxSeconds,
+         "seconds: not a duration in 0.." + std::to_string(static_cast<long>(kMaxSeconds)));
+    need(h.contains("rows") && h["rows"].is_array(), "rows: not a list");
+    for (const auto& row : h["rows"]) need(row.is_object(), "rows: a row that is not an object");
+}
+
 }  // namespace
 
 json run_identity(const json& options, const scenes::Scene& scene) {
@@ -150,6 +187,21 @@ void write_checkpoint(const std::string& path, const Checkpoint& k, const Tempor
 }
 
 Checkpoint read_checkpoint(const std::string& path) {
+    // Its first bytes and its size before the whole file: a file that is not a
+    // checkpoint, or one this machine could not hold, is refused without reading it.
+    if (std::ifstream in(path, std::ios::binary); in) {
+        std::string head(sizeof kMagicPrefix - 1, '\0');
+        in.read(head.data(), static_cast<std::streamsize>(head.size()));
+        if (head.compare(0, static_cast<std::size_t>(in.gcount()), kMagicPrefix) != 0 ||
+            in.gcount() < static_cast<std::streamsize>(head.size()))
+            throw bad(path, "not a raybundle checkpoint");
+        std::error_code ec;
+        const std::uintmax_t size = std::filesystem::file_size(path, ec);
+        const std::uint64_t memory = memory_available();
+        if (!ec && memory > 0 && size > memory / 2)
+            throw bad(path, std::to_string(size >> 20) + " MiB, more than half of this machine's memory (" +
+                                std::to_string(memory >> 20) + " MiB): not a checkpoint it could go on from");
+    }
     std::string bytes;
     try {
         bytes = scenes::read_input_file(path, path, "checkpoint", kMaxCheckpointBytes);
@@ -189,15 +241,17 @@ Checkpoint read_checkpoint(const std::string& path) {
         return b;
     };
     Checkpoint k;
+    json header;
     try {
-        const json header = json::parse(block());
-        k.identity = header.at("identity");
-        k.steps_done = header.at("steps_done").get<long>();
-        k.seconds = header.at("seconds").get<double>();
-        k.rows = header.at("rows");
+        header = json::parse(block());
     } catch (const json::exception& e) {
         throw bad(path, std::string("its header is damaged (") + e.what() + ")");
     }
+    check_header(path, header);
+    k.identity = header["identity"];
+    k.steps_done = header["steps_done"].get<long>();
+    k.seconds = header["seconds"].get<double>();
+    k.rows = header["rows"];
     std::uint64_t count = 0;
     take(&count, sizeof count);
     if (count != 2) throw bad(path, "holds " + std::to_string(count) + " chains, a run has 2");

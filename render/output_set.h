@@ -7,6 +7,7 @@
 // as they were; so does a signal that ends the process, where the caller's tracker
 // registers the temporaries with its handler (the command line: apps/signals.h).
 #include "render/image_io.h"
+#include "scenes/scene.h"
 
 #include <functional>
 #include <stdexcept>
@@ -53,9 +54,13 @@ struct NamedFile {
 // (a directory, a device, a FIFO or a socket, which writing would replace with a file;
 // a read-only file, refused even for root, who could replace it; a path below a file;
 // a directory that cannot be written or made), where two outputs name one file, or
-// where an output is one of the inputs (it would be overwritten). Paths are compared
-// once resolved: ./d/x.exr is d/x.exr.
+// where an output is one of the inputs (it would be overwritten), or where a name, or
+// the whole path, is longer than the file system takes with what a temporary adds to
+// it. Files are compared by device and inode where both exist (a hard link is the file
+// it links), else by their resolved names (./d/x.exr is d/x.exr).
 void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs);
+// `inputs` and the files the scene was read from (Scene::files: its meshes).
+std::vector<NamedFile> with_scene_files(std::vector<NamedFile> inputs, const scenes::Scene& scene);
 
 // The file `path` names once the directories and links that exist are resolved:
 // "./d/x.exr", "d/../d/x.exr" and a link to d/x.exr all give one name.

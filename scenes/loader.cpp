@@ -313,7 +313,8 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
         if (o.key[end] == '[') {
             const std::size_t close = o.key.find(']', end);
             const std::string digits = close == std::string::npos ? "" : o.key.substr(end + 1, close - end - 1);
-            if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+            // Digits only, and few enough to be a number (the array check below bounds it).
+            if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9)
                 throw SceneError(shown, o.key, "malformed index in -D " + o.key);
             const std::size_t i = std::stoul(digits);
             if (!node->is_array() || i >= node->size())
@@ -403,6 +404,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             const std::string rel = obj.string("mesh");
             const std::string full = (!rel.empty() && rel[0] == '/') ? rel : base_dir + "/" + rel;
             MeshData data;
+            scene.files.push_back(full);
             try {
                 data = read_mesh_file(full, rel);
             } catch (const SceneError& e) {
@@ -488,7 +490,9 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 }
 
 Scene load_scene(const std::string& path, const Overrides& overrides) {
-    return parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
+    Scene scene = parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
+    scene.files.insert(scene.files.begin(), path);
+    return scene;
 }
 
 Scene load_builtin(const std::string& name, const Overrides& overrides) {

@@ -98,6 +98,9 @@ public:
     // exact answer of a solver truncated after D bounces is exact (1 - a^(D+1)).
     std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
+    // The files it was read from (the scene file, then its meshes), so that no output
+    // of a run overwrites one of them (render::check_outputs).
+    std::vector<std::string> files;
     // Patches cut along the lines where other surfaces touch them (scenes/contacts.h):
     // the lines, the edges split, and the contact edges marked.
     std::size_t contact_lines = 0, contact_splits = 0, contact_edges = 0;

@@ -600,5 +600,25 @@ expect_bad "--checkpoint onto the scene file" "--checkpoint good.json: is the sc
 expect_bad "memory guard" "need about" solve --builtin homogeneous-box --width 16384 --height 16384 \
   --visibility global-zbuffer --resolution 16384 --threads 1024
 
+# Inputs are never overwritten (issue 30): a mesh the scene reads, a hard link to the
+# scene file; names too long for the file system with a temporary's additions; a -D
+# index past any integer. Each refused before any work, one line, exit 2.
+mkdir -p ex && cp -r "$src/scenes/examples/minimal.json" "$src/scenes/examples/meshes" ex/
+cp ex/meshes/block.obj block-before.obj
+"$bin" solve ex/minimal.json --iterations 5 --gather 0 --patches ex/meshes/block.obj -q 2>err.txt
+rc=$?
+[ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "is a mesh of the scene" err.txt && cmp -s ex/meshes/block.obj block-before.obj
+check $? "--patches naming a mesh the scene reads: exit $rc, $(cat err.txt)"
+ln ex/minimal.json linked.json 2>/dev/null && {
+  "$bin" solve ex/minimal.json --iterations 5 --gather 0 --stats linked.json -q 2>err.txt
+  rc=$?
+  [ "$rc" -eq 2 ] && grep -q "is the scene file" err.txt && cmp -s linked.json "$src/scenes/examples/minimal.json"
+  check $? "--stats naming a hard link of the scene file: exit $rc, $(cat err.txt)"
+}
+long=$(printf 'x%.0s' $(seq 1 230)).exr
+expect_bad "an output name too long with the temporary's additions" "bytes" solve --builtin homogeneous-box --iterations 5 -o "$long"
+expect_bad "a -D index past any integer" "malformed index" solve good.json --iterations 5 \
+  -D 'camera.eye[99999999999999999999]=1'
+
 echo "cli: $passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]

@@ -3,6 +3,7 @@
 // another run refused, and results that depend on the seed alone.
 #include "../scenes/temp_dir.h"
 #include "render/checkpoint.h"
+#include "render/output_set.h"
 #include "render/run.h"
 #include "scenes/builtin.h"
 #include "solver/solver.h"
@@ -10,6 +11,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 using namespace raybundle;
@@ -133,6 +135,68 @@ TEST_CASE("run: a checkpoint of an older format, and what a team cannot do, are 
     CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--checkpoint works in one process"));
     config = patch_image("pathtrace", 1);
     CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--method pathtrace runs in one process"));
+}
+
+TEST_CASE("checkpoints: a header of the wrong types or out of range is refused, naming the file and the value",
+          "[render][checkpoint]") {
+    test::TempDir dir;
+    const auto scene = small_box();
+    const render::Checkpoint good{render::run_identity({{"--iterations", {"50"}}}, scene), 10, 1.5,
+                                  nlohmann::json::array(), {"a", "b"}};
+    auto refused = [&](const std::string& name, render::Checkpoint k) {
+        const std::string path = (dir.path / (name + ".ckpt")).string();
+        render::write_checkpoint(path, k);
+        try {
+            render::read_checkpoint(path);
+        } catch (const render::CheckpointError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    CHECK(refused("good", good) == "accepted");
+    render::Checkpoint k = good;
+    k.identity = 5;
+    CHECK_THAT(refused("type", k), Catch::StartsWith((dir.path / "type.ckpt").string()) &&
+                                       Catch::Contains("identity: not an object"));
+    k = good;
+    k.identity["scene"]["patches"] = "many";
+    CHECK_THAT(refused("patches", k), Catch::Contains("identity.scene"));
+    k = good;
+    k.identity["options"]["--iterations"] = {50};
+    CHECK_THAT(refused("options", k), Catch::Contains("identity.options.--iterations: not a list of strings"));
+    k = good;
+    k.seconds = std::nan("");
+    CHECK_THAT(refused("nan", k), Catch::Contains("seconds"));
+    k.seconds = -1.0;
+    CHECK_THAT(refused("negative", k), Catch::Contains("seconds"));
+    k.seconds = 1e308;
+    CHECK_THAT(refused("huge", k), Catch::Contains("seconds"));
+    k = good;
+    k.steps_done = -3;
+    CHECK_THAT(refused("steps", k), Catch::Contains("steps_done"));
+    k = good;
+    k.rows = nlohmann::json::object();
+    CHECK_THAT(refused("rows", k), Catch::Contains("rows: not a list"));
+}
+
+TEST_CASE("outputs: an input by another name, a mesh of the scene, and names too long are refused",
+          "[render][outputs]") {
+    test::TempDir dir;
+    const std::string scene_file = dir.write("s.json", "{}"), mesh = dir.write("m.obj", "v 0 0 0\n");
+    std::filesystem::create_hard_link(scene_file, dir.path / "link.json");
+    const std::vector<render::NamedFile> inputs = {{scene_file, "the scene file"}};
+    CHECK_THROWS_WITH(render::check_outputs({{(dir.path / "link.json").string(), "--stats"}}, inputs),
+                      Catch::EndsWith("is the scene file (it would be overwritten)"));
+    scenes::Scene scene;
+    scene.name = scene_file;
+    scene.files = {scene_file, mesh};
+    CHECK_THROWS_WITH(render::check_outputs({{mesh, "--patches"}}, render::with_scene_files({}, scene)),
+                      Catch::Contains("is a mesh of the scene"));
+    CHECK_NOTHROW(render::check_outputs({{(dir.path / "out.exr").string(), "-o"}}, render::with_scene_files({}, scene)));
+    const std::string long_name = (dir.path / (std::string(230, 'x') + ".exr")).string();
+    CHECK_THROWS_WITH(render::check_outputs({{long_name, "-o"}}, {}), Catch::Contains("a name of 234 bytes"));
+    const std::string long_dir = (dir.path / std::string(300, 'd') / "x.exr").string();
+    CHECK_THROWS_WITH(render::check_outputs({{long_dir, "-o"}}, {}), Catch::Contains("a name of 300 bytes"));
 }
 
 TEST_CASE("run: a stop asked for ends the solve at the next pause, the image made from the steps done",
