@@ -184,9 +184,18 @@ void resume_chains(const std::string& file, const Checkpoint& k, const std::arra
             throw CheckpointError(file + ": chain " + std::to_string(h) + ": " + e.what());
         }
     }
-    if (k.steps_done < 0 || k.steps_done > steps_per_chain || chains[0]->report().steps != k.steps_done)
+    if (k.steps_done < 0 || k.steps_done > steps_per_chain)
         throw CheckpointError(file + ": " + std::to_string(k.steps_done) + " steps done does not fit the run's " +
                               std::to_string(steps_per_chain));
+    // Both chains' counters as the header says: the steps done, and the steps their
+    // fields average (no more than the steps done).
+    for (std::size_t h = 0; h < 2; ++h)
+        if (chains[h]->report().steps != k.steps_done || chains[h]->averaged() < 0 ||
+            chains[h]->averaged() > k.steps_done)
+            throw CheckpointError(file + ": chain " + std::to_string(h) + " counts " +
+                                  std::to_string(chains[h]->report().steps) + " steps done and averages " +
+                                  std::to_string(chains[h]->averaged()) + ", the header says " +
+                                  std::to_string(k.steps_done) + " steps done (a damaged file)");
 }
 
 std::vector<ConvergenceRow> rows_from(const std::string& file, const json& saved) {

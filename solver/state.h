@@ -14,6 +14,7 @@
 #include "sampling/rng.h"
 #include "scenes/scene.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
@@ -72,17 +73,26 @@ public:
     }
     std::uint64_t u64() { return value<std::uint64_t>(); }
     long i64() { return static_cast<long>(value<std::int64_t>()); }
-    double f64() { return value<double>(); }
+    // A state never holds a value that is not finite: one that does is damaged (or
+    // forged), and would end the run in NaNs after the whole solve.
+    double f64() { return finite(value<double>()); }
     bool flag() { return u64() != 0; }
     void get(std::uint64_t& v) { v = u64(); }
     void get(long& v) { v = i64(); }
     void get(double& v) { v = f64(); }
     void get(bool& v) { v = flag(); }
-    void get(scenes::Vec3& v) { raw(v.data(), 3 * sizeof(double)); }
-    void get(scenes::Rgb& v) { raw(v.data(), 3 * sizeof(double)); }
+    void get(scenes::Vec3& v) {
+        for (int k = 0; k < 3; ++k) v[k] = f64();
+    }
+    void get(scenes::Rgb& v) {
+        for (int k = 0; k < 3; ++k) v[k] = f64();
+    }
+    // xoshiro256** never reaches the all-zero state, and would stay there.
     void get(sampling::Rng& rng) {
         sampling::Rng::State s;
-        for (auto& x : s) x = u64();
+        std::uint64_t any = 0;
+        for (auto& x : s) any |= (x = u64());
+        if (any == 0) throw StateError("a random generator's state of zeros");
         rng.set_state(s);
     }
     // A vector of the length `v` has now.
@@ -102,6 +112,10 @@ public:
     std::size_t left() const { return bytes_.size() - at_; }
 
 private:
+    static double finite(double x) {
+        if (!std::isfinite(x)) throw StateError("a value that is not finite");
+        return x;
+    }
     template <class T>
     T value() {
         static_assert(std::is_trivially_copyable_v<T>);

@@ -587,6 +587,37 @@ expect_bad "--checkpoint with a target" "--checkpoint works for runs of one roun
 "$bin" solve --builtin homogeneous-box --method pathtrace --resume ck-kill.bin -o pt.exr 2>err.txt
 [ $? -eq 2 ] && grep -q -- "--resume does not apply to --method pathtrace" err.txt && [ ! -e pt.exr ]
 check $? "--resume with pathtrace: $(cat err.txt)"
+# Hand-made checkpoints with their checksums recomputed (render/checkpoint.cpp: magic,
+# byte order, the JSON header, the chains, FNV-1a of it all): a header value of the
+# wrong type or out of range is refused by name, with exit 2 and one line.
+forge() {  # IN OUT PYTHON-EXPRESSION-ON-h (the header, a dict)
+  python3 - "$1" "$2" "$3" <<'PY'
+import json, struct, sys
+data = open(sys.argv[1], "rb").read()[:-8]
+magic_end = data.index(b"\n") + 1 + 4
+n = struct.unpack("<Q", data[magic_end:magic_end + 8])[0]
+h = json.loads(data[magic_end + 8:magic_end + 8 + n])
+exec(sys.argv[3])
+header = json.dumps(h).encode()
+out = data[:magic_end] + struct.pack("<Q", len(header)) + header + data[magic_end + 8 + n:]
+f = 0xcbf29ce484222325
+for b in out:
+    f = ((f ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+open(sys.argv[2], "wb").write(out + struct.pack("<Q", f))
+PY
+}
+forge ck-kill.bin ck-same.bin "pass"
+"$bin" "${ck[@]}" --resume ck-same.bin -o ck-same.exr --patches ck-same.csv 2>err.txt && cmp -s ck-same.csv ck-full.csv
+check $? "--resume of a checkpoint rewritten as it was: $(cat err.txt)"
+forge ck-kill.bin ck-type.bin "h['identity'] = 5"
+expect_bad "--resume of an identity of the wrong type" "ck-type.bin: its header is damaged (identity: not an object)" \
+  "${ck[@]}" --resume ck-type.bin
+forge ck-kill.bin ck-steps.bin "h['steps_done'] = 400.5"
+expect_bad "--resume of a fractional step count" "ck-steps.bin: its header is damaged (steps_done" "${ck[@]}" --resume ck-steps.bin
+forge ck-kill.bin ck-seconds.bin "h['seconds'] = -1"
+expect_bad "--resume of negative seconds" "ck-seconds.bin: its header is damaged (seconds" "${ck[@]}" --resume ck-seconds.bin
+forge ck-kill.bin ck-rows.bin "h['rows'] = {}"
+expect_bad "--resume of rows that are not a list" "ck-rows.bin: its header is damaged (rows" "${ck[@]}" --resume ck-rows.bin
 expect_bad "--checkpoint-every alone" "--checkpoint-every needs --checkpoint FILE" "${ck[@]}" --checkpoint-every 10
 for v in 0 -3 1.5 abc 0s -2s s; do
   expect_bad "--checkpoint-every $v" "--checkpoint-every" "${ck[@]}" --checkpoint c.bin --checkpoint-every "$v"

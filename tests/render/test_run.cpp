@@ -11,6 +11,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <filesystem>
 #include <string>
 
@@ -177,6 +179,41 @@ TEST_CASE("checkpoints: a header of the wrong types or out of range is refused, 
     k = good;
     k.rows = nlohmann::json::object();
     CHECK_THAT(refused("rows", k), Catch::Contains("rows: not a list"));
+}
+
+TEST_CASE("checkpoints: a chain whose counters differ from the header's, and non-finite state, are refused",
+          "[render][checkpoint]") {
+    test::TempDir dir;
+    const auto scene = small_box();
+    auto checkpointed = [&](long steps, const std::string& name) {
+        auto config = patch_image("iteration", steps);
+        config.checkpoint = (dir.path / name).string();
+        config.checkpoint_steps = 1;  // at every pause: the last one holds every step
+        render::run(scene, config);
+        return render::read_checkpoint(config.checkpoint);
+    };
+    const render::Checkpoint a = checkpointed(64, "a.ckpt"), b = checkpointed(128, "b.ckpt");
+    REQUIRE(a.steps_done == 32);
+    REQUIRE(b.steps_done == 64);
+    auto resumed = [&](const render::Checkpoint& k) {
+        const std::string path = (dir.path / "forged.ckpt").string();
+        render::write_checkpoint(path, k);  // a checksum of its own: only the contents can tell
+        auto config = patch_image("iteration", 128);
+        config.resume = render::read_checkpoint(path);
+        config.resume_file = path;
+        render::run(scene, config);
+    };
+    CHECK_NOTHROW(resumed(b));
+    render::Checkpoint forged = b;
+    forged.states[1] = a.states[1];  // chain 1 of a run half as long
+    CHECK_THROWS_WITH(resumed(forged), Catch::Contains("chain 1 counts 32 steps done") &&
+                                           Catch::Contains("the header says 64"));
+    // A value of the state that is not finite, with a valid checksum: a state ends with
+    // its counters (solver/solver.cpp), the transport's seconds then the entries.
+    forged = b;
+    const double inf = std::numeric_limits<double>::infinity();
+    std::memcpy(forged.states[0].data() + forged.states[0].size() - 2 * sizeof inf, &inf, sizeof inf);
+    CHECK_THROWS_WITH(resumed(forged), Catch::Contains("chain 0") && Catch::Contains("not finite"));
 }
 
 TEST_CASE("outputs: an input by another name, a mesh of the scene, and names too long are refused",
