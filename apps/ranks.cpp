@@ -49,6 +49,22 @@ Ranks::Ranks(int& argc, char**& argv) {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
     if (rank_ != 0) silence();
+    // Every rank runs the same command, compared before anything else is exchanged: a
+    // rank running `check` or `--version` beside ranks running `solve` would leave them
+    // waiting in their first collective.
+    std::uint64_t mine = 0xcbf29ce484222325ull, leaders = 0;
+    for (int i = 1; i < argc; ++i)  // FNV-1a of the arguments, each with its terminating zero
+        for (const char c : std::string(argv[i]) + '\0') mine = (mine ^ static_cast<unsigned char>(c)) * 0x100000001b3ull;
+    leaders = mine;
+    MPI_Bcast(&leaders, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    int other = leaders != mine ? rank_ : size_, first = size_;
+    MPI_Allreduce(&other, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (first == size_) return;
+    MPI_Finalize();
+    mpi_ = false;
+    throw std::runtime_error("rank " + std::to_string(first) + " of " + std::to_string(size_) +
+                             " runs another command than rank 0: mpirun must start the same raybundle command on "
+                             "every rank");
 }
 
 Ranks::~Ranks() {

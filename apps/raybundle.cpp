@@ -5,10 +5,10 @@
 #include "cli.h"
 #include "ranks.h"
 
+#include "render/run_record.h"
 #include "scenes/builtin.h"
 #include "scenes/errors.h"
 #include "visibility/backend.h"
-#include "visibility/exact_spans.h"
 
 #include <cstdio>
 #include <iostream>
@@ -21,30 +21,12 @@ namespace {
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
-#ifndef RAYBUNDLE_VERSION
-#define RAYBUNDLE_VERSION "unknown"
-#endif
-
-void print_version() {
-    std::printf("raybundle %s\n", RAYBUNDLE_VERSION);
-#if defined(__clang__)
-    std::printf("compiler   clang %s\n", __clang_version__);
-#elif defined(__GNUC__)
-    std::printf("compiler   gcc %s\n", __VERSION__);
-#endif
-    std::string backends;
-    for (const auto& b : rb::visibility::backend_infos()) backends += (backends.empty() ? "" : ", ") + b.name;
-    std::printf("backends   %s (default %s)\n", backends.c_str(), rb::visibility::kDefaultBackend);
-    std::printf("kernels    %s (exact painter spans)\n", rb::visibility::best_span_kernels().name);
-    std::printf("ranks      %s\n", rb::apps::Ranks::library().c_str());
-}
-
 int run(int argc, char** argv, rb::apps::Ranks& ranks) {
     // One line for the user, on rank 0, whichever rank failed (apps/ranks.h).
     auto fail = [&ranks](const std::string& what, int code) { return ranks.fail(what, code); };
     CLI::App app{"raybundle: global ray-bundle radiance solver (see `raybundle help`)"};
     app.set_version_flag("--version", [] {
-        print_version();
+        std::printf("%sranks      %s\n", rb::render::build_info().c_str(), rb::apps::Ranks::library().c_str());
         return std::string();
     });
     rb::apps::Command c;

@@ -2,10 +2,16 @@
 
 #include "render/filters.h"
 #include "render/image_io.h"
+#include "visibility/backend.h"
+#include "visibility/exact_spans.h"
 
 #include <fstream>
 #include <stdexcept>
 #include <utility>
+
+#ifndef RAYBUNDLE_VERSION
+#define RAYBUNDLE_VERSION "unknown"
+#endif
 
 namespace raybundle::render {
 
@@ -255,6 +261,19 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
               r.rounds.rounds.size() == 1 ? "" : "s");
     if (r.against) print(", against the reference: relative L1 %.4g, MSE %.4g", r.against->relative_l1, r.against->mse);
     return out;
+}
+
+std::string build_info() {
+    std::string out = strprintf("raybundle %s\n", RAYBUNDLE_VERSION);
+#if defined(__clang__)
+    out += strprintf("compiler   clang %s\n", __clang_version__);
+#elif defined(__GNUC__)
+    out += strprintf("compiler   gcc %s\n", __VERSION__);
+#endif
+    std::string backends;
+    for (const auto& b : visibility::backend_infos()) backends += (backends.empty() ? "" : ", ") + b.name;
+    out += strprintf("backends   %s (default %s)\n", backends.c_str(), visibility::kDefaultBackend);
+    return out + strprintf("kernels    %s (exact painter spans)\n", visibility::best_span_kernels().name);
 }
 
 }  // namespace raybundle::render

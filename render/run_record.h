@@ -42,6 +42,10 @@ std::string strprintf(const char* format, Values... values) {
     return text;
 }
 
+// What `raybundle --version` prints: the version, the compiler, the visibility
+// backends of this build and the exact painter's span kernels, a line each.
+std::string build_info();
+
 // One line on a run: the scene, its patches, the method and steps (or the paths per
 // pixel traced), the seconds, the mean radiance, the errors known and estimated.
 std::string summary(const scenes::Scene& scene, const RunResult& r);

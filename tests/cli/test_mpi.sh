@@ -7,7 +7,8 @@
 #     noise), and the same seed and rank count give the same bytes, for any threads;
 #   - a rank that fails (its scene file missing) makes every rank exit with one line
 #     naming it, exit code 2, and no output written; bad input on every rank gives one
-#     line, not one per rank; what ranks cannot do is refused with one line.
+#     line, not one per rank; what ranks cannot do is refused with one line; ranks
+#     started with different commands all exit at once with one line.
 # Usage: test_mpi.sh PATH/TO/raybundle MPIEXEC PATH/TO/raybundle_without_mpi
 set -uo pipefail
 bin=$1
@@ -97,15 +98,19 @@ for a, b in ((1, 2), (1, 3), (2, 3)):
 sys.exit(bad)
 EOF
 
-# A rank that fails: its scene file is missing on its node. One line naming the rank,
-# exit 2 on every rank, nothing written.
-mkdir -p out
-mpi 1 "$bin" solve --builtin homogeneous-box --iterations 400 -o out/img.exr --stats out/s.json : \
-  -np 1 "$bin" solve missing.json --iterations 400 -o out/img.exr --stats out/s.json >stdout.txt 2>err.txt
+# A rank that fails: its scene file is missing on its node (the same command in another
+# working directory, where the file is not). One line naming the rank, exit 2 on every
+# rank, nothing written.
+mkdir -p out node0 node1
+printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "width": 16, "height": 16}, %s, %s}\n' \
+  '"materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}}' \
+  '"objects": [{"quad": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "material": "w"}]' >node0/s.json
+node=(solve s.json --iterations 400 -o out/img.exr --stats out/s.json)
+mpi 1 --wdir node0 "$bin" "${node[@]}" : -np 1 --wdir node1 "$bin" "${node[@]}" >stdout.txt 2>err.txt
 rc=$?
-if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "rank 1 of 2: missing.json" err.txt &&
-   [ -z "$(ls out)" ]; then ok; else
-  fail "a failing rank: exit $rc, outputs '$(ls out)', stderr: $(cat err.txt)"
+if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "rank 1 of 2: s.json" err.txt &&
+   [ ! -e node0/out ] && [ ! -e node1/out ]; then ok; else
+  fail "a failing rank: exit $rc, outputs '$(ls node0 node1)', stderr: $(cat err.txt)"
 fi
 
 # Bad input on every rank: one line, not one per rank.
@@ -123,6 +128,21 @@ for args in "--time-budget 5" "--method pathtrace" "--checkpoint out/k.bin"; do
   rc=$?
   if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -qF -- "${args%% *}" err.txt && [ -z "$(ls out)" ]; then ok; else
     fail "$args on 2 ranks: exit $rc, stderr: $(cat err.txt)"
+  fi
+done
+
+# Ranks started with different commands (MPMD: solve beside check or --version): every
+# rank exits at once, with one line, before any exchange (they hung before).
+for other in "check --builtin homogeneous-box" "--version"; do
+  start=$(date +%s)
+  # shellcheck disable=SC2086
+  timeout 60 "$mpiexec" -q --allow-run-as-root --oversubscribe -np 1 "$bin" solve --builtin homogeneous-box \
+    --iterations 50 --gather 0 -o out/mixed.exr : -np 1 "$bin" $other >stdout.txt 2>err.txt
+  rc=$?
+  secs=$(($(date +%s) - start))
+  if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "runs another command than rank 0" err.txt &&
+    [ "$secs" -le 5 ] && [ ! -e out/mixed.exr ]; then ok; else
+    fail "solve beside $other: exit $rc after $secs s, stderr: $(cat err.txt)"
   fi
 done
 
