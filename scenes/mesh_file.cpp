@@ -91,6 +91,12 @@ void check_triangle_fan(long corners, const std::string& shown, const std::strin
 // `corners` (for the corner normals).
 std::vector<std::array<int, 3>> add_polygon(MeshData& data, const std::vector<int>& corners, const std::string& shown,
                                             const std::string& where) {
+    // The crossing test and ear clipping take time quadratic in the corners (1,000
+    // corners: seconds): a larger polygon is refused rather than left to run.
+    if (corners.size() > kMaxPolygonCorners)
+        throw SceneError(shown, where,
+                         "face has " + std::to_string(corners.size()) + " corners, at most " +
+                             std::to_string(kMaxPolygonCorners) + " (triangulate it in the modeller)");
     std::vector<std::array<int, 3>> local;
     if (corners.size() == 3) {
         local = {{0, 1, 2}};

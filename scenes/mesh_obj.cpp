@@ -1,5 +1,6 @@
 #include "scenes/mesh_readers.h"
 
+#include <algorithm>
 #include <sstream>
 
 namespace raybundle::scenes::mesh_detail {
@@ -8,7 +9,8 @@ namespace raybundle::scenes::mesh_detail {
 // Read here rather than through OpenMesh, which keeps one normal per vertex: `v` and
 // `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
 // negative = relative), polygons split into a fan from their first corner; other
-// lines are ignored. Every index must name an element defined before it.
+// lines are ignored (`vt` only counted). Every index must name an element defined
+// before it. A UTF-8 byte order mark before the first line is skipped.
 MeshData read_obj(std::istream& in, const std::string& shown) {
     MeshData data;
     std::vector<Vec3> normals;
@@ -16,8 +18,10 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     std::vector<std::array<Vec3, 3>> corner_normals;
     std::string line;
     long line_no = 0;
+    long texture_coordinates = 0;
     while (std::getline(in, line)) {
-        ++line_no;
+        // A UTF-8 byte order mark before the first line is not part of it.
+        if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
         const std::string where = "line " + std::to_string(line_no);
         std::istringstream ls(line);
         std::string tag;
@@ -28,6 +32,8 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             const Vec3 n = read_coordinates(line.substr(line.find("vn") + 2), shown, where, "normal");
             if (!(n.norm() > 0.0)) throw SceneError(shown, where, "normal " + vector_text(n) + " has zero length");
             normals.push_back(n.normalized());
+        } else if (tag == "vt") {
+            ++texture_coordinates;
         } else if (tag == "f") {
             std::vector<int> vs;
             std::vector<Vec3> ns;
@@ -57,6 +63,10 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 };
                 const long nv = static_cast<long>(data.vertices.size()), nn = static_cast<long>(normals.size());
                 vs.push_back(index(corner.substr(0, slash), nv, "vertex", "vertices"));
+                // The texture coordinate is not used, but is checked like the others.
+                if (slash != std::string::npos && slash + 1 < std::min(slash2, corner.size()))
+                    index(corner.substr(slash + 1, std::min(slash2, corner.size()) - slash - 1), texture_coordinates,
+                          "texture coordinate", "texture coordinates");
                 if (slash2 != std::string::npos && slash2 + 1 < corner.size())
                     ns.push_back(normals[index(corner.substr(slash2 + 1), nn, "normal", "normals")]);
             }

@@ -35,6 +35,8 @@ long parse_count(const std::string& text, const std::string& shown, const std::s
 void check_room(long count, long each, std::size_t bytes, const std::string& shown, const std::string& where,
                 const std::string& what);
 void check_triangle_fan(long corners, const std::string& shown, const std::string& where);
+// The most corners a polygon may have (add_polygon refuses more).
+inline constexpr std::size_t kMaxPolygonCorners = 512;
 // Adds the face's triangles (vertex indices) and returns them as positions in
 // `corners` (for the corner normals).
 std::vector<std::array<int, 3>> add_polygon(MeshData& data, const std::vector<int>& corners, const std::string& shown,

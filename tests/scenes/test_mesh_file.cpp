@@ -13,6 +13,7 @@
 
 #include <sys/stat.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -211,6 +212,24 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
         fails_with("two.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: face has 2 corners (at least 3 needed)");
         fails_with("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4: face references vertex -4");
         fails_with("empty.obj", "", "the mesh has no faces");
+        // A texture coordinate is checked like a vertex or a normal (it was not: issue 30).
+        fails_with("vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+                   "line 5: face references texture coordinate 2, but only 1 texture coordinate is defined");
+        fails_with("vt0.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/0/ 2/1 3/1\n",
+                   "line 5: face references texture coordinate 0");
+        // A polygon of more corners than its crossing test can afford, refused at once.
+        std::string big;
+        for (int k = 0; k < 600; ++k)
+            big += "v " + std::to_string(std::cos(0.01 * k)) + " " + std::to_string(std::sin(0.01 * k)) + " 0\n";
+        big += "f";
+        for (int k = 1; k <= 600; ++k) big += " " + std::to_string(k);
+        fails_with("big.obj", big + "\n", "line 601: face has 600 corners, at most 512");
+    }
+    SECTION("OBJ: a UTF-8 byte order mark before the first line is skipped") {
+        const std::string path = dir.write("bom.obj", "\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        const auto mesh = read_mesh_file(path, "bom.obj");
+        CHECK(mesh.vertices.size() == 3);
+        CHECK(mesh.triangles.size() == 1);
     }
     SECTION("not a file of bytes") {
         fails_with("empty.ply", "", "not a PLY file");
