@@ -23,7 +23,9 @@ constexpr int kExitBadInput = 2;
 
 int run(int argc, char** argv, rb::apps::Ranks& ranks) {
     // One line for the user, on rank 0, whichever rank failed (apps/ranks.h).
-    auto fail = [&ranks](const std::string& what, int code) { return ranks.fail(what, code); };
+    auto fail = [&ranks](const std::string& what, int code) {
+        return ranks.fail(rb::scenes::printable(what), code);  // one line, whatever the names in it
+    };
     CLI::App app{"raybundle: global ray-bundle radiance solver (see `raybundle help`)"};
     app.set_version_flag("--version", [] {
         std::printf("%sranks      %s\n", rb::render::build_info().c_str(), rb::apps::Ranks::library().c_str());

@@ -78,7 +78,7 @@ int solve(const Command& c, Ranks& ranks) {
         render::RunHooks hooks;
         hooks.warn = [&](const std::string& line) {
             bar.clear();
-            std::cerr << "raybundle: warning: " << line << "\n";
+            std::cerr << "raybundle: warning: " << scenes::printable(line) << "\n";
         };
         hooks.stoppable = [] { set_stoppable(true); };
         hooks.stop_requested = [] { return stop_requested(); };

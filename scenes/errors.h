@@ -11,6 +11,27 @@
 
 namespace raybundle::scenes {
 
+// `text` with its control characters (newlines, tabs, escape sequences: bytes below 32
+// and 127) written as \n, \t or \xHH, so that a message with a file name or a string
+// from a file stays one line and cannot drive the terminal. Other bytes (UTF-8) stay.
+inline std::string printable(const std::string& text) {
+    std::string out;
+    for (const char ch : text) {
+        const auto c = static_cast<unsigned char>(ch);
+        if (c >= 32 && c != 127) {
+            out += ch;
+        } else if (c == '\n') {
+            out += "\\n";
+        } else if (c == '\t') {
+            out += "\\t";
+        } else {
+            static const char digits[] = "0123456789abcdef";
+            out += {'\\', 'x', digits[c >> 4], digits[c & 15]};
+        }
+    }
+    return out;
+}
+
 class SceneError : public std::runtime_error {
 public:
     // file: the scene or mesh file ("" for built-in scenes); where: the object path

@@ -646,6 +646,8 @@ ln ex/minimal.json linked.json 2>/dev/null && {
   [ "$rc" -eq 2 ] && grep -q "is the scene file" err.txt && cmp -s linked.json "$src/scenes/examples/minimal.json"
   check $? "--stats naming a hard link of the scene file: exit $rc, $(cat err.txt)"
 }
+expect_bad "a file name with a newline" 'no\nsuch.json' solve $'no\nsuch.json'
+expect_bad "a built-in name with an escape sequence" '\x1b[31mred' solve --builtin $'\e[31mred'
 long=$(printf 'x%.0s' $(seq 1 230)).exr
 expect_bad "an output name too long with the temporary's additions" "bytes" solve --builtin homogeneous-box --iterations 5 -o "$long"
 expect_bad "a -D index past any integer" "malformed index" solve good.json --iterations 5 \
