@@ -1,12 +1,19 @@
 #include "render/output_set.h"
 
+#include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 namespace raybundle::render {
@@ -35,12 +42,125 @@ void OutputSet::stage(const std::string& path, const std::function<void(const st
     write(tmp);
 }
 
-void OutputSet::commit() {
-    for (const auto& [tmp, path] : staged_)
-        if (std::rename(tmp.c_str(), path.c_str()) != 0)
-            throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
+namespace {
+
+// The journal of a commit (see output_set.h): pairs of absolute paths, temporary then
+// target, each ended by a zero byte.
+constexpr char kJournalPrefix[] = ".raybundle-commit-";
+
+// Writes `path` to disk before going on (a file, or a directory's entries).
+void sync_path(const std::string& path, bool directory = false) {
+    const int fd = ::open(path.c_str(), directory ? O_RDONLY | O_DIRECTORY : O_RDONLY);
+    if (fd < 0) return;  // nothing to sync, or a file system that cannot: the renames still go on
+    ::fsync(fd);
+    ::close(fd);
+}
+
+// SIGINT, SIGTERM and SIGHUP held while it lives, then delivered.
+class SignalsHeld {
+public:
+    SignalsHeld() {
+        sigset_t set;
+        sigemptyset(&set);
+        for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&set, sig);
+        ::pthread_sigmask(SIG_BLOCK, &set, &old_);
+    }
+    ~SignalsHeld() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+    SignalsHeld(const SignalsHeld&) = delete;
+    SignalsHeld& operator=(const SignalsHeld&) = delete;
+
+private:
+    sigset_t old_;
+};
+
+bool process_alive(long pid) { return pid > 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM); }
+
+// The PID in a name "<prefix><PID>..." (0 if there is none).
+long pid_in(const std::string& name, const std::string& prefix) {
+    if (name.compare(0, prefix.size(), prefix) != 0) return 0;
+    std::size_t at = prefix.size();
+    long pid = 0;
+    while (at < name.size() && std::isdigit(static_cast<unsigned char>(name[at])) && pid < 100000000)
+        pid = 10 * pid + (name[at++] - '0');
+    return pid;
+}
+
+}  // namespace
+
+void OutputSet::commit(const std::function<void(int step)>& after_step) {
+    if (staged_.empty()) return;
+    // Every temporary complete on disk before any rename publishes it.
+    for (const auto& [tmp, path] : staged_) sync_path(tmp);
+    // From here to the last rename a signal waits: a second SIGINT cannot cut the set
+    // in two; it ends the process after it, every output new.
+    const SignalsHeld held;
+    // The journal, so that a run killed between two renames (SIGKILL, a crash) has its
+    // commit completed by the next one that writes there (recover_commits()).
+    const fs::path first = fs::absolute(fs::path(staged_.front().second)).parent_path();
+    const std::string journal = (first / (kJournalPrefix + std::to_string(::getpid()))).string();
+    {
+        std::string pairs;
+        for (const auto& [tmp, path] : staged_)
+            pairs += fs::absolute(tmp).string() + '\0' + fs::absolute(path).string() + '\0';
+        const std::string partial = journal + ".partial";
+        FILE* f = std::fopen(partial.c_str(), "wb");
+        const bool written = f && std::fwrite(pairs.data(), 1, pairs.size(), f) == pairs.size();
+        if (f) std::fclose(f);
+        sync_path(partial);
+        if (!written || std::rename(partial.c_str(), journal.c_str()) != 0) {
+            ::unlink(partial.c_str());
+            throw std::runtime_error(journal + ": cannot write (" + std::strerror(errno) + ")");
+        }
+        sync_path(first.string(), true);
+    }
+    if (after_step) after_step(0);
+    for (std::size_t k = 0; k < staged_.size(); ++k) {
+        const auto& [tmp, path] = staged_[k];
+        if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+            // Not one of a set any more: the renames done stay (the journal completes
+            // nothing that is gone), the rest is removed with the temporaries.
+            const int error = errno;
+            ::unlink(journal.c_str());
+            throw std::runtime_error(path + ": cannot write (" + std::strerror(error) + ")");
+        }
+        if (after_step) after_step(static_cast<int>(k) + 1);
+    }
+    for (const auto& [tmp, path] : staged_) sync_path(fs::absolute(fs::path(path)).parent_path().string(), true);
+    ::unlink(journal.c_str());
     staged_.clear();
     untrack();
+}
+
+void recover_commits(const std::vector<std::string>& directories) {
+    for (const auto& dir : directories) {
+        std::error_code ec;
+        std::vector<fs::path> journals, temporaries;
+        for (const auto& entry : fs::directory_iterator(dir, ec)) {
+            const std::string name = entry.path().filename().string();
+            if (const long owner = pid_in(name, kJournalPrefix); owner > 0 && !process_alive(owner)) {
+                // A journal, or one that was never complete (".partial": no rename began).
+                (name.find('.', sizeof kJournalPrefix - 1) == std::string::npos ? journals : temporaries)
+                    .push_back(entry.path());
+            } else if (const long pid = pid_in(name, ".raybundle-"); pid > 0 && !process_alive(pid)) {
+                temporaries.push_back(entry.path());
+            }
+        }
+        // An interrupted commit is completed: what it had not renamed yet, it renames.
+        for (const auto& journal : journals) {
+            std::ifstream in(journal, std::ios::binary);
+            const std::string pairs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+            for (std::size_t at = 0; at < pairs.size();) {
+                const std::size_t mid = pairs.find('\0', at), end = mid == std::string::npos ? mid : pairs.find('\0', mid + 1);
+                if (end == std::string::npos) break;
+                const std::string tmp = pairs.substr(at, mid - at), target = pairs.substr(mid + 1, end - mid - 1);
+                if (fs::exists(tmp, ec)) std::rename(tmp.c_str(), target.c_str());
+                at = end + 1;
+            }
+            fs::remove(journal, ec);
+        }
+        // Then what dead runs left behind and no commit names: their temporaries.
+        for (const auto& tmp : temporaries) fs::remove(tmp, ec);
+    }
 }
 
 void OutputSet::untrack() noexcept {
@@ -108,6 +228,13 @@ bool same_file(const std::string& a, const std::string& b) {
 }  // namespace
 
 void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs) {
+    std::vector<std::string> directories;
+    for (const auto& out : outputs) {
+        const fs::path dir = fs::absolute(fs::path(out.path)).parent_path();
+        if (std::find(directories.begin(), directories.end(), dir.string()) == directories.end())
+            directories.push_back(dir.string());
+    }
+    recover_commits(directories);
     for (const auto& out : outputs) check_output_path(out);
     for (std::size_t a = 0; a < outputs.size(); ++a) {
         for (std::size_t b = a + 1; b < outputs.size(); ++b)

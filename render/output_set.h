@@ -1,11 +1,11 @@
 #pragma once
 // The files one run writes, as a set: either every one of them new, or none touched.
 // Each is first written to a hidden temporary beside its target, and only when all of
-// them have been written are they renamed into place, one rename each (atomic per
-// file; between two renames a crash can still leave a mix, for microseconds). A
-// failure on the way (an exception) removes the temporaries and leaves the old files
-// as they were; so does a signal that ends the process, where the caller's tracker
-// registers the temporaries with its handler (the command line: apps/signals.h).
+// them have been written are they renamed into place (commit()), with signals held and
+// a journal that lets the next run complete a commit a killed process left midway. A
+// failure before the commit (an exception) removes the temporaries and leaves the old
+// files as they were; so does a signal that ends the process, where the caller's
+// tracker registers the temporaries with its handler (the command line: apps/signals.h).
 #include "render/image_io.h"
 #include "scenes/scene.h"
 
@@ -28,8 +28,13 @@ public:
     // with the same extension (writers choose the format by it); the directory is made
     // when missing.
     void stage(const std::string& path, const std::function<void(const std::string& tmp)>& write);
-    // Renames every staged file into place.
-    void commit();
+    // Makes the staged files the outputs, all of them: each synced to disk, then, with
+    // SIGINT, SIGTERM and SIGHUP held (a signal waits until the set is complete), a
+    // journal of the renames written beside the first, the renames, and the journal
+    // removed. A process killed between two renames (SIGKILL, a crash) leaves the
+    // journal, and the next check_outputs() in that directory completes the commit.
+    // `after_step` (tests) is called after step k: 0 the journal, k >= 1 the k-th rename.
+    void commit(const std::function<void(int step)>& after_step = {});
 
 private:
     void discard() noexcept;
@@ -50,7 +55,8 @@ struct NamedFile {
     std::string path, name;
 };
 
-// Before any work: throws OutputError where an output cannot or must not be written
+// Before any work (after recover_commits() in the outputs' directories): throws
+// OutputError where an output cannot or must not be written
 // (a directory, a device, a FIFO or a socket, which writing would replace with a file;
 // a read-only file, refused even for root, who could replace it; a path below a file;
 // a directory that cannot be written or made), where two outputs name one file, or
@@ -61,6 +67,11 @@ struct NamedFile {
 void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs);
 // `inputs` and the files the scene was read from (Scene::files: its meshes).
 std::vector<NamedFile> with_scene_files(std::vector<NamedFile> inputs, const scenes::Scene& scene);
+
+// In each directory: completes the commits that runs killed midway left (their journal,
+// named by a process that is no longer running), then removes the temporaries such runs
+// left behind. check_outputs() calls it for the outputs' directories.
+void recover_commits(const std::vector<std::string>& directories);
 
 // The file `path` names once the directories and links that exist are resolved:
 // "./d/x.exr", "d/../d/x.exr" and a link to d/x.exr all give one name.
