@@ -58,7 +58,7 @@ int commit_in_child(const std::vector<fs::path>& targets, AtStep at_step) {
 TEST_CASE("outputs: a commit killed at any step is completed by the next run, none left half done",
           "[render][outputs]") {
     // 5 outputs in two directories, killed (SIGKILL) after each of the commit's 6 steps
-    // (the journal, then each rename), and before it: 7 points, 30 times each.
+    // (the journal, then each rename), and a commit not killed: 7 cases, 30 times each.
     int runs = 0;
     for (int repeat = 0; repeat < 30; ++repeat) {
         for (int kill_at = -1; kill_at <= 5; ++kill_at) {
