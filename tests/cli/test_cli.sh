@@ -618,6 +618,13 @@ forge ck-kill.bin ck-seconds.bin "h['seconds'] = -1"
 expect_bad "--resume of negative seconds" "ck-seconds.bin: its header is damaged (seconds" "${ck[@]}" --resume ck-seconds.bin
 forge ck-kill.bin ck-rows.bin "h['rows'] = {}"
 expect_bad "--resume of rows that are not a list" "ck-rows.bin: its header is damaged (rows" "${ck[@]}" --resume ck-rows.bin
+# A checkpoint larger than half this machine's memory: refused at once, not read (a
+# sparse file of 60 % of the memory, its magic line right).
+printf 'raybundle checkpoint 2\n' >huge.bin
+truncate -s $(($(awk '/MemTotal/ {print $2}' /proc/meminfo) * 1024 * 6 / 10)) huge.bin
+expect_bad "--resume of a checkpoint larger than half the memory" "more than half of this machine's memory" \
+  "${ck[@]}" --resume huge.bin
+rm -f huge.bin
 expect_bad "--checkpoint-every alone" "--checkpoint-every needs --checkpoint FILE" "${ck[@]}" --checkpoint-every 10
 for v in 0 -3 1.5 abc 0s -2s s; do
   expect_bad "--checkpoint-every $v" "--checkpoint-every" "${ck[@]}" --checkpoint c.bin --checkpoint-every "$v"
