@@ -113,6 +113,10 @@ void OutputSet::commit(const std::function<void(int step)>& after_step) {
         }
         sync_path(first.string(), true);
     }
+    // From here the temporaries belong to the journal: a signal handler that ends the
+    // process must not remove them (another thread than this one, which holds the
+    // signals, may run it), or the next run could not complete the set.
+    untrack();
     if (after_step) after_step(0);
     for (std::size_t k = 0; k < staged_.size(); ++k) {
         const auto& [tmp, path] = staged_[k];
@@ -128,7 +132,6 @@ void OutputSet::commit(const std::function<void(int step)>& after_step) {
     for (const auto& [tmp, path] : staged_) sync_path(fs::absolute(fs::path(path)).parent_path().string(), true);
     ::unlink(journal.c_str());
     staged_.clear();
-    untrack();
 }
 
 void recover_commits(const std::vector<std::string>& directories) {

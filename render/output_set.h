@@ -30,8 +30,8 @@ public:
     void stage(const std::string& path, const std::function<void(const std::string& tmp)>& write);
     // Makes the staged files the outputs, all of them: each synced to disk, then, with
     // SIGINT, SIGTERM and SIGHUP held (a signal waits until the set is complete), a
-    // journal of the renames written beside the first, the renames, and the journal
-    // removed. A process killed between two renames (SIGKILL, a crash) leaves the
+    // journal of the renames written beside the first (the temporaries then leave the
+    // tracker: they belong to the journal), the renames, and the journal removed. A process killed between two renames (SIGKILL, a crash) leaves the
     // journal, and the next check_outputs() in that directory completes the commit.
     // `after_step` (tests) is called after step k: 0 the journal, k >= 1 the k-th rename.
     void commit(const std::function<void(int step)>& after_step = {});
