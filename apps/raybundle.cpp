@@ -4,6 +4,7 @@
 //   1  anything else (an output that cannot be written, a missing run-time library, a bug)
 #include "cli.h"
 #include "ranks.h"
+#include "render/signals.h"
 
 #include "render/run_record.h"
 #include "scenes/builtin.h"
@@ -100,6 +101,7 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    rb::render::install_signal_handlers();  // before MPI's threads: they inherit its mask
     std::optional<rb::apps::Ranks> ranks;
     try {
         ranks.emplace(argc, argv);

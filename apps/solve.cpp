@@ -2,7 +2,7 @@
 #include "cli.h"
 #include "progress.h"
 #include "ranks.h"
-#include "signals.h"
+#include "render/signals.h"
 
 #include "render/image_io.h"
 #include "render/memory.h"
@@ -20,7 +20,7 @@ namespace {
 
 // The outputs asked for, all written or none (render/output_set.h).
 void write_outputs(const Command& c, const scenes::Scene& scene, const render::RunResult& r) {
-    render::OutputSet outputs(signal_tracker());
+    render::OutputSet outputs(render::signal_tracker());
     for (const auto& path : c.images)
         outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, r.image, c.exposure); });
     if (r.gather && !c.aov.empty()) {
@@ -37,7 +37,7 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
         outputs.stage(c.ply, [&](const std::string& tmp) { render::write_patch_ply(tmp, scene, *r.field, c.exposure); });
     if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { render::write_convergence_csv(tmp, r.rows); });
     nlohmann::json record = r.record;
-    if (r.signal != 0) record["interrupted_by"] = signal_name(r.signal);
+    if (r.signal != 0) record["interrupted_by"] = render::signal_name(r.signal);
     if (!c.stats.empty()) outputs.stage(c.stats, [&](const std::string& tmp) { render::write_json(tmp, record); });
     outputs.commit();
 }
@@ -58,7 +58,7 @@ void print_summary(const Command& c, const scenes::Scene& scene, const render::R
 }  // namespace
 
 int solve(const Command& c, Ranks& ranks) {
-    install_signal_handlers();
+    render::install_signal_handlers();
     ProgressBar bar(c.quiet || !ranks.leader());
     render::RunConfig config = c.config;
     config.run.progress = [&](const sampling::Progress& p) { bar(p); };
@@ -80,28 +80,29 @@ int solve(const Command& c, Ranks& ranks) {
             bar.clear();
             std::cerr << "raybundle: warning: " << scenes::printable(line) << "\n";
         };
-        hooks.stoppable = [] { set_stoppable(true); };
-        hooks.stop_requested = [] { return stop_requested(); };
-        hooks.temporaries = signal_tracker();
+        hooks.stoppable = [] { render::set_stoppable(true); };
+        hooks.stop_requested = [] { return render::stop_requested(); };
+        hooks.temporaries = render::signal_tracker();
         const render::RunResult result = render::run(scene, config, hooks);
         bar.clear();
         if (!ranks.leader()) return result.signal != 0 ? 128 + result.signal : 0;
         write_outputs(c, scene, result);
         if (!c.quiet) print_summary(c, scene, result);
-        if (result.signal != 0) {
+        // A signal that came while the outputs were written counts too.
+        if (const int signal = result.signal != 0 ? result.signal : render::stop_requested(); signal != 0) {
             const bool cut = result.rounds.interrupted;
-            std::cerr << "raybundle: " << signal_name(result.signal) << ": "
+            std::cerr << "raybundle: " << render::signal_name(signal) << ": "
                       << (cut ? "stopped after " + std::to_string(result.steps) + " of " +
                                     std::to_string(result.planned_steps) +
                                     " steps; the outputs are of the steps done (\"partial\" in the stats)"
                               : "the run was complete; its outputs are written")
                       << (cut && result.checkpointed >= 0 ? "; go on with --resume " + config.checkpoint : "") << "\n";
-            return 128 + result.signal;
+            return 128 + signal;
         }
         return 0;
     } catch (const render::RunInterrupted& e) {
         bar.clear();
-        std::cerr << "raybundle: " << signal_name(e.signal) << ": " << e.what() << ", nothing written"
+        std::cerr << "raybundle: " << render::signal_name(e.signal) << ": " << e.what() << ", nothing written"
                   << (e.checkpointed >= 0 ? "; the checkpoint " + config.checkpoint + " holds the steps done" : "")
                   << "\n";
         return 128 + e.signal;

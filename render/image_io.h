@@ -9,11 +9,14 @@
 namespace raybundle::render {
 
 // Who removes a temporary file if a signal ends the process (the command line's
-// handler, apps/signals.h): track(path) before the file is made gives a slot, untrack
-// (slot) once it is renamed or removed. Empty functions: nobody.
+// signal thread, render/signals.h): track(path) before the file is made gives a slot,
+// untrack(slot) once it is renamed or removed. Between hold() and release() (an
+// OutputSet's commit) a signal that would end the process waits. Empty functions:
+// nobody.
 struct TemporaryTracker {
     std::function<int(const std::string& path)> track;
     std::function<void(int slot)> untrack;
+    std::function<void()> hold, release;
 };
 
 // Runs write(tmp) for a temporary path next to `path`, then renames tmp to path.

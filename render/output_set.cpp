@@ -56,20 +56,27 @@ void sync_path(const std::string& path, bool directory = false) {
     ::close(fd);
 }
 
-// SIGINT, SIGTERM and SIGHUP held while it lives, then delivered.
+// SIGINT, SIGTERM and SIGHUP held while it lives, then delivered: blocked in this
+// thread (a handler of a program without a signal thread), and the tracker's hold()
+// (a signal thread that would end the process waits).
 class SignalsHeld {
 public:
-    SignalsHeld() {
+    explicit SignalsHeld(const TemporaryTracker& tracker) : tracker_(tracker) {
         sigset_t set;
         sigemptyset(&set);
         for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&set, sig);
         ::pthread_sigmask(SIG_BLOCK, &set, &old_);
+        if (tracker_.hold) tracker_.hold();
     }
-    ~SignalsHeld() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+    ~SignalsHeld() {
+        if (tracker_.release) tracker_.release();
+        ::pthread_sigmask(SIG_SETMASK, &old_, nullptr);
+    }
     SignalsHeld(const SignalsHeld&) = delete;
     SignalsHeld& operator=(const SignalsHeld&) = delete;
 
 private:
+    const TemporaryTracker& tracker_;
     sigset_t old_;
 };
 
@@ -85,6 +92,21 @@ long pid_in(const std::string& name, const std::string& prefix) {
     return pid;
 }
 
+// The (temporary, target) pairs of a journal; those of a cut one up to its last
+// complete pair.
+std::vector<std::pair<std::string, std::string>> journal_pairs(const fs::path& journal) {
+    std::ifstream in(journal, std::ios::binary);
+    const std::string pairs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<std::pair<std::string, std::string>> out;
+    for (std::size_t at = 0; at < pairs.size();) {
+        const std::size_t mid = pairs.find('\0', at), end = mid == std::string::npos ? mid : pairs.find('\0', mid + 1);
+        if (end == std::string::npos) break;
+        out.emplace_back(pairs.substr(at, mid - at), pairs.substr(mid + 1, end - mid - 1));
+        at = end + 1;
+    }
+    return out;
+}
+
 }  // namespace
 
 void OutputSet::commit(const std::function<void(int step)>& after_step) {
@@ -93,7 +115,7 @@ void OutputSet::commit(const std::function<void(int step)>& after_step) {
     for (const auto& [tmp, path] : staged_) sync_path(tmp);
     // From here to the last rename a signal waits: a second SIGINT cannot cut the set
     // in two; it ends the process after it, every output new.
-    const SignalsHeld held;
+    const SignalsHeld held(tracker_);
     // The journal, so that a run killed between two renames (SIGKILL, a crash) has its
     // commit completed by the next one that writes there (recover_commits()).
     const fs::path first = fs::absolute(fs::path(staged_.front().second)).parent_path();
@@ -113,9 +135,9 @@ void OutputSet::commit(const std::function<void(int step)>& after_step) {
         }
         sync_path(first.string(), true);
     }
-    // From here the temporaries belong to the journal: a signal handler that ends the
-    // process must not remove them (another thread than this one, which holds the
-    // signals, may run it), or the next run could not complete the set.
+    // From here the temporaries belong to the journal: whatever ends the process (a
+    // handler on a thread that does not hold the signals, a tracker without hold())
+    // must not remove them, or the next run could not complete the set.
     untrack();
     if (after_step) after_step(0);
     for (std::size_t k = 0; k < staged_.size(); ++k) {
@@ -137,12 +159,12 @@ void OutputSet::commit(const std::function<void(int step)>& after_step) {
 void recover_commits(const std::vector<std::string>& directories) {
     for (const auto& dir : directories) {
         std::error_code ec;
-        std::vector<fs::path> journals, temporaries;
+        std::vector<fs::path> journals, partial_journals, temporaries;
         for (const auto& entry : fs::directory_iterator(dir, ec)) {
             const std::string name = entry.path().filename().string();
             if (const long owner = pid_in(name, kJournalPrefix); owner > 0 && !process_alive(owner)) {
                 // A journal, or one that was never complete (".partial": no rename began).
-                (name.find('.', sizeof kJournalPrefix - 1) == std::string::npos ? journals : temporaries)
+                (name.find('.', sizeof kJournalPrefix - 1) == std::string::npos ? journals : partial_journals)
                     .push_back(entry.path());
             } else if (const long pid = pid_in(name, ".raybundle-"); pid > 0 && !process_alive(pid)) {
                 temporaries.push_back(entry.path());
@@ -150,15 +172,15 @@ void recover_commits(const std::vector<std::string>& directories) {
         }
         // An interrupted commit is completed: what it had not renamed yet, it renames.
         for (const auto& journal : journals) {
-            std::ifstream in(journal, std::ios::binary);
-            const std::string pairs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-            for (std::size_t at = 0; at < pairs.size();) {
-                const std::size_t mid = pairs.find('\0', at), end = mid == std::string::npos ? mid : pairs.find('\0', mid + 1);
-                if (end == std::string::npos) break;
-                const std::string tmp = pairs.substr(at, mid - at), target = pairs.substr(mid + 1, end - mid - 1);
+            for (const auto& [tmp, target] : journal_pairs(journal))
                 if (fs::exists(tmp, ec)) std::rename(tmp.c_str(), target.c_str());
-                at = end + 1;
-            }
+            fs::remove(journal, ec);
+        }
+        // One that never began is dropped, with the temporaries it names in other
+        // directories (the rest are among this one's).
+        for (const auto& journal : partial_journals) {
+            for (const auto& [tmp, target] : journal_pairs(journal))
+                if (fs::path(tmp).filename().string().rfind(".raybundle-", 0) == 0) fs::remove(tmp, ec);
             fs::remove(journal, ec);
         }
         // Then what dead runs left behind and no commit names: their temporaries.

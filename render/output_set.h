@@ -5,7 +5,7 @@
 // a journal that lets the next run complete a commit a killed process left midway. A
 // failure before the commit (an exception) removes the temporaries and leaves the old
 // files as they were; so does a signal that ends the process, where the caller's
-// tracker registers the temporaries with its handler (the command line: apps/signals.h).
+// tracker registers the temporaries with its handler (the command line: render/signals.h).
 #include "render/image_io.h"
 #include "scenes/scene.h"
 
@@ -69,8 +69,10 @@ void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<Name
 std::vector<NamedFile> with_scene_files(std::vector<NamedFile> inputs, const scenes::Scene& scene);
 
 // In each directory: completes the commits that runs killed midway left (their journal,
-// named by a process that is no longer running), then removes the temporaries such runs
-// left behind. check_outputs() calls it for the outputs' directories.
+// named by a process that is no longer running), drops those killed before their first
+// rename (a ".partial" journal, and the temporaries it names wherever they are), then
+// removes the temporaries such runs left behind. check_outputs() calls it for the
+// outputs' directories.
 void recover_commits(const std::vector<std::string>& directories);
 
 // The file `path` names once the directories and links that exist are resolved:

@@ -1,17 +1,21 @@
-#include "signals.h"
+#include "render/signals.h"
 
 #include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
+#include <iostream>
+#include <mutex>
+#include <thread>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 namespace {
 
-// The temporaries, in fixed storage, so that the handler reads no memory the main
-// thread may be reallocating: a slot's path is written before it is marked used.
+// The temporaries, in fixed storage, written before a slot is marked used; the signal
+// thread reads them.
 constexpr int kSlots = 128;
 constexpr std::size_t kMaxPath = 4096;
 char g_paths[kSlots][kMaxPath];
@@ -19,23 +23,32 @@ std::atomic<bool> g_used[kSlots];
 
 std::atomic<bool> g_stoppable{false};
 std::atomic<int> g_stop{0};
+// Held by an OutputSet's commit: a signal that ends the process waits for it.
+std::mutex g_commit;
 
 void remove_temporaries() {
     for (int i = 0; i < kSlots; ++i)
         if (g_used[i].load()) ::unlink(g_paths[i]);
 }
 
-extern "C" void on_signal(int sig) {
+// What a signal does, on the signal thread (not in a handler: it may wait and lock).
+void on_signal(int sig) {
     if (g_stoppable.load() && g_stop.load() == 0) {
         g_stop.store(sig);
-        static const char line[] =
-            "\nraybundle: stopping: the image of the steps done follows (again to abandon the run)\n";
-        [[maybe_unused]] const auto n = ::write(STDERR_FILENO, line, sizeof line - 1);
+        std::cerr << "\nraybundle: stopping: the image of the steps done follows (again to abandon the run)\n";
         return;
     }
+    const std::lock_guard<std::mutex> commit(g_commit);  // a commit under way completes first
     remove_temporaries();
+    // Ended by the signal itself (the parent sees 128 + sig): its default action, on
+    // this thread, the only one where it is not blocked.
     std::signal(sig, SIG_DFL);
-    std::raise(sig);
+    sigset_t one;
+    sigemptyset(&one);
+    sigaddset(&one, sig);
+    ::pthread_sigmask(SIG_UNBLOCK, &one, nullptr);
+    ::raise(sig);
+    std::_Exit(128 + sig);  // not reached
 }
 
 }  // namespace
@@ -43,12 +56,23 @@ extern "C" void on_signal(int sig) {
 void install_signal_handlers() {
     static const bool installed = [] {
         // A signal the process was started ignoring stays ignored (nohup, a background
-        // job of a script): no handler for it.
+        // job of a script): not waited for.
+        sigset_t set;
+        sigemptyset(&set);
         for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
             struct sigaction old {};
             if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
-            std::signal(sig, on_signal);
+            sigaddset(&set, sig);
         }
+        // Blocked here, before any other thread exists, so in every thread started
+        // after (workers, MPI's): only the signal thread receives them.
+        ::pthread_sigmask(SIG_BLOCK, &set, nullptr);
+        std::thread([set] {
+            for (;;) {
+                int sig = 0;
+                if (::sigwait(&set, &sig) == 0) on_signal(sig);
+            }
+        }).detach();
         return true;
     }();
     (void)installed;
@@ -83,4 +107,7 @@ void untrack_temporary(int slot) {
     if (slot >= 0 && slot < kSlots) g_used[slot].store(false);
 }
 
-}  // namespace raybundle::apps
+void hold_signals() { g_commit.lock(); }
+void release_signals() { g_commit.unlock(); }
+
+}  // namespace raybundle::render

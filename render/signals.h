@@ -1,5 +1,6 @@
 #pragma once
-// The run's signals: SIGINT, SIGTERM and SIGHUP.
+// A process's signals around run(): SIGINT, SIGTERM and SIGHUP (the command line's,
+// apps/solve.cpp, or any program's that wants the same behaviour).
 //
 // While the run can stop cleanly (set_stoppable(true): `solve` from its solve on), the
 // first such signal asks it to stop: stop_requested() returns it from then on, and a
@@ -11,13 +12,19 @@
 //
 // A signal the process was started ignoring (nohup: SIGHUP) stays ignored.
 //
-// Call order: install_signal_handlers() once, before the first temporary; track a
+// The signals are blocked in every thread and received by one thread of their own
+// (sigwait), so no worker is ever interrupted by them, and what they do may wait: a
+// signal that ends the process waits for a commit of the outputs under way
+// (hold_signals() .. release_signals(), render::OutputSet::commit).
+//
+// Call order: install_signal_handlers() first in main, before any other thread starts
+// (MPI's, the workers'), so that they all inherit the blocked signals; track a
 // temporary before creating it, untrack it once renamed or removed.
 #include "render/image_io.h"
 
 #include <string>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 void install_signal_handlers();
 void set_stoppable(bool stoppable);
@@ -30,7 +37,12 @@ std::string signal_name(int sig);
 // when all slots are taken (the file is then removed on failures only).
 int track_temporary(const std::string& path);
 void untrack_temporary(int slot);
-// The two above as a tracker for render::OutputSet and render::run's checkpoints.
-inline render::TemporaryTracker signal_tracker() { return {track_temporary, untrack_temporary}; }
+// While held, a signal that would end the process waits.
+void hold_signals();
+void release_signals();
+// The four above as a tracker for render::OutputSet and render::run's checkpoints.
+inline TemporaryTracker signal_tracker() {
+    return {track_temporary, untrack_temporary, hold_signals, release_signals};
+}
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render
