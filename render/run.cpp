@@ -9,9 +9,12 @@
 #include "scenes/errors.h"
 #include "scenes/ray_caster.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <mutex>
 
 namespace raybundle::render {
 
@@ -21,6 +24,37 @@ using Clock = std::chrono::steady_clock;
 using json = nlohmann::json;
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Warnings passed on the first time each, the lines that came again counted: the count
+// is passed on when it ends ("<line> (N times)").
+class OnceEach {
+public:
+    explicit OnceEach(std::function<void(const std::string&)> out) : out_(std::move(out)) {}
+    ~OnceEach() {
+        try {
+            for (const auto& [line, times] : seen_)
+                if (times > 1) out_(line + " (" + std::to_string(times) + " times)");
+        } catch (...) {  // a warning lost rather than an exception from a destructor
+        }
+    }
+    OnceEach(const OnceEach&) = delete;
+    OnceEach& operator=(const OnceEach&) = delete;
+    void operator()(const std::string& line) {
+        const std::lock_guard<std::mutex> guard(lock_);
+        auto it = std::find_if(seen_.begin(), seen_.end(), [&](const auto& s) { return s.first == line; });
+        if (it != seen_.end()) {
+            ++it->second;
+            return;
+        }
+        seen_.emplace_back(line, 1);
+        out_(line);
+    }
+
+private:
+    std::function<void(const std::string&)> out_;
+    std::vector<std::pair<std::string, long>> seen_;  // in order of first appearance
+    std::mutex lock_;
+};
 
 // The warnings a scene deserves before it is solved, one line each.
 void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const RunHooks& hooks) {
@@ -305,8 +339,13 @@ RunResult path_trace_run(const scenes::Scene& scene, const scenes::RayCaster& ca
 
 }  // namespace
 
-RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& hooks) {
+RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& given) {
     const auto t_start = Clock::now();
+    // Each warning once (a checkpoint on a full disk fails at every interval): its
+    // repeats are counted and said at the end.
+    OnceEach warnings(given.warn);
+    RunHooks hooks = given;
+    if (given.warn) hooks.warn = [&warnings](const std::string& line) { warnings(line); };
     const sampling::Team* team = c.run.team && c.run.team->size() > 1 ? c.run.team : nullptr;
     if (team) require_spreadable(c, team->size());
     const json identity = run_identity(c.identity, scene);

@@ -15,6 +15,7 @@
 #include <limits>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 using namespace raybundle;
 
@@ -252,4 +253,20 @@ TEST_CASE("run: a stop asked for ends the solve at the next pause, the image mad
     CHECK(r.steps < r.planned_steps);
     CHECK(r.record.at("partial") == true);
     CHECK(r.checkpointed == -1);  // none asked for
+}
+
+TEST_CASE("run: a warning that repeats is passed on once, then with its count", "[render][run]") {
+    const auto scene = small_box();
+    auto config = patch_image("iteration", 64);
+    config.checkpoint = "/dev/null/c.ckpt";  // cannot be written: fails at every pause
+    config.checkpoint_steps = 1;
+    std::vector<std::string> warnings;
+    render::RunHooks hooks;
+    hooks.warn = [&](const std::string& line) { warnings.push_back(line); };
+    render::run(scene, config, hooks);
+    REQUIRE(warnings.size() == 2);
+    CHECK_THAT(warnings[0], Catch::StartsWith("checkpoint /dev/null/c.ckpt") && Catch::EndsWith("the run goes on"));
+    CHECK(warnings[1].rfind(warnings[0] + " (", 0) == 0);
+    CHECK_THAT(warnings[1], Catch::EndsWith(" times)"));
+    CHECK(std::stol(warnings[1].substr(warnings[0].size() + 2)) >= 2);
 }
