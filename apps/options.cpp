@@ -76,6 +76,14 @@ CLI::IsMember choices(const std::array<const char*, N>& names) {
 // outputs, the thread count, the chatter or the checkpoint flags themselves).
 void Flags::row(const char* option, Identity identity, CLI::Option* flag, const char* shown) {
     rows_.push_back({option, identity == Identity::yes, flag, shown ? shown : flag->get_name()});
+    // An integer is decimal: "02000" is 2000 (CLI11 would read it as octal, 1024).
+    if (const std::string type = flag->get_type_name(); type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0)
+        flag->transform([](std::string v) {
+            const std::size_t digits = v.find_first_not_of("+-");
+            if (digits == std::string::npos || v.find_first_not_of("0123456789", digits) != std::string::npos) return v;
+            const std::size_t first = std::min(v.find_first_not_of('0', digits), v.size() - 1);
+            return v.substr(0, digits) + v.substr(first);
+        }, "", "decimal");
 }
 
 std::string Flags::flag_of(const std::string& option) const {

@@ -8,9 +8,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -260,6 +264,49 @@ Checkpoint read_checkpoint(const std::string& path) {
     return k;
 }
 
+namespace {
+
+// A number in one spelling ("02000", "2e3" and "2000.0" are "2000"); anything else as
+// it is. Decimal spellings only: a name like "inf" or "0x10" stays a name.
+std::string canonical_value(const std::string& value) {
+    if (value.empty() || value.find_first_not_of("0123456789+-.eE") != std::string::npos) return value;
+    const char* begin = value.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const double x = std::strtod(begin, &end);
+    if (end != begin + value.size() || errno == ERANGE || !std::isfinite(x)) return value;
+    char out[32];
+    const auto written = std::to_chars(out, out + sizeof out, x == 0.0 ? 0.0 : x);  // -0 is 0
+    return std::string(out, written.ptr);
+}
+
+// The options as the run means them: numbers in one spelling, -D's assignments in the
+// order of their keys (a key given twice keeps its order: the last one counts).
+json canonical_options(const json& options) {
+    json out = options;
+    for (auto& [flag, values] : out.items()) {
+        if (!values.is_array()) continue;
+        for (auto& v : values) {
+            if (!v.is_string()) continue;
+            const std::string s = v.get<std::string>();
+            const std::size_t eq = s.find('=');
+            v = flag == "-D" && eq != std::string::npos ? s.substr(0, eq + 1) + canonical_value(s.substr(eq + 1))
+                                                          : canonical_value(s);
+        }
+        if (flag == "-D")
+            std::stable_sort(values.begin(), values.end(), [](const json& a, const json& b) {
+                const auto key = [](const json& v) {
+                    const std::string s = v.is_string() ? v.get<std::string>() : v.dump();
+                    return s.substr(0, s.find('='));
+                };
+                return key(a) < key(b);
+            });
+    }
+    return out;
+}
+
+}  // namespace
+
 void require_same_run(const std::string& path, const json& saved, const json& now) {
     const std::string prefix = "made by another run: ";
     if (saved.value("version", "") != now["version"])
@@ -275,8 +322,8 @@ void require_same_run(const std::string& path, const json& saved, const json& no
                             "; now " + b["name"].get<std::string>() + ", " +
                             std::to_string(b["patches"].get<std::size_t>()) + " patches, hash " +
                             b["hash"].get<std::string>() + ")");
-    const json& was = saved.value("options", json::object());
-    const json& is = now["options"];
+    const json was = canonical_options(saved.value("options", json::object()));
+    const json is = canonical_options(now["options"]);
     auto shown = [](const json& v) {
         std::string s;
         for (const auto& x : v) s += (s.empty() ? "" : " ") + x.get<std::string>();

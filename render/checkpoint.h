@@ -58,7 +58,9 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint, con
 // Throws CheckpointError ("F: ...") for a file that is not a complete checkpoint of
 // this machine's byte order.
 Checkpoint read_checkpoint(const std::string& path);
-// Throws CheckpointError naming the first difference between the identities.
+// Throws CheckpointError naming the first difference between the identities, compared
+// as the run means them: a number's spelling ("02000", "2e3") and the order of -D's
+// assignments to different keys do not matter.
 void require_same_run(const std::string& path, const nlohmann::json& saved, const nlohmann::json& now);
 
 }  // namespace raybundle::render

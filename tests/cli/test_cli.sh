@@ -572,6 +572,15 @@ scene "$quad" > same.json
 "$bin" solve same.json --gather 0 --iterations 100 --checkpoint same.bin --checkpoint-every 20 -q &&
   "$bin" solve ./same.json --gather 0 --iterations 100 --resume same.bin -q
 check $? "--resume with the scene named ./same.json refused"
+# The same run by other spellings: -D's assignments in another order, numbers spelt
+# otherwise (02000, 0.50).
+"$bin" solve same.json --gather 0 --iterations 2000 -D camera.width=16 -D camera.height=8 -D patch_size=0.5 \
+  --checkpoint spelt.bin --checkpoint-every 400 -q &&
+  "$bin" solve same.json --gather 0 --iterations 02000 -D patch_size=0.50 -D camera.height=8 -D camera.width=16 \
+    --resume spelt.bin -q 2>err.txt
+check $? "--resume with -D in another order and numbers spelt otherwise refused: $(cat err.txt)"
+expect_bad "--resume with a -D value changed" "the scene differs" solve same.json --gather 0 --iterations 2000 -D camera.width=16 \
+  -D camera.height=9 -D patch_size=0.5 --resume spelt.bin
 head -c 2000 ck-kill.bin >ck-cut.bin
 expect_bad "--resume of a cut checkpoint" "--resume ck-cut.bin: its checksum does not match" "${ck[@]}" --resume ck-cut.bin
 expect_bad "--resume of an image" "--resume ck-full.exr: not a raybundle checkpoint" "${ck[@]}" --resume ck-full.exr
