@@ -43,8 +43,10 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& cor
         if (index.empty() || corners[i] != corners[index.back()]) index.push_back(i);
     while (index.size() > 1 && corners[index.back()] == corners[index.front()]) index.pop_back();
     if (index.size() < 3) return fan;  // zero area: dropped on load
+    // Relative to the first corner: the normal's cross products then cancel nothing
+    // of a large offset (a 3 m quad at x = 1e9 has a normal of 18, not of rounding).
     std::vector<Vec3> p;
-    for (int i : index) p.push_back(corners[i]);
+    for (int i : index) p.push_back(corners[i] - corners[index.front()]);
     auto original = [&](std::vector<std::array<int, 3>> t) {
         for (auto& tri : t)
             for (int& k : tri) k = index[k];

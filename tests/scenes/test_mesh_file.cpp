@@ -395,6 +395,10 @@ TEST_CASE("scene quads: degenerate, bent or crossing quads are refused; concave 
     fails_with("[[0,0,0], [1,0,0], [2,0,0], [0,1,0]]", "coincide or lie on one line");
     fails_with("[[0,0,0], [1,0,0], [1,1,0.001], [0,1,0]]", "is not planar");
     fails_with("[[0,0,0], [1,1,0], [1,0,0], [0,1,0]]", "crosses itself");
+    // Far from the origin (coordinates up to 1e15 are promised): a 3 m quad at x = 1e9
+    // was "crossing itself" (its normal was rounding).
+    const Scene far = parse_scene(quad("[[1e9,0,0], [1000000003,0,0], [1000000003,3,0], [1e9,3,0]]"), "s.json", ".");
+    CHECK(far.total_area() == Approx(9.0));
     const Scene arrow = parse_scene(quad("[[2,-1,0], [1,0.2,0], [2,1,0], [0,0,0]]"), "s.json", ".");
     CHECK(arrow.total_area() == Approx(1.0));
     CHECK(arrow.patch_count() == 2);
