@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -98,9 +99,55 @@ void contacts(const Tri& u, const Tri& t, double contact, double tol, std::vecto
     add(points[a], points[b]);
 }
 
-// Candidate pairs: triangles whose boxes, grown by `grow`, share a cell of a hashed
-// grid whose cells are the median triangle's size (at least `grow`, at most 1/256 of
-// the scene, so that a large triangle spans a bounded number of them).
+// Whether a triangle meets the box of centre `centre` and half-size `half` (separating
+// axes: the box's three, the triangle's normal, the nine crosses of an edge with an
+// axis), slightly grown so that rounding never drops a triangle that touches it.
+bool meets_box(const std::array<Vec3, 3>& p, const Vec3& centre, const Vec3& half) {
+    const std::array<Vec3, 3> v = {p[0] - centre, p[1] - centre, p[2] - centre};
+    const double slack = 1e-9 * (half.maxCoeff() + v[0].cwiseAbs().maxCoeff());
+    auto separates = [&](const Vec3& axis) {
+        const double r = half.dot(axis.cwiseAbs()) + slack * axis.cwiseAbs().sum();
+        const double a = axis.dot(v[0]), b = axis.dot(v[1]), c = axis.dot(v[2]);
+        return std::min({a, b, c}) > r || std::max({a, b, c}) < -r;
+    };
+    for (int k = 0; k < 3; ++k)
+        if (separates(Vec3::Unit(k))) return false;
+    const std::array<Vec3, 3> e = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+    if (separates(e[0].cross(e[1]))) return false;
+    for (const Vec3& edge : e)
+        for (int k = 0; k < 3; ++k)
+            if (separates(edge.cross(Vec3::Unit(k)))) return false;
+    return true;
+}
+
+using Cell = Eigen::Array<long, 3, 1>;  // a grid cell's integer coordinates
+
+// The cells (integer coordinates) of the block lo..hi (inclusive) whose boxes, grown by
+// `grow`, the triangle meets: the block's box tested first, then its halves, so that a
+// sliver across many cells costs tests along it, not over its bounding box.
+void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, double cell,
+                double grow, std::vector<Cell>& out) {
+    const Vec3 a = lo.cast<double>().matrix() * cell, b = (hi + 1).cast<double>().matrix() * cell;
+    if (!meets_box(p, 0.5 * (a + b), 0.5 * (b - a) + Vec3::Constant(grow))) return;
+    Eigen::Index axis = 0;
+    if ((hi - lo).maxCoeff(&axis) == 0) {
+        out.push_back(lo);
+        return;
+    }
+    const long mid = lo[axis] + (hi[axis] - lo[axis]) / 2;
+    Cell split = hi;
+    split[axis] = mid;
+    list_cells(p, lo, split, cell, grow, out);
+    split = lo;
+    split[axis] = mid + 1;
+    list_cells(p, split, hi, cell, grow, out);
+}
+
+// Candidate pairs: triangles whose boxes, grown by `grow`, intersect, and that meet a
+// common cell of a hashed grid (each triangle listed in the cells it meets once they
+// are grown by `grow`, not in every cell of its box: a sliver across the scene meets a
+// line of cells, its box a block of them). The cells are the median triangle's size
+// (at least `grow`, at most 1/128 of the scene). Each pair once, in index order.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
                                                                      double radius) {
     std::vector<double> sizes;
@@ -108,30 +155,42 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
     for (const auto& t : tris) sizes.push_back(t.size);
     std::nth_element(sizes.begin(), sizes.begin() + static_cast<long>(sizes.size() / 2), sizes.end());
     const double cell = std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 128.0);
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
-    auto key = [](long x, long y, long z) {
-        return (static_cast<std::uint64_t>(x & 0x1fffff) << 42) | (static_cast<std::uint64_t>(y & 0x1fffff) << 21) |
-               static_cast<std::uint64_t>(z & 0x1fffff);
+    auto key = [](const Cell& c) {
+        return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
+               static_cast<std::uint64_t>(c.z() & 0x1fffff);
     };
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+    std::vector<std::vector<std::uint64_t>> listed(tris.size());  // each triangle's cells
     std::vector<Eigen::AlignedBox3d> boxes(tris.size());
+    std::vector<Cell> met;
     for (std::size_t i = 0; i < tris.size(); ++i) {
         for (const auto& p : tris[i].p) boxes[i].extend(p);
         boxes[i].min().array() -= grow;
         boxes[i].max().array() += grow;
-        const Eigen::Array3d lo = (boxes[i].min().array() / cell).floor(), hi = (boxes[i].max().array() / cell).floor();
-        for (long x = static_cast<long>(lo.x()); x <= static_cast<long>(hi.x()); ++x)
-            for (long y = static_cast<long>(lo.y()); y <= static_cast<long>(hi.y()); ++y)
-                for (long z = static_cast<long>(lo.z()); z <= static_cast<long>(hi.z()); ++z)
-                    cells[key(x, y, z)].push_back(static_cast<std::uint32_t>(i));
+        const Cell lo = (boxes[i].min().array() / cell).floor().cast<long>();
+        const Cell hi = (boxes[i].max().array() / cell).floor().cast<long>();
+        met.clear();
+        list_cells(tris[i].p, lo, hi, cell, grow, met);
+        for (const auto& c : met) {
+            cells[key(c)].push_back(static_cast<std::uint32_t>(i));
+            listed[i].push_back(key(c));
+        }
     }
+    // Each triangle's partners: the later triangles of its cells, each once (the stamp
+    // says which triangle last took it), in index order.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    for (const auto& [k, c] : cells)
-        for (std::size_t a = 0; a < c.size(); ++a)
-            for (std::size_t b = a + 1; b < c.size(); ++b)
-                if (boxes[c[a]].intersects(boxes[c[b]])) pairs.emplace_back(std::min(c[a], c[b]), std::max(c[a], c[b]));
-    // A fixed order whatever the hash map's, each pair once.
-    std::sort(pairs.begin(), pairs.end());
-    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    std::vector<std::uint32_t> stamp(tris.size(), std::numeric_limits<std::uint32_t>::max()), partners;
+    for (std::uint32_t a = 0; a < tris.size(); ++a) {
+        partners.clear();
+        for (const std::uint64_t k : listed[a])
+            for (const std::uint32_t b : cells.at(k))
+                if (b > a && stamp[b] != a) {
+                    stamp[b] = a;
+                    if (boxes[a].intersects(boxes[b])) partners.push_back(b);
+                }
+        std::sort(partners.begin(), partners.end());
+        for (const std::uint32_t b : partners) pairs.emplace_back(a, b);
+    }
     return pairs;
 }
 

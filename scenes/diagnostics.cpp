@@ -1,9 +1,13 @@
 #include "scenes/diagnostics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace raybundle::scenes {
@@ -40,6 +44,44 @@ double overlap_area(std::array<P2, 3> a, std::array<P2, 3> b) {
     return 0.5 * area;
 }
 
+// The extent of a triangle along an axis.
+std::pair<double, double> extent(const std::array<P2, 3>& t, const P2& axis) {
+    const double a = axis.dot(t[0]), b = axis.dot(t[1]), c = axis.dot(t[2]);
+    return {std::min({a, b, c}), std::max({a, b, c})};
+}
+
+// Whether two triangles' interiors are apart: an edge normal of one separates them
+// (touching along it counts as apart), within 1e-12 of their size.
+bool apart(const std::array<P2, 3>& a, const std::array<P2, 3>& b) {
+    for (const auto* t : {&a, &b})
+        for (int e = 0; e < 3; ++e) {
+            const P2 d = (*t)[(e + 1) % 3] - (*t)[e], axis(-d.y(), d.x());
+            const auto [a0, a1] = extent(a, axis);
+            const auto [b0, b1] = extent(b, axis);
+            const double slack = 1e-12 * d.squaredNorm();
+            if (a1 <= b0 + slack || b1 <= a0 + slack) return true;
+        }
+    return false;
+}
+
+// Whether a triangle meets the closed square of side `side` at `corner` (separating
+// axes: the square's two, then the triangle's three edge normals).
+bool meets_square(const std::array<P2, 3>& t, const P2& corner, double side) {
+    P2 lo = t[0], hi = t[0];
+    for (const P2& c : t) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+    if (hi.x() < corner.x() || lo.x() > corner.x() + side || hi.y() < corner.y() || lo.y() > corner.y() + side)
+        return false;
+    const std::array<P2, 4> square = {corner, corner + P2(side, 0), corner + P2(side, side), corner + P2(0, side)};
+    for (int e = 0; e < 3; ++e) {
+        const P2 d = t[(e + 1) % 3] - t[e], axis(-d.y(), d.x());
+        const auto [a0, a1] = extent(t, axis);
+        double b0 = axis.dot(square[0]), b1 = b0;
+        for (const P2& c : square) b0 = std::min(b0, axis.dot(c)), b1 = std::max(b1, axis.dot(c));
+        if (a1 < b0 || b1 < a0) return false;
+    }
+    return true;
+}
+
 }  // namespace
 
 CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
@@ -71,6 +113,9 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
 
     std::vector<std::uint32_t> group;
     std::vector<std::array<P2, 3>> tri;
+    std::vector<std::pair<P2, P2>> box;
+    std::vector<std::vector<long long>> listed;  // each triangle's cells
+    std::vector<std::uint32_t> stamp;
     std::unordered_map<long long, std::vector<std::uint32_t>> cells;
     for (std::size_t g0 = 0; g0 < n;) {
         std::size_t g1 = g0 + 1;
@@ -85,30 +130,49 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
             const Vec3 normal = patches[keys[g0].patch].normal;
             const Vec3 u = normal.unitOrthogonal(), v = normal.cross(u);
             double area = 0.0;
+            // In 2-D relative to the group's first corner (offsets far from the origin
+            // keep their precision).
+            const Vec3 origin = pos[patches[keys[g0].patch].v[0]];
             for (std::size_t k = g0; k < g1; ++k) {
                 const Patch& p = patches[keys[k].patch];
                 group.push_back(keys[k].patch);
                 std::array<P2, 3> t;
-                for (int c = 0; c < 3; ++c) t[c] = P2(u.dot(pos[p.v[c]]), v.dot(pos[p.v[c]]));
+                for (int c = 0; c < 3; ++c) t[c] = P2(u.dot(pos[p.v[c]] - origin), v.dot(pos[p.v[c]] - origin));
                 tri.push_back(t);
                 area += p.area;
             }
+            // A uniform grid of cells about two patches wide; a triangle is listed in
+            // the cells it meets, not in all its bounding box covers (a sliver across
+            // the plane meets a line of cells, its box a square of them), and each
+            // pair is tested once (the stamp says which triangle last took it).
             const double cell = 2.0 * std::sqrt(area / static_cast<double>(group.size()));
+            box.clear();
+            listed.assign(group.size(), {});
             for (std::uint32_t k = 0; k < group.size(); ++k) {
                 P2 lo = tri[k][0], hi = tri[k][0];
                 for (const P2& c : tri[k]) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+                box.emplace_back(lo, hi);
                 const long long x0 = std::llround(std::floor(lo.x() / cell)), x1 = std::llround(std::floor(hi.x() / cell));
                 const long long y0 = std::llround(std::floor(lo.y() / cell)), y1 = std::llround(std::floor(hi.y() / cell));
                 for (long long x = x0; x <= x1; ++x)
-                    for (long long y = y0; y <= y1; ++y) cells[x * 1000003LL + y].push_back(k);
+                    for (long long y = y0; y <= y1; ++y)
+                        if (meets_square(tri[k], P2(x * cell, y * cell), cell)) {
+                            cells[x * 1000003LL + y].push_back(k);
+                            listed[k].push_back(x * 1000003LL + y);
+                        }
             }
             std::vector<std::pair<std::uint32_t, std::uint32_t>> found;
-            for (const auto& [cell_key, members] : cells)
-                for (std::size_t a = 0; a < members.size(); ++a)
-                    for (std::size_t b = a + 1; b < members.size(); ++b) {
-                        const std::uint32_t i = group[members[a]], j = group[members[b]];
+            stamp.assign(group.size(), std::numeric_limits<std::uint32_t>::max());
+            for (std::uint32_t ka = 0; ka < group.size(); ++ka)
+                for (const long long c : listed[ka])
+                    for (const std::uint32_t kb : cells.at(c)) {
+                        if (kb <= ka || stamp[kb] == ka) continue;
+                        stamp[kb] = ka;
+                        const P2 lo = box[ka].first.cwiseMax(box[kb].first), hi = box[ka].second.cwiseMin(box[kb].second);
+                        if (lo.x() > hi.x() || lo.y() > hi.y() || apart(tri[ka], tri[kb])) continue;
+                        const std::uint32_t i = group[ka], j = group[kb];
                         const double smaller = std::min(patches[i].area, patches[j].area);
-                        if (overlap_area(tri[members[a]], tri[members[b]]) > 1e-6 * smaller)
+                        if (overlap_area(tri[ka], tri[kb]) > 1e-6 * smaller)
                             found.emplace_back(std::min(i, j), std::max(i, j));
                     }
             std::sort(found.begin(), found.end());

@@ -1,6 +1,7 @@
 // Scene loading: a valid scene, and every bad-input case ending in one clear
 // SceneError that names the file, the object and the value.
 #include "scenes/builtin.h"
+#include "scenes/diagnostics.h"
 #include "scenes/loader.h"
 #include "scenes/errors.h"
 
@@ -8,6 +9,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -214,4 +216,40 @@ TEST_CASE("built-in scenes", "[scenes]") {
     REQUIRE_THROWS_WITH(make_builtin("teapot"), Contains("unknown built-in scene 'teapot'") &&
                                                    Contains("homogeneous-box") && Contains("cornell-box"));
     REQUIRE_THROWS_WITH(make_builtin("cornell-box", 0.0), Contains("patch_size"));
+}
+
+TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twice is every pair, far away too",
+          "[scenes]") {
+    // An annulus of 2,000 segments from radius 0.05 to 1: 4,000 slivers 0.95 long and
+    // under 3e-3 wide, crossing many cells of the grids of the contact pass and the
+    // overlap pass. Listed in every cell of their bounding boxes, the slivers filled
+    // tens of millions of cells (8,000 of them: 2 minutes, then bad_alloc).
+    TempDir dir;
+    std::string obj;
+    const int n = 2000;
+    const double pi = std::acos(-1.0);
+    for (double offset : {0.0, 1e9}) {
+        obj.clear();
+        for (int i = 0; i < n; ++i) {
+            const double a = 2 * pi * i / n;
+            for (double r : {0.05, 1.0})
+                obj += "v " + std::to_string(offset + r * std::cos(a)) + " " + std::to_string(r * std::sin(a)) + " 0\n";
+        }
+        for (int i = 0; i < n; ++i) {
+            const int a = 2 * i + 1, b = 2 * i + 2, c = 2 * ((i + 1) % n) + 2, d = 2 * ((i + 1) % n) + 1;
+            obj += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c) + "\n";
+            obj += "f " + std::to_string(a) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
+        }
+        dir.write("annulus.obj", obj);
+        const std::string at = std::to_string(offset);
+        const std::string head = R"({"camera": {"eye": [)" + at + R"(, 0, 3], "target": [)" + at +
+                                 R"(, 0, 0]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)";
+        const std::string mesh = R"({"mesh": "annulus.obj", "material": "w"})";
+        INFO("offset " << offset);
+        const Scene once = parse_scene(head + mesh + "]}", "s.json", dir.path.string());
+        REQUIRE(once.patch_count() == 2 * n);
+        CHECK(coplanar_overlaps(once).pairs == 0);
+        const Scene twice = parse_scene(head + mesh + ", " + mesh + "]}", "s.json", dir.path.string());
+        CHECK(coplanar_overlaps(twice).pairs == 2 * n);
+    }
 }
