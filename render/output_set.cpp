@@ -39,7 +39,16 @@ void OutputSet::stage(const std::string& path, const std::function<void(const st
         slots_.push_back(tracker_.track(tmp + ".partial-" + pid));
     }
     staged_.emplace_back(tmp, path);
-    write(tmp);
+    try {
+        write(tmp);
+    } catch (const std::exception& e) {
+        // Named as the user named it: the temporaries are ours, not theirs.
+        std::string what = e.what();
+        for (const std::string& hidden : {tmp + ".partial-" + pid, tmp})
+            for (std::size_t at = what.find(hidden); at != std::string::npos; at = what.find(hidden, at + path.size()))
+                what.replace(at, hidden.size(), path);
+        throw std::runtime_error(what);
+    }
 }
 
 namespace {

@@ -26,7 +26,8 @@ public:
 
     // Writes `path`'s new content with write(tmp), tmp a hidden file in its directory
     // with the same extension (writers choose the format by it); the directory is made
-    // when missing.
+    // when missing. A failure of write() is rethrown (std::runtime_error) with the
+    // temporaries' names in its message replaced by `path`.
     void stage(const std::string& path, const std::function<void(const std::string& tmp)>& write);
     // Makes the staged files the outputs, all of them: each synced to disk, then, with
     // SIGINT, SIGTERM and SIGHUP held (a signal waits until the set is complete), a

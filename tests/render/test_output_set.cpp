@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -128,4 +129,20 @@ TEST_CASE("outputs: signals that arrive during the commit wait until every outpu
         for (const auto& t : targets) CHECK(read(t) == "new");
         CHECK(leftovers(dir.path).empty());
     }
+}
+
+TEST_CASE("outputs: a write that fails names the output, not its hidden temporary", "[render][outputs]") {
+    test::TempDir dir;
+    const std::string target = (dir.path / "img.exr").string();
+    render::OutputSet set;
+    try {
+        set.stage(target, [](const std::string& tmp) {
+            const std::string partial = tmp + ".partial-" + std::to_string(::getpid());
+            throw std::runtime_error(tmp + ": cannot write EXR (Failed to write \"" + partial + "\". No space left)");
+        });
+        FAIL("no exception");
+    } catch (const std::runtime_error& e) {
+        CHECK(std::string(e.what()) == target + ": cannot write EXR (Failed to write \"" + target + "\". No space left)");
+    }
+    CHECK(leftovers(dir.path).empty());
 }
