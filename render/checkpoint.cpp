@@ -212,6 +212,10 @@ Checkpoint read_checkpoint(const std::string& path) {
     } catch (const scenes::SceneError& e) {
         throw CheckpointError(e.what());
     }
+    return parse_checkpoint(std::move(bytes), path);
+}
+
+Checkpoint parse_checkpoint(std::string bytes, const std::string& path) {
     const std::size_t magic = sizeof kMagic - 1;
     if (bytes.compare(0, magic, kMagic) != 0) {
         const std::size_t prefix = sizeof kMagicPrefix - 1;

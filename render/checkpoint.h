@@ -58,6 +58,9 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint, con
 // Throws CheckpointError ("F: ...") for a file that is not a complete checkpoint of
 // this machine's byte order.
 Checkpoint read_checkpoint(const std::string& path);
+// The same for a checkpoint's bytes (read_checkpoint once it has read the file; the
+// fuzzer), `path` naming it in errors.
+Checkpoint parse_checkpoint(std::string bytes, const std::string& path);
 // Throws CheckpointError naming the first difference between the identities, compared
 // as the run means them: a number's spelling ("02000", "2e3") and the order of -D's
 // assignments to different keys do not matter.

@@ -3,18 +3,18 @@
 # build-fuzz/; clang and libFuzzer installed by scripts/setup-deps.sh --fuzz) and runs
 # each for SECONDS, two at a time. Limits per input: 1 GB of memory (-rss_limit_mb,
 # the process's resident memory, and -malloc_limit_mb) and 10 s (-timeout); inputs up
-# to 64 KiB. Each corpus grows in build-fuzz/corpus/NAME, seeded from
+# to 64 KiB (checkpoints 320 KiB). Each corpus grows in build-fuzz/corpus/NAME, seeded from
 # tests/fuzz/corpus/NAME; findings (crash-*, leak-*, timeout-*, oom-*) are written to
 # build-fuzz/findings/NAME/. Prints a line per harness and writes them to
 # build-fuzz/fuzz-report.md; exits 1 on any finding.
 # Usage: scripts/fuzz.sh [SECONDS] [HARNESS ...]   (default: 600 s; scene obj
-#        ply-ascii ply-binary off)
+#        ply-ascii ply-binary off checkpoint)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-600}
 shift || true
 harnesses=("$@")
-[ ${#harnesses[@]} -gt 0 ] || harnesses=(scene obj ply-ascii ply-binary off)
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(scene obj ply-ascii ply-binary off checkpoint)
 jobs=${RAYBUNDLE_JOBS:-2}
 
 ./scripts/setup-deps.sh --fuzz
@@ -28,10 +28,12 @@ cmake --build build-fuzz -j "$jobs" --target "${targets[@]}"
 export ASAN_OPTIONS="quarantine_size_mb=64:detect_leaks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 run() {
-  local h=$1 name=fuzz_${1//-/_} start=$SECONDS
+  local h=$1 name=fuzz_${1//-/_} start=$SECONDS max_len=65536
+  # A Metropolis walk's checkpoint (a seed of its own) is 270 KB.
+  [ "$h" = checkpoint ] && max_len=327680
   mkdir -p "build-fuzz/corpus/$h" "build-fuzz/findings/$h"
   "build-fuzz/tests/fuzz/$name" -max_total_time="$seconds" -rss_limit_mb=1024 -malloc_limit_mb=1024 \
-    -timeout=10 -max_len=65536 -print_final_stats=1 -artifact_prefix="build-fuzz/findings/$h/" \
+    -timeout=10 -max_len="$max_len" -print_final_stats=1 -artifact_prefix="build-fuzz/findings/$h/" \
     "build-fuzz/corpus/$h" "tests/fuzz/corpus/$h" >"build-fuzz/fuzz-$h.log" 2>&1 || true
   echo $((SECONDS - start)) >"build-fuzz/fuzz-$h.seconds"
 }
