@@ -1,9 +1,16 @@
 #include "ranks.h"
 
+#include "render/signals.h"
+
+#include <signal.h>
+
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <functional>
 #include <iostream>
+#include <string>
 #include <unistd.h>
 
 #ifdef RAYBUNDLE_WITH_MPI
@@ -38,6 +45,27 @@ void silence() {
     ::close(null);
 }
 
+// Rank 0 names the ranks on its host that died (kill -9, the OOM killer): mpirun
+// then signals the others, and the reporter, on that signal, finds them gone.
+void name_the_dead(int rank, int size) {
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    long mine[2] = {static_cast<long>(::getpid()), static_cast<long>(std::hash<std::string>{}(host) >> 1)};
+    std::vector<long> all(2 * static_cast<std::size_t>(size));
+    MPI_Allgather(mine, 2, MPI_LONG, all.data(), 2, MPI_LONG, MPI_COMM_WORLD);
+    if (rank != 0 || size < 2) return;
+    render::set_signal_reporter([all, size](int) {
+        bool gone = false;
+        for (int r = 1; r < size; ++r)
+            if (all[2 * r + 1] == all[1] && ::kill(static_cast<pid_t>(all[2 * r]), 0) != 0 && errno == ESRCH) {
+                std::cerr << "\nraybundle: rank " << r << " of " << size << " (process " << all[2 * r]
+                          << ") ended before the run (killed?); the run stops, nothing written\n";
+                gone = true;
+            }
+        return gone;
+    });
+}
+
 }  // namespace
 
 Ranks::Ranks(int& argc, char**& argv) {
@@ -59,7 +87,10 @@ Ranks::Ranks(int& argc, char**& argv) {
     MPI_Bcast(&leaders, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
     int other = leaders != mine ? rank_ : size_, first = size_;
     MPI_Allreduce(&other, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    if (first == size_) return;
+    if (first == size_) {
+        name_the_dead(rank_, size_);
+        return;
+    }
     MPI_Finalize();
     mpi_ = false;
     throw std::runtime_error("rank " + std::to_string(first) + " of " + std::to_string(size_) +

@@ -10,6 +10,7 @@
 #include <iostream>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 namespace raybundle::render {
 namespace {
@@ -31,9 +32,17 @@ void remove_temporaries() {
         if (g_used[i].load()) ::unlink(g_paths[i]);
 }
 
+std::mutex g_reporter_lock;
+std::function<bool(int)> g_reporter;
+
 // What a signal does, on the signal thread (not in a handler: it may wait and lock).
 void on_signal(int sig) {
-    if (g_stoppable.load() && g_stop.load() == 0) {
+    bool hopeless = false;
+    {
+        const std::lock_guard<std::mutex> guard(g_reporter_lock);
+        if (g_reporter) hopeless = g_reporter(sig);
+    }
+    if (!hopeless && g_stoppable.load() && g_stop.load() == 0) {
         g_stop.store(sig);
         std::cerr << "\nraybundle: stopping: the image of the steps done follows (again to abandon the run)\n";
         return;
@@ -105,6 +114,11 @@ int track_temporary(const std::string& path) {
 
 void untrack_temporary(int slot) {
     if (slot >= 0 && slot < kSlots) g_used[slot].store(false);
+}
+
+void set_signal_reporter(std::function<bool(int)> report) {
+    const std::lock_guard<std::mutex> guard(g_reporter_lock);
+    g_reporter = std::move(report);
 }
 
 void hold_signals() { g_commit.lock(); }

@@ -22,6 +22,7 @@
 // temporary before creating it, untrack it once renamed or removed.
 #include "render/image_io.h"
 
+#include <functional>
 #include <string>
 
 namespace raybundle::render {
@@ -37,6 +38,11 @@ std::string signal_name(int sig);
 // when all slots are taken (the file is then removed on failures only).
 int track_temporary(const std::string& path);
 void untrack_temporary(int slot);
+// Called on the signal thread when a signal arrives, before it acts; true: the run
+// cannot go on (the signal ends the process at once, as a second one does).
+// apps/ranks.cpp: rank 0 names the ranks on its host that died, whose death made
+// mpirun signal it.
+void set_signal_reporter(std::function<bool(int sig)> report);
 // While held, a signal that would end the process waits.
 void hold_signals();
 void release_signals();

@@ -146,6 +146,32 @@ for other in "check --builtin homogeneous-box" "--version"; do
   fi
 done
 
+# A rank killed outright (kill -9) mid-solve: rank 0 names it (and only once: no
+# "stopping" line follows), mpirun ends the run within seconds, nothing is written.
+"$mpiexec" -q --allow-run-as-root --oversubscribe -np 2 "$bin" solve --builtin cornell-box --iterations 1000000000 \
+  --gather 0 -q -o out/killed.exr >stdout.txt 2>err.txt &
+launcher=$!
+victim=
+for _ in $(seq 1 100); do  # rank 1: the process whose environment says so
+  for p in $(pgrep -P "$launcher"); do
+    tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1 && victim=$p
+  done
+  [ -n "$victim" ] && break
+  sleep 0.1
+done
+sleep 2  # into the solve
+start=$(date +%s)
+[ -n "$victim" ] && kill -9 "$victim"
+timeout 30 tail --pid="$launcher" -f /dev/null
+wait "$launcher"
+rc=$?
+secs=$(($(date +%s) - start))
+if [ -n "$victim" ] && [ "$rc" -ne 0 ] && grep -q "rank 1 of 2 (process $victim) ended before the run" err.txt &&
+  ! grep -q stopping err.txt &&
+  [ "$secs" -le 10 ] && [ ! -e out/killed.exr ]; then ok; else
+  fail "rank 1 killed: exit $rc after $secs s, stderr: $(cat err.txt)"
+fi
+
 # The other ranks print nothing: one result line from two ranks.
 mpi 2 "$bin" solve --builtin homogeneous-box --iterations 100 --gather 0 >stdout.txt 2>err.txt
 [ "$(grep -c "homogeneous-box:" stdout.txt)" -eq 1 ] && ok || fail "2 ranks printed: $(cat stdout.txt)"
