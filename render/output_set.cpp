@@ -120,6 +120,14 @@ std::vector<std::pair<std::string, std::string>> journal_pairs(const fs::path& j
 
 void OutputSet::commit(const std::function<void(int step)>& after_step) {
     if (staged_.empty()) return;
+    // A target that became a directory or a device during the run would stop the
+    // renames midway: refused before the first, every output left as it was.
+    for (const auto& [tmp, path] : staged_) {
+        struct stat st {};
+        if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+            throw OutputError(path + ": is " + (S_ISDIR(st.st_mode) ? "a directory" : "a device, a FIFO or a socket") +
+                              " now, not a file: no output written");
+    }
     // Every temporary complete on disk before any rename publishes it.
     for (const auto& [tmp, path] : staged_) sync_path(tmp);
     // From here to the last rename a signal waits: a second SIGINT cannot cut the set

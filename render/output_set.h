@@ -29,7 +29,9 @@ public:
     // when missing. A failure of write() is rethrown (std::runtime_error) with the
     // temporaries' names in its message replaced by `path`.
     void stage(const std::string& path, const std::function<void(const std::string& tmp)>& write);
-    // Makes the staged files the outputs, all of them: each synced to disk, then, with
+    // Makes the staged files the outputs, all of them: a target that is no longer a file
+    // or absent (a directory made there during the run) is refused first (OutputError,
+    // nothing renamed); each is synced to disk, then, with
     // SIGINT, SIGTERM and SIGHUP held (a signal waits until the set is complete), a
     // journal of the renames written beside the first (the temporaries then leave the
     // tracker: they belong to the journal), the renames, and the journal removed. A process killed between two renames (SIGKILL, a crash) leaves the

@@ -146,3 +146,21 @@ TEST_CASE("outputs: a write that fails names the output, not its hidden temporar
     }
     CHECK(leftovers(dir.path).empty());
 }
+
+TEST_CASE("outputs: a target that became a directory during the run stops the commit before any rename",
+          "[render][outputs]") {
+    test::TempDir dir;
+    const fs::path a = dir.path / "a.exr", s = dir.path / "s.json";
+    std::ofstream(a) << "old";
+    std::ofstream(s) << "old";
+    {
+        render::OutputSet set;
+        for (const auto& t : {a, s}) set.stage(t.string(), [](const std::string& tmp) { std::ofstream(tmp) << "new"; });
+        fs::remove(s);
+        fs::create_directory(s);  // replaced mid-run
+        CHECK_THROWS_WITH(set.commit(), Catch::Contains(s.string()) && Catch::Contains("is a directory now"));
+    }
+    CHECK(read(a) == "old");
+    CHECK(fs::is_directory(s));
+    CHECK(leftovers(dir.path).empty());
+}
