@@ -666,6 +666,12 @@ expect_bad "a file name with a newline" 'no\nsuch.json' solve $'no\nsuch.json'
 expect_bad "a built-in name with an escape sequence" '\x1b[31mred' solve --builtin $'\e[31mred'
 long=$(printf 'x%.0s' $(seq 1 230)).exr
 expect_bad "an output name too long with the temporary's additions" "bytes" solve --builtin homogeneous-box --iterations 5 -o "$long"
+expect_bad "a --checkpoint name too long with the temporary's additions" "--checkpoint" \
+  solve --builtin homogeneous-box --iterations 5 --checkpoint "$(printf 'c%.0s' $(seq 1 250)).bin"
+deep=$(printf 'd%.0s' $(seq 1 200))
+deep="$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/$deep/x.exr"  # 4,226 bytes
+expect_bad "an output path too long with the temporary's additions" "a path of" solve --builtin homogeneous-box \
+  --iterations 5 -o "$deep"
 expect_bad "a -D index past any integer" "malformed index" solve good.json --iterations 5 \
   -D 'camera.eye[99999999999999999999]=1'
 
