@@ -67,6 +67,7 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
                    " pairs of coplanar overlapping patches face the same way (e.g. patches " +
                    std::to_string(overlaps.first) + " and " + std::to_string(overlaps.second) +
                    "): no visibility map can order them; the higher patch index is in front");
+    for (const auto& line : scene.warnings) hooks.warn(line);
     for (const auto& line : winding_warnings(summary)) hooks.warn(scene.name + ": " + line);
 }
 

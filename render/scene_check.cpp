@@ -154,6 +154,7 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     if (s.overlaps.pairs > 0)
         print("overlaps    %zu pairs of coplanar overlapping patches face the same way (e.g. %u and %u)\n",
                     s.overlaps.pairs, s.overlaps.first, s.overlaps.second);
+    for (const auto& w : scene.warnings) print("warning     %s\n", w.c_str());
     for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
     return out;
 }

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -329,6 +330,53 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     *node = value;
 }
 
+// A mesh that brings its materials: one object per material and group (OBJ `o`/`g`),
+// named by the material, or by "group/material" where a material is used in several
+// groups (a group statement may come before or after its faces: material names are the
+// names files get right); the faces of two-sided materials get their twins. `name`
+// begins each object's name: "objects[2] (box.obj" gets ": floor)", a name given by
+// the scene gets ": floor".
+void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>& materials, const std::string& name,
+                     bool given, double crease) {
+    auto group_of = [&data](std::size_t t) { return data.triangle_group.empty() ? -1 : data.triangle_group[t]; };
+    // The (material, group) pairs in order of first use, and the groups of each material.
+    std::vector<std::pair<int, int>> parts;
+    for (std::size_t t = 0; t < data.triangles.size(); ++t)
+        if (std::find(parts.begin(), parts.end(), std::make_pair(materials[t], group_of(t))) == parts.end())
+            parts.emplace_back(materials[t], group_of(t));
+    for (const auto& [mat, group] : parts) {
+        std::vector<std::array<int, 3>> tris, twins;
+        std::vector<std::array<Vec3, 3>> normals, twin_normals;
+        std::vector<int> remap(data.vertices.size(), -1);
+        std::vector<Vec3> vertices;
+        for (std::size_t t = 0; t < data.triangles.size(); ++t) {
+            if (materials[t] != mat || group_of(t) != group) continue;
+            std::array<int, 3> tri{};
+            for (int k = 0; k < 3; ++k) {
+                int& v = remap[static_cast<std::size_t>(data.triangles[t][k])];
+                if (v < 0) {
+                    v = static_cast<int>(vertices.size());
+                    vertices.push_back(data.vertices[static_cast<std::size_t>(data.triangles[t][k])]);
+                }
+                tri[k] = v;
+            }
+            tris.push_back(tri);
+            if (!data.normals.empty()) normals.push_back(data.normals[t]);
+            if (scene.materials[static_cast<std::size_t>(mat)].two_sided) {
+                twins.push_back({tri[0], tri[2], tri[1]});
+                if (!data.normals.empty())
+                    twin_normals.push_back({-data.normals[t][0], -data.normals[t][2], -data.normals[t][1]});
+            }
+        }
+        const auto groups_of_mat = std::count_if(parts.begin(), parts.end(), [m = mat](const auto& p) { return p.first == m; });
+        std::string part = scene.materials[static_cast<std::size_t>(mat)].name;
+        if (groups_of_mat > 1) part = (group < 0 ? std::string("(no group)") : data.groups[static_cast<std::size_t>(group)]) + "/" + part;
+        const int id = scene.add_object(vertices, tris, mat, given ? name + ": " + part : name + ": " + part + ")", -1, normals);
+        if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals);
+        scene.crease_angles[static_cast<std::size_t>(id)] = crease;
+    }
+}
+
 std::string dir_of(const std::string& path) {
     const auto slash = path.find_last_of('/');
     return slash == std::string::npos ? "." : path.substr(0, slash);
@@ -376,11 +424,14 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     scene.name = shown;
     scene.camera = parse_camera(root.child("camera"));
 
-    const Node mats = root.child("materials");
-    mats.require_object();
-    for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it)
-        scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
-    if (scene.materials.empty()) mats.fail("", "no materials defined");
+    // Materials: the scene's, then those its meshes bring (mesh_materials); a scene of
+    // such meshes alone needs none of its own.
+    if (root.has("materials")) {
+        const Node mats = root.child("materials");
+        mats.require_object();
+        for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it)
+            scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
+    }
 
     const json& objects = root.raw("objects");
     if (!objects.is_array()) root.fail("objects", std::string("expected an array, got ") + type_name(objects));
@@ -391,15 +442,21 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
         const double obj_crease = obj.has("crease_angle") ? crease_angle(obj) : crease;
         // The object's name in warnings and `raybundle check`: its own, or where it is.
         const std::string given = obj.has("name") ? obj.string("name") : "";
-        const std::string mat_name = obj.string("material");
-        const int mat = scene.find_material(mat_name);
-        if (mat < 0) {
-            std::string known;
-            for (const auto& m : scene.materials) known += (known.empty() ? "" : ", ") + m.name;
-            obj.fail("material", "unknown material '" + mat_name + "' (known: " + known + ")");
-        }
         const int kinds = obj.has("mesh") + obj.has("quad") + obj.has("triangle");
         if (kinds != 1) obj.fail("", "needs exactly one of 'mesh', 'quad', 'triangle'");
+        // A mesh without "material" brings its own (OBJ usemtl and MTL).
+        const bool own_materials = obj.has("mesh") && !obj.has("material");
+        int mat = -1;
+        if (!own_materials) {
+            const std::string mat_name = obj.string("material");
+            mat = scene.find_material(mat_name);
+            if (mat < 0) {
+                std::string known;
+                for (const auto& m : scene.materials) known += (known.empty() ? "" : ", ") + m.name;
+                obj.fail("material", "unknown material '" + mat_name + "' (known: " +
+                                         (known.empty() ? "none" : known) + ")");
+            }
+        }
         if (obj.has("mesh")) {
             const std::string rel = obj.string("mesh");
             const std::string full = (!rel.empty() && rel[0] == '/') ? rel : base_dir + "/" + rel;
@@ -425,6 +482,12 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
                 obj.fail("normals", "unknown normals '" + source + "' (known: auto, file, computed)");
             if (source == "file" && data.normals.empty()) obj.fail("normals", "'file', but " + rel + " has no normals");
             if (source == "computed") data.normals.clear();
+            if (own_materials) {
+                const std::vector<int> materials = mesh_materials(scene, data, full, rel, obj.path());
+                add_mesh_groups(scene, data, materials, !given.empty() ? given : obj.path() + " (" + rel, !given.empty(),
+                                obj_crease);
+                continue;
+            }
             const int id = scene.add_object(data.vertices, data.triangles, mat,
                                             !given.empty() ? given : obj.path() + " (" + rel + ")", -1, data.normals);
             // The twin faces the other way: its corners in reverse, its normals negated.
@@ -489,7 +552,47 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     return scene;
 }
 
+namespace {
+
+// The extension of a path, lower case ("obj"), or "".
+std::string extension_of(const std::string& path) {
+    const auto slash = path.find_last_of('/'), dot = path.find_last_of('.');
+    if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+    std::string ext = path.substr(dot + 1);
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+// A model file alone as a scene: the document parse_scene would read, with a camera
+// that frames it from +z and a patch size of 1/25 of its largest extent.
+Scene load_model(const std::string& path, const Overrides& overrides) {
+    const MeshData data = read_mesh_file(path, path);
+    if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
+    Vec3 lo = data.vertices.front(), hi = lo;
+    for (const auto& v : data.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    const Vec3 centre = 0.5 * (lo + hi), extent = hi - lo;
+    const double size = extent.maxCoeff(), fov = 40.0;
+    const double distance = 0.5 * std::max({extent.x(), extent.y(), 1e-9 * size}) / std::tan(0.5 * fov * M_PI / 180.0);
+    const std::string name = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+    const json doc = {
+        {"camera",
+         {{"eye", {centre.x(), centre.y(), hi.z() + distance}},
+          {"target", {centre.x(), centre.y(), centre.z()}},
+          {"fov_y", fov}}},
+        {"objects", json::array({{{"mesh", name}}})},
+        {"patch_size", size / 25.0}};
+    Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides);
+    scene.files.insert(scene.files.begin(), path);
+    return scene;
+}
+
+}  // namespace
+
 Scene load_scene(const std::string& path, const Overrides& overrides) {
+    const std::string ext = extension_of(path);
+    if (ext == "obj") return load_model(path, overrides);
+    if (ext == "ply" || ext == "off")
+        throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
     Scene scene = parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
     scene.files.insert(scene.files.begin(), path);
     return scene;

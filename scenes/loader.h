@@ -19,7 +19,11 @@ struct Override {
 using Overrides = std::vector<Override>;
 
 // Loads, validates, refines (to patch_size) and finalizes a scene. Every problem
-// throws SceneError with one line naming the file, the object and the value.
+// throws SceneError with one line naming the file, the object and the value. An OBJ
+// file is a scene alone: its materials (usemtl and its MTL files), a camera on the +z
+// side of its bounds looking at their centre and framing their x and y extents in 40°,
+// and a patch size of 1/25 of their largest extent; the overrides apply to that
+// document ("camera.eye", "patch_size", "materials.NAME" to replace an MTL material).
 Scene load_scene(const std::string& path, const Overrides& overrides = {});
 
 // Bounds on what a scene may grow to on load (the fuzzing harnesses lower them so that

@@ -20,7 +20,44 @@ struct MeshData {
     // The file's normals at every triangle's corners (unit), or empty when it has none.
     // A zero vector: no normal at that corner (an OBJ face without them).
     std::vector<std::array<Vec3, 3>> normals;
+    // OBJ only (empty for PLY and OFF, and for an OBJ without `usemtl`, `o` or `g`):
+    // each triangle's material, an index into `materials` (the names `usemtl` gives, in
+    // order of first use; -1 before the first), and its group, an index into `groups`
+    // (the names of `o` and `g`; -1 before the first); the MTL files of its `mtllib`
+    // lines (as written: relative to the OBJ's folder), in order.
+    std::vector<int> triangle_material, triangle_group;
+    std::vector<std::string> materials, groups, material_libraries;
 };
+
+// A material of an MTL file, as written (scenes/loader.cpp maps it: docs/scene-format.md).
+struct MtlMaterial {
+    std::string name;
+    long line = 0;               // of its `newmtl`
+    Rgb kd = Rgb::Constant(0.8);  // diffuse reflectance (0.8 where the file gives none)
+    Rgb ke = Rgb::Zero();         // emission
+    Rgb ks = Rgb::Zero();         // specular reflectance
+    double ns = 0.0;              // specular exponent
+    int illum = -1;               // illumination model (-1: not given)
+    std::string map_kd;           // the diffuse texture's file, as written
+};
+// The materials of an MTL file (`shown` names it in errors). Throws SceneError naming
+// the file and line: a value before the first `newmtl`, a malformed or non-finite
+// number, a negative colour or exponent, a material defined twice. Other statements
+// (Ka, d, Tr, Ni, Tf, the other maps) are read past.
+std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& shown);
+
+// The scene's material of every triangle of a mesh that brings its own (an OBJ object
+// without "material": its usemtl names). A name the scene has (its "materials", or a
+// material an earlier mesh brought) is the scene's; else the first definition in the
+// mesh's MTL files (its mtllib lines, relative to `path`'s folder) is added to the
+// scene: Kd the albedo, Ke the emission, Ks and Ns the Phong lobe where illum asks for
+// highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
+// is the albedo by its mean linear colour. A scaled material, an illum above 2 and a
+// texture (read as its mean, or not read) are lines of scene.warnings; the MTL files
+// and textures join scene.files. Throws SceneError(shown, where): no usemtl, faces before
+// the first one, a name defined nowhere, an unreadable or malformed MTL file.
+std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
+                                const std::string& where);
 
 // Reads `path` (shown as `shown` in errors). Throws SceneError naming the file and
 // the offending line or count: missing or unreadable file, not a regular file (a

@@ -10,7 +10,8 @@ namespace raybundle::scenes::mesh_detail {
 // `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
 // negative = relative), polygons split into a fan from their first corner; other
 // lines are ignored (`vt` only counted). Every index must name an element defined
-// before it. A UTF-8 byte order mark before the first line is skipped.
+// before it. A UTF-8 byte order mark before the first line is skipped. `usemtl`, `o`,
+// `g` and `mtllib` are recorded (MeshData): the material and group of each triangle.
 MeshData read_obj(std::istream& in, const std::string& shown) {
     MeshData data;
     std::vector<Vec3> normals;
@@ -19,6 +20,20 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     std::string line;
     long line_no = 0;
     long texture_coordinates = 0;
+    int material = -1, group = -1;
+    bool tagged = false;  // a usemtl, o or g seen: every triangle gets its material and group
+    // The rest of the line after its tag, without surrounding blanks (names may hold spaces).
+    auto rest = [&line](const std::string& tag) {
+        std::string r = line.substr(line.find(tag) + tag.size());
+        const auto first = r.find_first_not_of(" \t\r"), last = r.find_last_not_of(" \t\r");
+        return first == std::string::npos ? std::string() : r.substr(first, last - first + 1);
+    };
+    auto index_of = [](std::vector<std::string>& names, const std::string& name) {
+        const auto it = std::find(names.begin(), names.end(), name);
+        if (it != names.end()) return static_cast<int>(it - names.begin());
+        names.push_back(name);
+        return static_cast<int>(names.size() - 1);
+    };
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
@@ -34,6 +49,22 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             normals.push_back(n.normalized());
         } else if (tag == "vt") {
             ++texture_coordinates;
+        } else if (tag == "usemtl" || tag == "o" || tag == "g") {
+            const std::string name = rest(tag);
+            if (tag == "usemtl" && name.empty()) throw SceneError(shown, where, "usemtl without a material name");
+            if (!tagged) {  // the triangles so far: no material, no group
+                tagged = true;
+                data.triangle_material.assign(data.triangles.size(), -1);
+                data.triangle_group.assign(data.triangles.size(), -1);
+            }
+            if (tag == "usemtl")
+                material = index_of(data.materials, name);
+            else
+                group = index_of(data.groups, name.empty() ? "(unnamed)" : name);
+        } else if (tag == "mtllib") {
+            const std::string name = rest(tag);
+            if (name.empty()) throw SceneError(shown, where, "mtllib without a file name");
+            data.material_libraries.push_back(name);
         } else if (tag == "f") {
             std::vector<int> vs;
             std::vector<Vec3> ns;
@@ -76,9 +107,14 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                                  "face gives normals at " + std::to_string(ns.size()) + " of its " +
                                      std::to_string(vs.size()) + " corners");
             any_normals = any_normals || !ns.empty();
-            for (const auto& t : add_polygon(data, vs, shown, where))
+            for (const auto& t : add_polygon(data, vs, shown, where)) {
                 corner_normals.push_back(ns.empty() ? std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}
                                                     : std::array<Vec3, 3>{ns[t[0]], ns[t[1]], ns[t[2]]});
+                if (tagged) {
+                    data.triangle_material.push_back(material);
+                    data.triangle_group.push_back(group);
+                }
+            }
         }
     }
     if (any_normals) data.normals = std::move(corner_normals);

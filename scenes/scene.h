@@ -101,6 +101,9 @@ public:
     // The files it was read from (the scene file, then its meshes), so that no output
     // of a run overwrites one of them (render::check_outputs).
     std::vector<std::string> files;
+    // What loading read otherwise than written, or left out (an MTL's texture, a
+    // material scaled down), one line each: shown as warnings by `check` and `solve`.
+    std::vector<std::string> warnings;
     // Patches cut along the lines where other surfaces touch them (scenes/contacts.h):
     // the lines, the edges split, and the contact edges marked.
     std::size_t contact_lines = 0, contact_splits = 0, contact_edges = 0;

@@ -675,5 +675,16 @@ expect_bad "an output path too long with the temporary's additions" "a path of" 
 expect_bad "a -D index past any integer" "malformed index" solve good.json --iterations 5 \
   -D 'camera.eye[99999999999999999999]=1'
 
+# An OBJ with its MTL as it comes (McGuire's Cornell box): a scene alone, its objects
+# named by their materials, the light's Ke its emission.
+"$bin" check "$src/scenes/examples/CornellBox-Original.obj" >out.txt 2>err.txt
+rc=$?
+[ "$rc" -eq 0 ] && grep -q "(CornellBox-Original.obj: leftWall)" out.txt && grep -q "(CornellBox-Original.obj: light)" out.txt &&
+  grep -q "light (emissive)" out.txt
+check $? "check CornellBox-Original.obj: exit $rc, $(cat err.txt) $(head -c 600 out.txt)"
+"$bin" solve "$src/scenes/examples/CornellBox-Original.obj" --iterations 200 --gather 0 -D camera.width=32 \
+  -D camera.height=32 -q -o obj-box.png 2>err.txt && [ -s obj-box.png ]
+check $? "solve CornellBox-Original.obj: $(cat err.txt)"
+
 echo "cli: $passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]

@@ -1,0 +1,153 @@
+#include "scenes/errors.h"
+#include "scenes/mesh_file.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <vector>
+
+namespace raybundle::scenes {
+
+namespace {
+
+std::string number(double x) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", x);
+    return text;
+}
+
+// The folder of a path ("" for a bare name) and a name in it.
+std::string folder_of(const std::string& path) {
+    const auto slash = path.find_last_of('/');
+    return slash == std::string::npos ? "" : path.substr(0, slash + 1);
+}
+std::string in_folder(const std::string& folder, const std::string& name) {
+    return !name.empty() && name[0] == '/' ? name : folder + name;
+}
+
+// The mean linear colour of a PNG texture (sRGB decoded, alpha ignored), or nothing
+// for a file that is not a PNG it can read.
+std::optional<Rgb> texture_mean(const std::string& path) {
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&image, path.c_str())) return std::nullopt;
+    image.format = PNG_FORMAT_RGB;
+    // At most 16k x 16k texels (768 MB): a larger header is not a texture to average.
+    if (image.width == 0 || image.height == 0 || image.width > 16384 || image.height > 16384) {
+        png_image_free(&image);
+        return std::nullopt;
+    }
+    std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
+    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr)) return std::nullopt;
+    double decoded[256];
+    for (int v = 0; v < 256; ++v) {
+        const double c = v / 255.0;
+        decoded[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+    }
+    Rgb sum = Rgb::Zero();
+    for (std::size_t i = 0; i + 2 < texels.size(); i += 3)
+        sum += Rgb(decoded[texels[i]], decoded[texels[i + 1]], decoded[texels[i + 2]]);
+    return sum / (static_cast<double>(texels.size()) / 3.0);
+}
+
+// A material of the scene from an MTL's: Kd the albedo, Ke the emission, Ks and Ns the
+// Phong lobe where illum asks for highlights (not 0 or 1), scaled down where Kd + Ks
+// reaches 1. What is read otherwise or not at all is a warning.
+Material from_mtl(const MtlMaterial& m, const std::string& file, const std::string& folder,
+                  std::vector<std::string>& warnings, std::vector<std::string>& files) {
+    Material out;
+    out.name = m.name;
+    out.albedo = m.kd;
+    out.emission = m.ke;
+    const std::string named = file + ": material '" + m.name + "'";
+    if (m.illum != 0 && m.illum != 1 && (m.ks > 0.0).any()) {
+        out.specular = m.ks;
+        out.exponent = m.ns;
+    }
+    if (m.illum > 2)
+        warnings.push_back(named + ": illum " + std::to_string(m.illum) +
+                           " (reflection, refraction or glass) is read as 2 (diffuse and Phong highlights)");
+    // A texture is its mean colour (as a renderer showing it would average it over the
+    // surface; the texture itself, not times Kd, as Blender's importer shows it).
+    if (!m.map_kd.empty()) {
+        if (const auto mean = texture_mean(in_folder(folder, m.map_kd))) {
+            out.albedo = *mean;
+            files.push_back(in_folder(folder, m.map_kd));
+            warnings.push_back(named + ": its texture " + m.map_kd + " is read as its mean colour " +
+                               number((*mean)[0]) + " " + number((*mean)[1]) + " " + number((*mean)[2]));
+        } else {
+            warnings.push_back(named + ": its texture " + m.map_kd + " is not read (not a PNG found beside " + file +
+                               "); its Kd " + number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) +
+                               " is the colour");
+        }
+    }
+    const Rgb sum = out.albedo + out.specular;
+    Eigen::Index channel = 0;
+    if (const double most = sum.maxCoeff(&channel); !(most < 1.0)) {
+        const double scale = 0.99 / most;
+        out.albedo *= scale;
+        out.specular *= scale;
+        warnings.push_back(named + ": Kd + Ks = " + number(most) + " in channel " + "rgb"[channel] +
+                           ": both scaled by " + number(scale) + " (a surface reflects less than it receives)");
+    }
+    return out;
+}
+
+}  // namespace
+
+std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
+                                const std::string& where) {
+    if (data.materials.empty())
+        throw SceneError(shown, where, "has no \"material\", and names none itself (no usemtl)");
+    // The MTL files, relative to the mesh's folder; the first definition of a name counts.
+    struct Defined {
+        MtlMaterial material;
+        std::string shown, folder;  // its file as shown, and the folder of its textures
+    };
+    std::map<std::string, Defined> defined;
+    for (const auto& lib : data.material_libraries) {
+        const std::string file = in_folder(folder_of(path), lib), file_shown = in_folder(folder_of(shown), lib);
+        scene.files.push_back(file);
+        const std::string bytes = read_input_file(file, file_shown, "material file", kMaxSceneFileBytes);
+        for (auto& m : parse_mtl(bytes, file_shown)) defined.emplace(m.name, Defined{m, file_shown, folder_of(file)});
+    }
+    std::vector<int> index(data.materials.size());
+    for (std::size_t k = 0; k < data.materials.size(); ++k) {
+        const std::string& name = data.materials[k];
+        // The scene's own material of that name (its "materials", or one an earlier
+        // mesh brought) comes first.
+        if (const int m = scene.find_material(name); m >= 0) {
+            index[k] = m;
+            continue;
+        }
+        const auto it = defined.find(name);
+        if (it == defined.end()) {
+            std::string libs;
+            for (const auto& lib : data.material_libraries) libs += (libs.empty() ? "" : ", ") + lib;
+            throw SceneError(shown, where,
+                             "usemtl '" + name + "': defined in no material file (" +
+                                 (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
+                                 ") and not in the scene's \"materials\"");
+        }
+        index[k] = scene.add_material(from_mtl(it->second.material, it->second.shown, it->second.folder, scene.warnings,
+                                               scene.files));
+    }
+    std::vector<int> out(data.triangles.size());
+    std::size_t before = 0;
+    for (std::size_t t = 0; t < out.size(); ++t) {
+        const int m = t < data.triangle_material.size() ? data.triangle_material[t] : -1;
+        if (m < 0) ++before;
+        out[t] = m < 0 ? -1 : index[static_cast<std::size_t>(m)];
+    }
+    if (before > 0)
+        throw SceneError(shown, where,
+                         std::to_string(before) + " faces come before the first usemtl, and the object gives no "
+                                                  "\"material\" for them");
+    return out;
+}
+
+}  // namespace raybundle::scenes

@@ -1,0 +1,180 @@
+// OBJ files with their materials (issue 28): usemtl, o/g and mtllib read; MTL files
+// parsed and refused in one line; a mesh without "material" takes its MTL's, the
+// scene's materials override by name; an OBJ file alone is a scene.
+#include "render/image_io.h"
+#include "scenes/diagnostics.h"
+#include "scenes/errors.h"
+#include "scenes/loader.h"
+#include "scenes/mesh_file.h"
+
+#include "temp_dir.h"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+using namespace raybundle::scenes;
+using Catch::Matchers::Contains;
+using raybundle::test::TempDir;
+
+namespace {
+
+// Two quads on the floor and a light above them, in two groups, three materials.
+const char* kObj = "mtllib room.mtl\n"
+                   "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 2 0 0\nv 2 0 1\n"
+                   "v 0 1 0\nv 1 1 0\nv 1 1 1\nv 0 1 1\n"
+                   "g floor\nusemtl red\nf 1 4 3 2\nusemtl green\nf 2 3 6 5\n"
+                   "g lamp\nusemtl lamp\nf 7 8 9 10\n";
+const char* kMtl = "# a comment\nnewmtl red\nKd 0.6 0.1 0.1\nKa 0 0 0\nd 1\n"
+                   "newmtl green\nKd 0.1 0.6 0.1\nKs 0.2 0.2 0.2\nNs 20\nillum 2\n"
+                   "newmtl lamp\nKd 0 0 0\nKe 5 4 3\n";
+
+std::string scene_with(const std::string& objects, const std::string& materials = "") {
+    return std::string(R"({"camera": {"eye": [1, 3, 4], "target": [1, 0, 0.5]}, )") +
+           (materials.empty() ? "" : R"("materials": {)" + materials + "}, ") + R"("objects": [)" + objects + "]}";
+}
+
+}  // namespace
+
+TEST_CASE("OBJ: usemtl, groups and mtllib are recorded per triangle", "[scenes][mesh][obj]") {
+    const MeshData d = parse_mesh(kObj, "obj", "room.obj");
+    REQUIRE(d.triangles.size() == 6);
+    CHECK(d.materials == std::vector<std::string>{"red", "green", "lamp"});
+    CHECK(d.groups == std::vector<std::string>{"floor", "lamp"});
+    CHECK(d.material_libraries == std::vector<std::string>{"room.mtl"});
+    CHECK(d.triangle_material == std::vector<int>{0, 0, 1, 1, 2, 2});
+    CHECK(d.triangle_group == std::vector<int>{0, 0, 0, 0, 1, 1});
+    // Without any of them the lists stay empty; faces before the first usemtl are -1.
+    CHECK(parse_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "obj", "t.obj").triangle_material.empty());
+    const MeshData late = parse_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl a\nf 1 2 3\n", "obj", "t.obj");
+    CHECK(late.triangle_material == std::vector<int>{-1, 0});
+    CHECK_THROWS_WITH(parse_mesh("usemtl\n", "obj", "t.obj"), Contains("t.obj") && Contains("line 1") && Contains("usemtl"));
+}
+
+TEST_CASE("MTL: the colours a material uses are read, malformed ones refused with file and line", "[scenes][mtl]") {
+    const auto mats = parse_mtl(kMtl, "room.mtl");
+    REQUIRE(mats.size() == 3);
+    CHECK(mats[0].name == "red");
+    CHECK(mats[0].kd.isApprox(Rgb(0.6, 0.1, 0.1)));
+    CHECK(mats[1].ks.isApprox(Rgb(0.2, 0.2, 0.2)));
+    CHECK(mats[1].ns == 20.0);
+    CHECK(mats[1].illum == 2);
+    CHECK(mats[2].ke.isApprox(Rgb(5, 4, 3)));
+    CHECK(parse_mtl("newmtl g\nKd 0.5\nmap_Kd -s 1 1 1 tex/wood.png\n", "m.mtl")[0].map_kd == "tex/wood.png");
+    CHECK(parse_mtl("newmtl g\n", "m.mtl")[0].kd.isApprox(Rgb::Constant(0.8)));  // none given
+    CHECK(parse_mtl("newmtl g\n  Kd 0.63 0.065 0.05 # Red\n", "m.mtl")[0].kd.isApprox(Rgb(0.63, 0.065, 0.05)));
+    auto fails = [](const std::string& text, const std::string& needle) {
+        INFO(text);
+        CHECK_THROWS_WITH(parse_mtl(text, "m.mtl"), Contains("m.mtl") && Contains("line") && Contains(needle));
+    };
+    fails("Kd 1 1 1\n", "before the first newmtl");
+    fails("newmtl a\nKd 1 nan 1\n", "not a finite number");
+    fails("newmtl a\nKd 1 1\n", "expected 3 numbers");
+    fails("newmtl a\nKe -1 0 0\n", "negative colour");
+    fails("newmtl a\nNs -2\n", "Ns");
+    fails("newmtl a\nillum 2.5\n", "illum");
+    fails("newmtl a\nnewmtl b\nnewmtl a\n", "defined twice (first on line 1)");
+    fails("newmtl\n", "without a name");
+}
+
+TEST_CASE("OBJ + MTL in a scene: the mesh's materials, overridden by the scene's by name", "[scenes][obj]") {
+    TempDir dir;
+    dir.write("room.obj", kObj);
+    dir.write("room.mtl", kMtl);
+    const Scene scene = parse_scene(scene_with(R"({"mesh": "room.obj"})"), "s.json", dir.path.string());
+    REQUIRE(scene.materials.size() == 3);
+    const Material& lamp = scene.materials[static_cast<std::size_t>(scene.find_material("lamp"))];
+    CHECK(lamp.emission.isApprox(Rgb(5, 4, 3)));
+    const Material& green = scene.materials[static_cast<std::size_t>(scene.find_material("green"))];
+    CHECK(green.specular.isApprox(Rgb::Constant(0.2)));
+    CHECK(green.exponent == 20.0);
+    // One object per material (named by it), the MTL among the files read.
+    CHECK(scene.object_names == std::vector<std::string>{"objects[0] (room.obj: red)", "objects[0] (room.obj: green)",
+                                                         "objects[0] (room.obj: lamp)"});
+    CHECK(std::find(scene.files.begin(), scene.files.end(), dir.path.string() + "/room.mtl") != scene.files.end());
+    CHECK(scene.warnings.empty());
+    // The scene's own "red" wins over the MTL's.
+    const Scene over = parse_scene(scene_with(R"({"mesh": "room.obj", "name": "room"})", R"("red": {"albedo": [0.3, 0.3, 0.3]})"),
+                                   "s.json", dir.path.string());
+    CHECK(over.materials[static_cast<std::size_t>(over.find_material("red"))].albedo.isApprox(Rgb::Constant(0.3)));
+    CHECK(over.object_names.front() == "room: red");
+    // A "material" given: the whole mesh has it, as before.
+    const Scene one = parse_scene(scene_with(R"({"mesh": "room.obj", "material": "w"})", R"("w": {"albedo": [0.5, 0.5, 0.5]})"),
+                                  "s.json", dir.path.string());
+    CHECK(one.materials.size() == 1);
+    CHECK(one.object_names.size() == 1);
+}
+
+TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one line", "[scenes][obj][errors]") {
+    TempDir dir;
+    dir.write("room.obj", kObj);
+    dir.write("room.mtl", std::string(kMtl) + "newmtl unused\nKd 0.9 0.9 0.9\nKs 0.5 0.5 0.5\n");
+    // Kd + Ks past 1, a texture, an illum of glass.
+    dir.write("warm.obj", std::string("mtllib warm.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl a\nf 1 3 2\n"));
+    dir.write("warm.mtl", "newmtl a\nKd 0.8 0.5 0.5\nKs 0.4 0.1 0.1\nNs 10\nillum 7\nmap_Kd a.png\n");
+    const Scene warm = parse_scene(scene_with(R"({"mesh": "warm.obj"}, {"mesh": "room.obj"})"), "s.json", dir.path.string());
+    const Material& a = warm.materials[static_cast<std::size_t>(warm.find_material("a"))];
+    CHECK((a.albedo + a.specular).maxCoeff() == Approx(0.99));
+    REQUIRE(warm.warnings.size() == 3);
+    CHECK_THAT(warm.warnings[0], Contains("warm.mtl: material 'a': illum 7"));
+    CHECK_THAT(warm.warnings[1], Contains("its texture a.png is not read"));
+    CHECK_THAT(warm.warnings[2], Contains("Kd + Ks = 1.2 in channel r: both scaled by 0.825"));
+    auto fails = [&](const std::string& obj, const std::string& mtl, const std::string& needle) {
+        dir.write("bad.obj", obj);
+        dir.write("bad.mtl", mtl);
+        INFO(obj << " / " << mtl);
+        CHECK_THROWS_WITH(parse_scene(scene_with(R"({"mesh": "bad.obj"})"), "s.json", dir.path.string()),
+                          Contains("objects[0]") && Contains(needle));
+    };
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
+    fails(tri + "f 1 3 2\n", "", "names none itself (no usemtl)");
+    fails("mtllib bad.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 1 3 2\n", "newmtl x\n", "1 faces come before the first usemtl");
+    fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl x\n", "usemtl 'y': defined in no material file (mtllib bad.mtl)");
+    fails(tri + "usemtl y\nf 1 3 2\n", "", "the mesh has no mtllib");
+    fails("mtllib missing.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", "missing.mtl");
+    fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl y\nKd 1 x 1\n", "bad.mtl: line 2");
+}
+
+TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its size", "[scenes][obj]") {
+    TempDir dir;
+    dir.write("room.obj", kObj);
+    dir.write("room.mtl", kMtl);
+    const std::string path = dir.path.string() + "/room.obj";
+    const Scene scene = load_scene(path);
+    CHECK(scene.camera.target.isApprox(Vec3(1, 0.5, 0.5)));
+    CHECK(scene.camera.eye.x() == Approx(1.0));
+    CHECK(scene.camera.eye.z() > 1.0);
+    CHECK(scene.patch_count() > 6);  // refined to 2/25
+    CHECK(scene.files.front() == path);
+    // Overrides apply to its document: the camera, a material replaced.
+    const Scene moved = load_scene(path, {{"camera.eye", "[1, 5, 5]"}, {"materials.lamp", R"({"albedo": [0, 0, 0], "emission": [1, 1, 1]})"}});
+    CHECK(moved.camera.eye.isApprox(Vec3(1, 5, 5)));
+    CHECK(moved.materials[static_cast<std::size_t>(moved.find_material("lamp"))].emission.isApprox(Rgb::Constant(1)));
+    dir.write("m.ply", "ply\n");
+    CHECK_THROWS_WITH(load_scene(dir.path.string() + "/m.ply"), Contains("m.ply") && Contains("has no materials"));
+}
+
+TEST_CASE("MTL: a PNG map_Kd is the albedo by its mean linear colour", "[scenes][obj]") {
+    TempDir dir;
+    raybundle::render::Image texture(4, 4);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) {
+            float* p = texture.at(x, y);
+            p[0] = x < 2 ? 0.8f : 0.2f;  // mean 0.5
+            p[1] = 0.25f;
+            p[2] = 0.1f;
+        }
+    raybundle::render::write_png((dir.path / "wood.png").string(), texture, 0.0);
+    dir.write("t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl wood\nf 1 3 2\n");
+    dir.write("t.mtl", "newmtl wood\nKd 0.9 0.9 0.9\nmap_Kd wood.png\n");
+    const Scene scene = parse_scene(scene_with(R"({"mesh": "t.obj"})"), "s.json", dir.path.string());
+    const Rgb albedo = scene.materials[0].albedo;
+    CHECK(albedo[0] == Approx(0.5).epsilon(0.01));  // 8-bit sRGB: within 1 %
+    CHECK(albedo[1] == Approx(0.25).epsilon(0.01));
+    CHECK(albedo[2] == Approx(0.1).epsilon(0.02));
+    REQUIRE(scene.warnings.size() == 1);
+    CHECK_THAT(scene.warnings[0], Contains("its texture wood.png is read as its mean colour"));
+    CHECK(std::find(scene.files.begin(), scene.files.end(), (dir.path / "wood.png").string()) != scene.files.end());
+}
