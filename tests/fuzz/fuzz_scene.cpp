@@ -1,5 +1,5 @@
 // libFuzzer harness for the scene loader: JSON text (with mesh objects that name the
-// small meshes written beside it at start-up) is loaded, validated, refined and cut at
+// small meshes written beside it at start-up, one with its own MTL materials) is loaded, validated, refined and cut at
 // contacts, or refused with SceneError. The patch limit is lowered to 2,000 so that
 // no valid input outgrows the run's memory and time limits (what a large limit costs
 // is the memory guard's business, apps/memory.h); everything else is the loader as the
@@ -30,6 +30,11 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
                                             "property float y\nproperty float z\nelement face 1\n"
                                             "property list uchar int vertex_indices\nend_header\n"
                                             "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+    // An OBJ that brings its materials (usemtl, an MTL beside it).
+    std::ofstream(g_dir + "/lamp.obj") << "mtllib lamp.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\ng lamp\n"
+                                          "usemtl glow\nf 1 2 3\nusemtl wall\nf 1 3 4\n";
+    std::ofstream(g_dir + "/lamp.mtl") << "newmtl glow\nKd 0 0 0\nKe 5 4 3\nnewmtl wall\nKd 0.5 0.5 0.5\n"
+                                          "Ks 0.2 0.2 0.2\nNs 10\nillum 2\n";
     return 0;
 }
 

@@ -1,0 +1,165 @@
+"""Renders an OBJ file as Blender imports it (with its MTL) with Cycles on the CPU.
+
+    blender -b --factory-startup --python bench/cycles/import_obj.py -- \
+        --obj MODEL.obj --output OUT.exr --spp 1024 --eye X Y Z --target X Y Z \
+        [--fov-y 40] [--size 256] [-t THREADS] [--seed S] [--timing TIMING.json]
+
+Blender's own OBJ importer (bpy.ops.wm.obj_import, the file's axes kept: forward +Y,
+up +Z) reads the geometry and the MTL; raybundle's reading of the same files is what
+the comparison checks (bench/run_asset_bench.sh, docs/bench-assets.md). Each imported
+material keeps its colours as Blender read them: the Principled BSDF's base colour
+becomes a Lambert Diffuse BSDF of that colour (Principled's diffuse is Disney's, with
+retro-reflection, not the Lambert reflector an MTL's Kd means), its emission colour
+times strength the emitted radiance, one-sided as raybundle's surfaces are
+(bench/cycles/import_scene.py: make_material). This bench compares diffuse assets:
+a metallic material is refused, Principled's specular (from Ks) is printed and
+dropped. The camera, the Cycles settings (64
+bounces, no clamping, box filter, no denoising, Standard view) and the uniform scale
+to a diagonal of 1 are import_scene.py's.
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import bpy
+from mathutils import Matrix, Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import import_scene  # noqa: E402  (its functions; its main() does not run)
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="import_obj.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("--obj", required=True)
+    p.add_argument("--output", required=True, help="EXR file to write")
+    p.add_argument("--spp", type=int, required=True)
+    p.add_argument("--eye", type=float, nargs=3, required=True)
+    p.add_argument("--target", type=float, nargs=3, required=True)
+    p.add_argument("--up", type=float, nargs=3, default=[0.0, 1.0, 0.0])
+    p.add_argument("--fov-y", type=float, default=40.0)
+    p.add_argument("--size", type=int, default=256, help="width and height in pixels")
+    p.add_argument("-t", "--threads", type=int, default=2)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--timing")
+    a = p.parse_args(argv)
+    # What import_scene.build's settings read.
+    a.half, a.bounces, a.keep_scale, a.no_light_sampling = False, import_scene.BOUNCES, False, False
+    return a
+
+
+def diffuse_of(mat):
+    """The raybundle material Blender's import of an MTL material means: albedo, emission."""
+    principled = next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if principled is None:
+        raise SystemExit("material %s: no Principled BSDF after the import" % mat.name)
+    base = list(principled.inputs["Base Color"].default_value)[:3]
+    strength = principled.inputs["Emission Strength"].default_value
+    emission = [strength * c for c in list(principled.inputs["Emission"].default_value)[:3]]
+    if principled.inputs["Metallic"].default_value > 0.0:
+        raise SystemExit("material %s: metallic: not a diffuse asset" % mat.name)
+    return {"name": mat.name, "albedo": base, "emission": emission, "two_sided": False,
+            "blender_specular": principled.inputs["Specular"].default_value}
+
+
+def main():
+    args = parse_args()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.wm.obj_import(filepath=os.path.abspath(args.obj), forward_axis="Y", up_axis="Z")
+    objects = [o for o in scene.objects if o.type == "MESH"]
+    if not objects:
+        raise SystemExit("%s: Blender imported no mesh" % args.obj)
+    # The scale import_scene uses: the bounds with the eye to a diagonal of 1.
+    pts = [o.matrix_world @ v.co for o in objects for v in o.data.vertices] + [Vector(args.eye)]
+    lo = [min(p[k] for p in pts) for k in range(3)]
+    hi = [max(p[k] for p in pts) for k in range(3)]
+    scale = 1.0 / math.dist(lo, hi)
+    materials = {}
+    for o in objects:
+        o.matrix_world = Matrix.Scale(scale, 4) @ o.matrix_world
+        o.data.polygons.foreach_set("use_smooth", [False] * len(o.data.polygons))
+        for slot in o.material_slots:
+            if slot.material and slot.material.name not in materials:
+                m = diffuse_of(slot.material)
+                materials[slot.material.name] = (m, import_scene.make_material(m, True))
+            if slot.material:
+                slot.material = materials[slot.material.name][1]
+    camera = {"eye": [scale * x for x in args.eye], "target": [scale * x for x in args.target], "up": args.up,
+              "fov_y": args.fov_y, "width": args.size, "height": args.size}
+    doc = {"camera": camera, "positions": [], "triangles": [], "materials": [], "triangle_materials": []}
+    # import_scene.build makes the scene from its document; here only its settings are
+    # wanted, so the mesh is already in place: the same settings, set on this scene.
+    cam = import_scene.make_camera(scene, camera, scale * math.dist(lo, hi))
+    scene.world = import_scene.make_world(None)
+    settings(scene, args)
+    print("cycles: %s, %d objects, materials %s, %dx%d, %d spp, %d threads, seed %d, scale %.6g" % (
+        args.obj, len(objects), json.dumps({k: v[0] for k, v in materials.items()}), args.size, args.size, args.spp,
+        args.threads, args.seed, scale), flush=True)
+    t0 = time.perf_counter()
+    bpy.ops.render.render(write_still=False)
+    seconds = time.perf_counter() - t0
+    bpy.data.images["Render Result"].save_render(filepath=args.output, scene=scene)
+    print("cycles_render_seconds %.6f" % seconds, flush=True)
+    if args.timing:
+        with open(args.timing, "w") as f:
+            json.dump({"seconds_render": seconds, "spp": args.spp, "threads": args.threads, "seed": args.seed,
+                       "blender": bpy.app.version_string, "output": args.output}, f)
+            f.write("\n")
+    del cam
+
+
+def settings(scene, args):
+    """import_scene.build's render and Cycles settings."""
+    r = scene.render
+    r.engine = "CYCLES"
+    r.resolution_x = r.resolution_y = args.size
+    r.resolution_percentage = 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    r.film_transparent = False
+    r.use_compositing = False
+    r.use_sequencer = False
+    r.threads_mode = "FIXED"
+    r.threads = args.threads
+    s = r.image_settings
+    s.file_format = "OPEN_EXR"
+    s.color_mode = "RGB"
+    s.color_depth = "32"
+    s.exr_codec = "ZIP"
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = args.spp
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.seed = args.seed
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "transparent_max_bounces",
+              "volume_bounces"):
+        setattr(c, k, args.bounces)
+    c.min_light_bounces = 0
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    c.film_exposure = 1.0
+    c.use_auto_tile = False
+    for layer in scene.view_layers:
+        layer.cycles.use_denoising = False
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except SystemExit:
+        raise
+    except Exception as e:  # one line, and a failing exit status (Blender would exit 0)
+        print("import_obj.py: error: %s" % e, file=sys.stderr, flush=True)
+        sys.exit(1)

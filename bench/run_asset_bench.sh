@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# An OBJ asset as it comes (scenes/examples/CornellBox-Original.obj with its MTL)
+# against Blender Cycles importing the same two files (bench/cycles/import_obj.py):
+# does raybundle read the asset as Blender does, and how near is its image?
+#
+# Both render 256 x 256 from the camera raybundle frames the model with (written out
+# here, so that both get exactly the same one). Cycles renders the reference twice,
+# REF_SPP samples each with seeds 2 and 3: the two references' difference is their own
+# noise, and no claim is made below three times it. raybundle runs each budget of
+# BUDGETS (the whole command timed). For each image against reference A: relative L1,
+# MSE, the relative L1 of 4x4-pixel block means and the worst 16x16 block
+# (build/bench/image_error). Writes docs/bench-assets.md.
+#
+# Usage: bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]
+# Installs blender with apt-get when missing (sudo when not root).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+MODEL=scenes/examples/CornellBox-Original.obj
+# The framing raybundle's loader computes for it (scenes/loader.h: +z side, 40°).
+EYE=(-0.01 0.995 3.76495)
+TARGET=(-0.01 0.995 -0.025)
+SIZE=256
+REF_SPP=8192
+BUDGETS=("--time-budget 8" "--time-budget 32" "--time-budget 128")
+
+threads=2 build=1 out=docs
+while [ $# -gt 0 ]; do
+  case $1 in
+    --threads) threads=$2; shift 2 ;;
+    --no-build) build=0; shift ;;
+    --out) out=$2; shift 2 ;;
+    *) echo "usage: bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]" >&2; exit 2 ;;
+  esac
+done
+if ! command -v blender >/dev/null; then
+  if [ "$(id -u)" -eq 0 ]; then apt-get install -y --no-install-recommends blender
+  else sudo apt-get install -y --no-install-recommends blender; fi
+fi
+[ "$build" -eq 1 ] && ./scripts/build.sh >/dev/null
+mkdir -p "$out"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+vec() { echo "[$1,$2,$3]"; }
+camera=(-D "camera.eye=$(vec "${EYE[@]}")" -D "camera.target=$(vec "${TARGET[@]}")" -D camera.width=$SIZE
+        -D camera.height=$SIZE)
+
+cycles() {  # cycles SEED OUT.exr
+  local start=$SECONDS
+  blender -b --factory-startup --python-exit-code 1 --python bench/cycles/import_obj.py -- --obj "$MODEL" \
+    --output "$2" --spp $REF_SPP --eye "${EYE[@]}" --target "${TARGET[@]}" --size $SIZE -t "$threads" \
+    --seed "$1" >"$work/cycles-$1.log" 2>&1 || { cat "$work/cycles-$1.log"; exit 1; }
+  echo $((SECONDS - start))
+}
+error() { build/bench/image_error "$1" "$2" | awk '{ v[$1] = $2 } END {
+  printf "%.4f | %.3g | %.4f | %+.3f", 100 * v["relative_l1"], v["mse"], 100 * v["block4_l1"], 100 * v["worst_block16"] }'; }
+
+ref_a=$work/ref-a.exr ref_b=$work/ref-b.exr
+seconds_a=$(cycles 2 "$ref_a")
+seconds_b=$(cycles 3 "$ref_b")
+{
+  echo "# An OBJ asset against Blender Cycles"
+  echo
+  echo "\`bench/run_asset_bench.sh --threads $threads\` on $(nproc) cores ($(date -u +%Y-%m-%d)); $(blender -b \
+--factory-startup --python-expr 'import bpy; print("BLENDER", bpy.app.version_string)' 2>/dev/null | awk '/^BLENDER/ { print "Blender " $2 }'); $(build/apps/raybundle --version | head -1)."
+  echo
+  echo "$MODEL and its MTL, as published, ${SIZE}², camera eye $(vec "${EYE[@]}") target $(vec "${TARGET[@]}") (40°)."
+  echo "Cycles imports the same files (bench/cycles/import_obj.py: Blender's OBJ importer, its colours"
+  echo "kept, Lambert diffuse, one-sided emission). References: $REF_SPP spp, seeds 2 and 3 ($seconds_a s and $seconds_b s)."
+  echo
+  echo "| image | seconds | relative L1 (%) | MSE | 4x4 block L1 (%) | worst 16x16 block (%) |"
+  echo "| --- | --- | --- | --- | --- | --- |"
+  echo "| Cycles reference B (its noise) | $seconds_b | $(error "$ref_b" "$ref_a") |"
+  for budget in "${BUDGETS[@]}"; do
+    img=$work/rb.exr
+    start=$(date +%s.%N)
+    # shellcheck disable=SC2086
+    build/apps/raybundle solve "$MODEL" "${camera[@]}" $budget --threads "$threads" -q -o "$img"
+    secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+    echo "| raybundle $budget | $(printf %.1f "$secs") | $(error "$img" "$ref_a") |"
+  done
+} >"$out/bench-assets.md"
+cat "$out/bench-assets.md"
