@@ -11,7 +11,7 @@
 # MSE, the relative L1 of 4x4-pixel block means and the worst 16x16 block
 # (build/bench/image_error). Writes docs/bench-assets.md.
 #
-# Usage: bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]
+# Usage: [REF_SPP=8192] [BUDGET_SECONDS="8 32 128"] bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]
 # Installs blender with apt-get when missing (sudo when not root).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,8 +21,10 @@ MODEL=scenes/examples/CornellBox-Original.obj
 EYE=(-0.01 0.995 3.76495)
 TARGET=(-0.01 0.995 -0.025)
 SIZE=256
-REF_SPP=8192
-BUDGETS=("--time-budget 8" "--time-budget 32" "--time-budget 128")
+REF_SPP=${REF_SPP:-8192}
+read -r -a BUDGET_SECONDS <<<"${BUDGET_SECONDS:-8 32 128}"
+BUDGETS=()
+for s in "${BUDGET_SECONDS[@]}"; do BUDGETS+=("--time-budget $s"); done
 
 threads=2 build=1 out=docs
 while [ $# -gt 0 ]; do
@@ -61,7 +63,7 @@ seconds_b=$(cycles 3 "$ref_b")
 {
   echo "# An OBJ asset against Blender Cycles"
   echo
-  echo "\`bench/run_asset_bench.sh --threads $threads\` on $(nproc) cores ($(date -u +%Y-%m-%d)); $(blender -b \
+  echo "\`REF_SPP=$REF_SPP BUDGET_SECONDS=\"${BUDGET_SECONDS[*]}\" bench/run_asset_bench.sh --threads $threads\` on $(nproc) cores ($(date -u +%Y-%m-%d)); $(blender -b \
 --factory-startup --python-expr 'import bpy; print("BLENDER", bpy.app.version_string)' 2>/dev/null | awk '/^BLENDER/ { print "Blender " $2 }'); $(build/apps/raybundle --version | head -1)."
   echo
   echo "$MODEL and its MTL, as published, ${SIZE}², camera eye $(vec "${EYE[@]}") target $(vec "${TARGET[@]}") (40°)."

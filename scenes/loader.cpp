@@ -483,7 +483,12 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             if (source == "file" && data.normals.empty()) obj.fail("normals", "'file', but " + rel + " has no normals");
             if (source == "computed") data.normals.clear();
             if (own_materials) {
-                const std::vector<int> materials = mesh_materials(scene, data, full, rel, obj.path());
+                std::vector<int> materials;
+                try {
+                    materials = mesh_materials(scene, data, full, rel, "");
+                } catch (const SceneError& e) {
+                    obj.fail("mesh", e.what());  // the scene file and object, then the mesh or MTL file
+                }
                 add_mesh_groups(scene, data, materials, !given.empty() ? given : obj.path() + " (" + rel, !given.empty(),
                                 obj_crease);
                 continue;

@@ -2,6 +2,8 @@
 
 #include "scenes/errors.h"
 
+#include <OpenMesh/Core/System/omstream.hh>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -46,14 +48,19 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     std::vector<TriMesh::VertexHandle> handles;
     handles.reserve(vertices.size());
     for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
+    std::size_t apart = 0;  // triangles kept apart from the others
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
         std::array<TriMesh::VertexHandle, 3> corner = {handles[t[0]], handles[t[1]], handles[t[2]]};
+        // OpenMesh prints "complex edge" where it refuses a face: said once below instead.
+        omerr().disable();
         auto f = mesh.add_face(corner[0], corner[1], corner[2]);
+        omerr().enable();
         if (!f.is_valid()) {
             // Non-manifold input (OpenMesh refuses the face): keep it as a separate triangle.
             for (int c = 0; c < 3; ++c) corner[c] = mesh.add_vertex(to_om(vertices[t[c]]));
             f = mesh.add_face(corner[0], corner[1], corner[2]);
+            ++apart;
         }
         mesh.property(material_handle, f) = triangle_materials[k];
         mesh.property(object_handle, f) = object;
@@ -66,6 +73,10 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
             mesh.property(corner_normal_handle, h) = to_array(n);
         }
     }
+    if (apart > 0)
+        warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(apart) +
+                           " triangles on edges two others already share (non-manifold, or a face given twice): "
+                           "kept as separate triangles");
     return object;
 }
 

@@ -15,7 +15,8 @@ times strength the emitted radiance, one-sided as raybundle's surfaces are
 a metallic material is refused, Principled's specular (from Ks) is printed and
 dropped. The camera, the Cycles settings (64
 bounces, no clamping, box filter, no denoising, Standard view) and the uniform scale
-to a diagonal of 1 are import_scene.py's.
+to a diagonal of 1 are import_scene.py's. Faces given twice are removed (see
+remove_duplicate_faces: Cycles would darken them).
 """
 
 import argparse
@@ -66,6 +67,29 @@ def diffuse_of(mat):
             "blender_specular": principled.inputs["Specular"].default_value}
 
 
+def remove_duplicate_faces(obj):
+    """Removes every face whose vertices another face has (the count removed).
+
+    Cycles skips only the triangle a ray leaves: the twin of a face given twice is hit
+    at distance 0 by the rays leaving it, from behind, and darkens it (a dark band on the
+    tall block of McGuire's box, whose 'bottom' faces repeat a side). raybundle keeps
+    one of the two in front of the other, the surface as one face.
+    """
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    seen, twins = set(), []
+    for f in bm.faces:
+        key = frozenset(v.index for v in f.verts)
+        if key in seen:
+            twins.append(f)
+        seen.add(key)
+    bmesh.ops.delete(bm, geom=twins, context="FACES_ONLY")
+    bm.to_mesh(obj.data)
+    bm.free()
+    return len(twins)
+
+
 def main():
     args = parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -74,6 +98,7 @@ def main():
     objects = [o for o in scene.objects if o.type == "MESH"]
     if not objects:
         raise SystemExit("%s: Blender imported no mesh" % args.obj)
+    duplicates = sum(remove_duplicate_faces(o) for o in objects)
     # The scale import_scene uses: the bounds with the eye to a diagonal of 1.
     pts = [o.matrix_world @ v.co for o in objects for v in o.data.vertices] + [Vector(args.eye)]
     lo = [min(p[k] for p in pts) for k in range(3)]
@@ -97,8 +122,8 @@ def main():
     cam = import_scene.make_camera(scene, camera, scale * math.dist(lo, hi))
     scene.world = import_scene.make_world(None)
     settings(scene, args)
-    print("cycles: %s, %d objects, materials %s, %dx%d, %d spp, %d threads, seed %d, scale %.6g" % (
-        args.obj, len(objects), json.dumps({k: v[0] for k, v in materials.items()}), args.size, args.size, args.spp,
+    print("cycles: %s, %d objects, %d duplicate faces removed, materials %s, %dx%d, %d spp, %d threads, seed %d, "
+          "scale %.6g" % (args.obj, len(objects), duplicates, json.dumps({k: v[0] for k, v in materials.items()}), args.size, args.size, args.spp,
         args.threads, args.seed, scale), flush=True)
     t0 = time.perf_counter()
     bpy.ops.render.render(write_still=False)
