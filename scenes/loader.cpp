@@ -12,6 +12,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -596,7 +597,8 @@ Scene load_model(const std::string& path, const Overrides& overrides) {
 Scene load_scene(const std::string& path, const Overrides& overrides) {
     const std::string ext = extension_of(path);
     if (ext == "obj") return load_model(path, overrides);
-    if (ext == "ply" || ext == "off")
+    std::error_code ec;
+    if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
         throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
     Scene scene = parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
     scene.files.insert(scene.files.begin(), path);
