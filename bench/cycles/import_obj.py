@@ -121,7 +121,7 @@ def main():
     # wanted, so the mesh is already in place: the same settings, set on this scene.
     cam = import_scene.make_camera(scene, camera, scale * math.dist(lo, hi))
     scene.world = import_scene.make_world(None)
-    settings(scene, args)
+    import_scene.settings(scene, args, args.size, args.size)
     print("cycles: %s, %d objects, %d duplicate faces removed, materials %s, %dx%d, %d spp, %d threads, seed %d, "
           "scale %.6g" % (args.obj, len(objects), duplicates, json.dumps({k: v[0] for k, v in materials.items()}), args.size, args.size, args.spp,
         args.threads, args.seed, scale), flush=True)
@@ -136,48 +136,6 @@ def main():
                        "blender": bpy.app.version_string, "output": args.output}, f)
             f.write("\n")
     del cam
-
-
-def settings(scene, args):
-    """import_scene.build's render and Cycles settings."""
-    r = scene.render
-    r.engine = "CYCLES"
-    r.resolution_x = r.resolution_y = args.size
-    r.resolution_percentage = 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
-    r.film_transparent = False
-    r.use_compositing = False
-    r.use_sequencer = False
-    r.threads_mode = "FIXED"
-    r.threads = args.threads
-    s = r.image_settings
-    s.file_format = "OPEN_EXR"
-    s.color_mode = "RGB"
-    s.color_depth = "32"
-    s.exr_codec = "ZIP"
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = args.spp
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.seed = args.seed
-    c.sample_clamp_direct = 0.0
-    c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "transparent_max_bounces",
-              "volume_bounces"):
-        setattr(c, k, args.bounces)
-    c.min_light_bounces = 0
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 1.0
-    c.film_exposure = 1.0
-    c.use_auto_tile = False
-    for layer in scene.view_layers:
-        layer.cycles.use_denoising = False
 
 
 if __name__ == "__main__":

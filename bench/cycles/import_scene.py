@@ -174,44 +174,12 @@ def make_camera(scene, cam, extent):
     return data
 
 
-def build(doc, args):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    # A uniform scale changes no radiance: emission is a radiance, the camera moves with
-    # the scene. It matters to Blender 3.4, whose choice between area and solid-angle
-    # (spherical triangle) sampling of an emissive triangle compares the edge length with
-    # distance / |e0 x e1|, a test that depends on the units: in millimetres it picks
-    # the spherical triangle for nearly every triangle, whose solid angle (a spherical
-    # excess from approximate arc cosines) loses precision for small, distant triangles
-    # and darkens the direct light (docs/benchmarks.md: 5 % on the Cornell box's back
-    # wall). Scaled to a diagonal of 1 it picks area sampling, which is exact.
-    eye = doc["camera"]["eye"]
-    pts = doc["positions"] + [eye]
-    lo = [min(p[k] for p in pts) for k in range(3)]
-    hi = [max(p[k] for p in pts) for k in range(3)]
-    scale = 1.0 if args.keep_scale else 1.0 / math.dist(lo, hi)
-    positions = [tuple(scale * x for x in p) for p in doc["positions"]]
-    mesh = bpy.data.meshes.new("patches")
-    mesh.from_pydata(positions, [], [tuple(t) for t in doc["triangles"]])
-    for m in doc["materials"]:
-        mesh.materials.append(make_material(m, not args.no_light_sampling))
-    mesh.polygons.foreach_set("material_index", doc["triangle_materials"])
-    mesh.polygons.foreach_set("use_smooth", [False] * len(mesh.polygons))  # flat: geometric normals
-    mesh.update()
-    if len(mesh.polygons) != len(doc["triangles"]):
-        raise SystemExit("Blender made %d faces of %d triangles" % (len(mesh.polygons), len(doc["triangles"])))
-    scene.collection.objects.link(bpy.data.objects.new("patches", mesh))
-
-    camera = dict(doc["camera"])
-    camera["eye"] = [scale * x for x in camera["eye"]]
-    camera["target"] = [scale * x for x in camera["target"]]
-    cam = make_camera(scene, camera, scale * math.dist(lo, hi))
-    scene.world = make_world(doc.get("sky"))
-
+def settings(scene, args, width, height):
+    """The render and Cycles settings of every benchmark image (import_obj.py's too)."""
     r = scene.render
     r.engine = "CYCLES"
-    r.resolution_x = doc["camera"]["width"]
-    r.resolution_y = doc["camera"]["height"]
+    r.resolution_x = width
+    r.resolution_y = height
     r.resolution_percentage = 100
     r.pixel_aspect_x = r.pixel_aspect_y = 1.0
     r.use_border = False
@@ -261,6 +229,43 @@ def build(doc, args):
     c.use_auto_tile = False
     for layer in scene.view_layers:
         layer.cycles.use_denoising = False
+
+
+def build(doc, args):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    # A uniform scale changes no radiance: emission is a radiance, the camera moves with
+    # the scene. It matters to Blender 3.4, whose choice between area and solid-angle
+    # (spherical triangle) sampling of an emissive triangle compares the edge length with
+    # distance / |e0 x e1|, a test that depends on the units: in millimetres it picks
+    # the spherical triangle for nearly every triangle, whose solid angle (a spherical
+    # excess from approximate arc cosines) loses precision for small, distant triangles
+    # and darkens the direct light (docs/benchmarks.md: 5 % on the Cornell box's back
+    # wall). Scaled to a diagonal of 1 it picks area sampling, which is exact.
+    eye = doc["camera"]["eye"]
+    pts = doc["positions"] + [eye]
+    lo = [min(p[k] for p in pts) for k in range(3)]
+    hi = [max(p[k] for p in pts) for k in range(3)]
+    scale = 1.0 if args.keep_scale else 1.0 / math.dist(lo, hi)
+    positions = [tuple(scale * x for x in p) for p in doc["positions"]]
+    mesh = bpy.data.meshes.new("patches")
+    mesh.from_pydata(positions, [], [tuple(t) for t in doc["triangles"]])
+    for m in doc["materials"]:
+        mesh.materials.append(make_material(m, not args.no_light_sampling))
+    mesh.polygons.foreach_set("material_index", doc["triangle_materials"])
+    mesh.polygons.foreach_set("use_smooth", [False] * len(mesh.polygons))  # flat: geometric normals
+    mesh.update()
+    if len(mesh.polygons) != len(doc["triangles"]):
+        raise SystemExit("Blender made %d faces of %d triangles" % (len(mesh.polygons), len(doc["triangles"])))
+    scene.collection.objects.link(bpy.data.objects.new("patches", mesh))
+
+    camera = dict(doc["camera"])
+    camera["eye"] = [scale * x for x in camera["eye"]]
+    camera["target"] = [scale * x for x in camera["target"]]
+    cam = make_camera(scene, camera, scale * math.dist(lo, hi))
+    scene.world = make_world(doc.get("sky"))
+
+    settings(scene, args, doc["camera"]["width"], doc["camera"]["height"])
     return scene, cam, scale
 
 
