@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -339,27 +340,34 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
 // the scene gets ": floor".
 void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>& materials, const std::string& name,
                      bool given, double crease) {
-    auto group_of = [&data](std::size_t t) { return data.triangle_group.empty() ? -1 : data.triangle_group[t]; };
-    // The (material, group) pairs in order of first use, and the groups of each material.
+    // The (material, group) pairs in order of first use, each with its triangles: one
+    // pass over the mesh, whatever the number of parts.
     std::vector<std::pair<int, int>> parts;
-    for (std::size_t t = 0; t < data.triangles.size(); ++t)
-        if (std::find(parts.begin(), parts.end(), std::make_pair(materials[t], group_of(t))) == parts.end())
-            parts.emplace_back(materials[t], group_of(t));
-    for (const auto& [mat, group] : parts) {
+    std::vector<std::vector<std::size_t>> members;
+    std::map<std::pair<int, int>, std::size_t> part_of;
+    for (std::size_t t = 0; t < data.triangles.size(); ++t) {
+        const std::pair<int, int> key(materials[t], data.triangle_group.empty() ? -1 : data.triangle_group[t]);
+        const auto [it, added] = part_of.emplace(key, parts.size());
+        if (added) parts.push_back(key), members.emplace_back();
+        members[it->second].push_back(t);
+    }
+    // A vertex's index in the part being made (`owner` says which part set it).
+    std::vector<int> remap(data.vertices.size(), -1), owner(data.vertices.size(), -1);
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+        const auto [mat, group] = parts[p];
         std::vector<std::array<int, 3>> tris, twins;
         std::vector<std::array<Vec3, 3>> normals, twin_normals;
-        std::vector<int> remap(data.vertices.size(), -1);
         std::vector<Vec3> vertices;
-        for (std::size_t t = 0; t < data.triangles.size(); ++t) {
-            if (materials[t] != mat || group_of(t) != group) continue;
+        for (const std::size_t t : members[p]) {
             std::array<int, 3> tri{};
             for (int k = 0; k < 3; ++k) {
-                int& v = remap[static_cast<std::size_t>(data.triangles[t][k])];
-                if (v < 0) {
-                    v = static_cast<int>(vertices.size());
-                    vertices.push_back(data.vertices[static_cast<std::size_t>(data.triangles[t][k])]);
+                const auto v = static_cast<std::size_t>(data.triangles[t][k]);
+                if (owner[v] != static_cast<int>(p)) {
+                    owner[v] = static_cast<int>(p);
+                    remap[v] = static_cast<int>(vertices.size());
+                    vertices.push_back(data.vertices[v]);
                 }
-                tri[k] = v;
+                tri[k] = remap[v];
             }
             tris.push_back(tri);
             if (!data.normals.empty()) normals.push_back(data.normals[t]);

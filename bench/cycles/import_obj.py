@@ -24,7 +24,6 @@ import json
 import math
 import os
 import sys
-import time
 
 import bpy
 from mathutils import Matrix, Vector
@@ -116,26 +115,13 @@ def main():
                 slot.material = materials[slot.material.name][1]
     camera = {"eye": [scale * x for x in args.eye], "target": [scale * x for x in args.target], "up": args.up,
               "fov_y": args.fov_y, "width": args.size, "height": args.size}
-    doc = {"camera": camera, "positions": [], "triangles": [], "materials": [], "triangle_materials": []}
-    # import_scene.build makes the scene from its document; here only its settings are
-    # wanted, so the mesh is already in place: the same settings, set on this scene.
-    cam = import_scene.make_camera(scene, camera, scale * math.dist(lo, hi))
+    import_scene.make_camera(scene, camera, scale * math.dist(lo, hi))
     scene.world = import_scene.make_world(None)
     import_scene.settings(scene, args, args.size, args.size)
     print("cycles: %s, %d objects, %d duplicate faces removed, materials %s, %dx%d, %d spp, %d threads, seed %d, "
-          "scale %.6g" % (args.obj, len(objects), duplicates, json.dumps({k: v[0] for k, v in materials.items()}), args.size, args.size, args.spp,
-        args.threads, args.seed, scale), flush=True)
-    t0 = time.perf_counter()
-    bpy.ops.render.render(write_still=False)
-    seconds = time.perf_counter() - t0
-    bpy.data.images["Render Result"].save_render(filepath=args.output, scene=scene)
-    print("cycles_render_seconds %.6f" % seconds, flush=True)
-    if args.timing:
-        with open(args.timing, "w") as f:
-            json.dump({"seconds_render": seconds, "spp": args.spp, "threads": args.threads, "seed": args.seed,
-                       "blender": bpy.app.version_string, "output": args.output}, f)
-            f.write("\n")
-    del cam
+          "scale %.6g" % (args.obj, len(objects), duplicates, json.dumps({k: v[0] for k, v in materials.items()}),
+                          args.size, args.size, args.spp, args.threads, args.seed, scale), flush=True)
+    import_scene.render_timed(scene, args)
 
 
 if __name__ == "__main__":

@@ -269,14 +269,8 @@ def build(doc, args):
     return scene, cam, scale
 
 
-def main():
-    args = parse_args()
-    with open(args.scene) as f:
-        doc = json.load(f)
-    scene, cam, scale = build(doc, args)
-    print("cycles: %s, %d triangles, %dx%d, fov_y %.6g (Blender: %.6g), %d spp, %d threads, seed %d, scale %.6g" % (
-        doc.get("scene", args.scene), len(doc["triangles"]), scene.render.resolution_x, scene.render.resolution_y,
-        doc["camera"]["fov_y"], math.degrees(cam.angle_y), args.spp, args.threads, args.seed, scale), flush=True)
+def render_timed(scene, args):
+    """Renders, saves args.output and prints (and with args.timing writes) the render's seconds."""
     t0 = time.perf_counter()
     bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - t0
@@ -287,6 +281,17 @@ def main():
             json.dump({"seconds_render": seconds, "spp": args.spp, "threads": args.threads, "seed": args.seed,
                        "blender": bpy.app.version_string, "output": args.output}, f)
             f.write("\n")
+
+
+def main():
+    args = parse_args()
+    with open(args.scene) as f:
+        doc = json.load(f)
+    scene, cam, scale = build(doc, args)
+    print("cycles: %s, %d triangles, %dx%d, fov_y %.6g (Blender: %.6g), %d spp, %d threads, seed %d, scale %.6g" % (
+        doc.get("scene", args.scene), len(doc["triangles"]), scene.render.resolution_x, scene.render.resolution_y,
+        doc["camera"]["fov_y"], math.degrees(cam.angle_y), args.spp, args.threads, args.seed, scale), flush=True)
+    render_timed(scene, args)
 
 
 if __name__ == "__main__":
