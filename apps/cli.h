@@ -63,6 +63,7 @@ struct Command {
     render::RunConfig config;
     // Outputs: nothing is written that was not asked for.
     std::vector<std::string> images;  // -o, the format by the extension
+    std::vector<std::string> baked;   // -o x.glb: the patches with their radiance (glTF)
     double exposure = 0.0;
     std::string stats, csv, patches_csv, ply, aov;
     std::string reference;  // an EXR the image is compared with (relative L1, MSE)

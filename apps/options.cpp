@@ -3,6 +3,7 @@
 #include "cli.h"
 
 #include "render/image_io.h"
+#include "render/patch_io.h"
 #include "scenes/errors.h"
 
 #include <sys/stat.h>
@@ -138,7 +139,7 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         f.row(option, yes, cmd.add_flag_callback(on, [&v] { v = true; }, help));
         f.row(option, yes, cmd.add_flag_callback(off, [&v] { v = false; }, "not " + std::string(on)));
     };
-    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; repeat for several"),
+    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; or .glb: the patches with their radiance as vertex colours; repeat for several"),
           "-o");
     f.row("", no, cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite));
     f.row("method", yes, value("--method", s.method, "iteration | walk | combined | bidirectional; or pathtrace: no solve, a "
@@ -267,6 +268,9 @@ void check_command(const CLI::App& cmd, Command& c) {
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");
+        for (const auto& image : c.images)
+            if (render::is_baked_asset(image))
+                throw UsageError("-o " + image + ": a baked asset needs a radiance field (not --method pathtrace)");
         r.path.spp = cmd.count("--spp") > 0 ? r.gather.spp : render::PathTraceOptions{}.spp;
     } else if (r.gather.gather_rays == 0) {
         for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
@@ -300,14 +304,23 @@ void check_command(const CLI::App& cmd, Command& c) {
     // Every output names a file that can be written, and no two outputs, nor an output
     // and an input, the same file (compared once resolved: ./d/x.exr is d/x.exr).
     std::vector<render::NamedFile>& outputs = c.outputs;
+    // -o takes images and baked assets (.glb); they part here.
+    std::vector<std::string> images;
+    c.baked.clear();
     for (const auto& image : c.images) {
-        try {
-            render::image_format(image);
-        } catch (const scenes::OptionError& e) {
-            throw UsageError("-o " + e.problem());
+        if (render::is_baked_asset(image)) {
+            c.baked.push_back(image);
+        } else {
+            try {
+                render::image_format(image);
+            } catch (const scenes::OptionError& e) {
+                throw UsageError("-o " + e.problem() + " or .glb (a baked asset)");
+            }
+            images.push_back(image);
         }
         outputs.push_back({image, "-o"});
     }
+    c.images = std::move(images);
     for (const auto& [path, flag] : {std::pair{c.stats, "--stats"}, {c.csv, "--csv"}, {c.patches_csv, "--patches"},
                                      {c.ply, "--ply"}})
         if (!path.empty()) outputs.push_back({path, flag});

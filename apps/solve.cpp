@@ -35,6 +35,9 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
         outputs.stage(c.patches_csv, [&](const std::string& tmp) { render::write_patch_csv(tmp, scene, *r.field); });
     if (r.field && !c.ply.empty())
         outputs.stage(c.ply, [&](const std::string& tmp) { render::write_patch_ply(tmp, scene, *r.field, c.exposure); });
+    if (r.field)
+        for (const auto& path : c.baked)
+            outputs.stage(path, [&](const std::string& tmp) { render::write_patch_glb(tmp, scene, *r.field, c.exposure); });
     if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { render::write_convergence_csv(tmp, r.rows); });
     nlohmann::json record = r.record;
     if (r.signal != 0) record["interrupted_by"] = render::signal_name(r.signal);
@@ -45,6 +48,7 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
 // The summary line: the run's (render/run_record.h) and the files written.
 void print_summary(const Command& c, const scenes::Scene& scene, const render::RunResult& r) {
     std::vector<std::string> written = c.images;
+    if (r.field) written.insert(written.end(), c.baked.begin(), c.baked.end());
     if (r.gather && !c.aov.empty()) written.push_back(c.aov + "/");
     const auto files = r.field ? std::vector<const std::string*>{&c.stats, &c.csv, &c.patches_csv, &c.ply}
                                : std::vector<const std::string*>{&c.csv, &c.stats};

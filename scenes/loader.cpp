@@ -377,7 +377,7 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
                     twin_normals.push_back({-data.normals[t][0], -data.normals[t][2], -data.normals[t][1]});
             }
         }
-        const auto groups_of_mat = std::count_if(parts.begin(), parts.end(), [m = mat](const auto& p) { return p.first == m; });
+        const auto groups_of_mat = std::count_if(parts.begin(), parts.end(), [m = mat](const auto& other) { return other.first == m; });
         std::string part = scene.materials[static_cast<std::size_t>(mat)].name;
         if (groups_of_mat > 1) part = (group < 0 ? std::string("(no group)") : data.groups[static_cast<std::size_t>(group)]) + "/" + part;
         const int id = scene.add_object(vertices, tris, mat, given ? name + ": " + part : name + ": " + part + ")", -1, normals);
@@ -476,6 +476,10 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
             } catch (const SceneError& e) {
                 obj.fail("mesh", e.what());
             }
+            // What a glTF file brings besides its triangles.
+            scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
+            scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
+            scene.point_lights.insert(scene.point_lights.end(), data.point_lights.begin(), data.point_lights.end());
             for (std::size_t v = 0; v < data.vertices.size(); ++v)
                 if (data.vertices[v].cwiseAbs().maxCoeff() > kMaxMagnitude)
                     obj.fail("mesh", rel + ": vertex " + std::to_string(v) + ": coordinate " +
@@ -577,8 +581,9 @@ std::string extension_of(const std::string& path) {
     return ext;
 }
 
-// A model file alone as a scene: the document parse_scene would read, with a camera
-// that frames it from +z and a patch size of 1/25 of its largest extent.
+// A model file alone as a scene: the document parse_scene would read, with the file's
+// camera (glTF) or one that frames it from +z, and a patch size of 1/25 of its largest
+// extent.
 Scene load_model(const std::string& path, const Overrides& overrides) {
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
@@ -588,13 +593,11 @@ Scene load_model(const std::string& path, const Overrides& overrides) {
     const double size = extent.maxCoeff(), fov = 40.0;
     const double distance = 0.5 * std::max({extent.x(), extent.y(), 1e-9 * size}) / std::tan(0.5 * fov * M_PI / 180.0);
     const std::string name = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
-    const json doc = {
-        {"camera",
-         {{"eye", {centre.x(), centre.y(), hi.z() + distance}},
-          {"target", {centre.x(), centre.y(), centre.z()}},
-          {"fov_y", fov}}},
-        {"objects", json::array({{{"mesh", name}}})},
-        {"patch_size", size / 25.0}};
+    json camera = {{"eye", {centre.x(), centre.y(), hi.z() + distance}},
+                   {"target", {centre.x(), centre.y(), centre.z()}},
+                   {"fov_y", fov}};
+    if (data.camera) camera = camera_json(*data.camera);
+    const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}, {"patch_size", size / 25.0}};
     Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides);
     scene.files.insert(scene.files.begin(), path);
     return scene;
@@ -604,7 +607,7 @@ Scene load_model(const std::string& path, const Overrides& overrides) {
 
 Scene load_scene(const std::string& path, const Overrides& overrides) {
     const std::string ext = extension_of(path);
-    if (ext == "obj") return load_model(path, overrides);
+    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides);
     std::error_code ec;
     if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
         throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");

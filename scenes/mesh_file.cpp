@@ -136,14 +136,26 @@ std::string read_input_file(const std::string& path, const std::string& shown, c
 
 MeshData read_mesh_file(const std::string& path, const std::string& shown) {
     const std::string ext = lower_extension(path);
+    if (ext == "gltf" || ext == "glb") {
+        // tinygltf takes the size as 32 bits.
+        const auto slash = path.find_last_of('/');
+        MeshData data = read_gltf(read_input_file(path, shown, "mesh file", kMaxGltfFileBytes), ext == "glb", shown,
+                                  slash == std::string::npos ? std::string(".") : path.substr(0, slash),
+                                  kMaxMeshTriangles);
+        return data;
+    }
     if (ext != "obj" && ext != "off" && ext != "ply")
-        throw SceneError(shown, "", "unknown mesh format '." + ext + "' (known: .obj, .ply, .off)");
+        throw SceneError(shown, "", "unknown mesh format '." + ext + "' (known: .obj, .ply, .off, .gltf, .glb)");
     return parse_mesh(read_input_file(path, shown, "mesh file", kMaxMeshFileBytes), ext, shown);
 }
 
-MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown) {
+MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown,
+                    std::size_t max_triangles) {
     MeshData data;
-    if (format == "obj") {
+    if (format == "gltf" || format == "glb") {
+        if (content.size() > kMaxGltfFileBytes) throw SceneError(shown, "", "a glTF file of more than 2 GiB");
+        data = read_gltf(content, format == "glb", shown, std::nullopt, max_triangles);
+    } else if (format == "obj") {
         std::istringstream in{std::string(content)};
         data = read_obj(in, shown);
     } else if (format == "off") {
@@ -151,7 +163,7 @@ MeshData parse_mesh(std::string_view content, const std::string& format, const s
     } else if (format == "ply") {
         data = read_ply(content, shown);
     } else {
-        throw SceneError(shown, "", "unknown mesh format '" + format + "' (known: obj, ply, off)");
+        throw SceneError(shown, "", "unknown mesh format '" + format + "' (known: obj, ply, off, gltf, glb)");
     }
     if (data.triangles.empty()) throw SceneError(shown, "", "the mesh has no faces");
     if (data.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -27,6 +28,14 @@ struct MeshData {
     // lines (as written: relative to the OBJ's folder), in order.
     std::vector<int> triangle_material, triangle_group;
     std::vector<std::string> materials, groups, material_libraries;
+    // glTF only: the file's own materials (mapped: docs/scene-format.md), one per name
+    // of `materials`; its KHR_lights_punctual point lights and its first camera (in
+    // world space); what was read otherwise or not at all, one line each (naming the
+    // file); and the files it read besides itself (buffers, textures).
+    std::vector<Material> material_defs;
+    std::vector<PointLight> point_lights;
+    std::optional<Camera> camera;
+    std::vector<std::string> warnings, resources;
 };
 
 // A material of an MTL file, as written (scenes/loader.cpp maps it: docs/scene-format.md).
@@ -59,6 +68,10 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
 std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
                                 const std::string& where);
 
+// The most triangles a mesh file may give once its instances are placed (a glTF node
+// tree can place one mesh many times): five times what the patch limit lets through.
+inline constexpr std::size_t kMaxMeshTriangles = 100'000'000;
+
 // Reads `path` (shown as `shown` in errors). Throws SceneError naming the file and
 // the offending line or count: missing or unreadable file, not a regular file (a
 // directory, FIFO or device), unknown extension, a malformed header or count, a face
@@ -69,8 +82,17 @@ std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::s
 // vertex with some of nx, ny, nz).
 // Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
-// The same from the file's bytes, `format` "obj", "ply" or "off".
-MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown);
+// glTF 2.0 (.gltf, .glb; scenes/mesh_gltf.cpp): the triangles of the default scene's
+// nodes in world space, its materials, point lights and first camera. Throws
+// SceneError naming the file and the object: malformed JSON or GLB, a missing buffer,
+// an accessor out of its buffer's range, an index out of range, a node that is its own
+// ancestor or has two parents, a required extension it cannot read, more than
+// `max_triangles` triangles.
+//
+// The same from the file's bytes, `format` "obj", "ply", "off", "gltf" or "glb". A
+// glTF read from bytes has no folder: a buffer or image in another file is refused.
+MeshData parse_mesh(std::string_view content, const std::string& format, const std::string& shown,
+                    std::size_t max_triangles = kMaxMeshTriangles);
 
 // A polygon's triangles, as triples of positions in `corners` (counter-clockwise
 // seen from the side its corners turn counter-clockwise around, as the fan keeps

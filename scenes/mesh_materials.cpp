@@ -1,5 +1,6 @@
 #include "scenes/errors.h"
 #include "scenes/mesh_file.h"
+#include "scenes/mesh_readers.h"
 
 #include <png.h>
 
@@ -11,6 +12,8 @@
 #include <vector>
 
 namespace raybundle::scenes {
+
+using mesh_detail::png_mean_colour;
 
 namespace {
 
@@ -29,29 +32,14 @@ std::string in_folder(const std::string& folder, const std::string& name) {
     return !name.empty() && name[0] == '/' ? name : folder + name;
 }
 
-// The mean linear colour of a PNG texture (sRGB decoded, alpha ignored), or nothing
-// for a file that is not a PNG it can read.
+// The mean linear colour of a PNG texture file, or nothing for a file that is not a
+// PNG it can read.
 std::optional<Rgb> texture_mean(const std::string& path) {
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&image, path.c_str())) return std::nullopt;
-    image.format = PNG_FORMAT_RGB;
-    // At most 16k x 16k texels (768 MB): a larger header is not a texture to average.
-    if (image.width == 0 || image.height == 0 || image.width > 16384 || image.height > 16384) {
-        png_image_free(&image);
+    try {
+        return png_mean_colour(read_input_file(path, path, "texture", kMaxSceneFileBytes));
+    } catch (const SceneError&) {
         return std::nullopt;
     }
-    std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
-    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr)) return std::nullopt;
-    double decoded[256];
-    for (int v = 0; v < 256; ++v) {
-        const double c = v / 255.0;
-        decoded[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-    }
-    Rgb sum = Rgb::Zero();
-    for (std::size_t i = 0; i + 2 < texels.size(); i += 3)
-        sum += Rgb(decoded[texels[i]], decoded[texels[i + 1]], decoded[texels[i + 2]]);
-    return sum / (static_cast<double>(texels.size()) / 3.0);
 }
 
 // A material of the scene from an MTL's: Kd the albedo, Ke the emission, Ks and Ns the
@@ -99,10 +87,48 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
 
 }  // namespace
 
+namespace mesh_detail {
+
+std::optional<Rgb> png_mean_colour(std::string_view bytes) {
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size())) return std::nullopt;
+    image.format = PNG_FORMAT_RGB;
+    // At most 16k x 16k texels (768 MB): a larger header is not a texture to average.
+    if (image.width == 0 || image.height == 0 || image.width > 16384 || image.height > 16384) {
+        png_image_free(&image);
+        return std::nullopt;
+    }
+    std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
+    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr)) return std::nullopt;
+    double decoded[256];
+    for (int v = 0; v < 256; ++v) {
+        const double c = v / 255.0;
+        decoded[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+    }
+    Rgb sum = Rgb::Zero();
+    for (std::size_t i = 0; i + 2 < texels.size(); i += 3)
+        sum += Rgb(decoded[texels[i]], decoded[texels[i + 1]], decoded[texels[i + 2]]);
+    return sum / (static_cast<double>(texels.size()) / 3.0);
+}
+
+}  // namespace mesh_detail
+
 std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
                                 const std::string& where) {
     if (data.materials.empty())
         throw SceneError(shown, where, "has no \"material\", and names none itself (no usemtl)");
+    // A glTF file defines its materials itself (one per name, mapped by its reader).
+    if (!data.material_defs.empty()) {
+        std::vector<int> index(data.materials.size());
+        for (std::size_t k = 0; k < data.materials.size(); ++k) {
+            const int m = scene.find_material(data.materials[k]);
+            index[k] = m >= 0 ? m : scene.add_material(data.material_defs[k]);
+        }
+        std::vector<int> out(data.triangles.size());
+        for (std::size_t t = 0; t < out.size(); ++t) out[t] = index[static_cast<std::size_t>(data.triangle_material[t])];
+        return out;
+    }
     // The MTL files, relative to the mesh's folder; the first definition of a name counts.
     struct Defined {
         MtlMaterial material;

@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <istream>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -158,5 +159,14 @@ private:
 MeshData read_obj(std::istream& in, const std::string& shown);
 MeshData read_off(std::string_view content, const std::string& shown);
 MeshData read_ply(std::string_view content, const std::string& shown);
+// glTF 2.0 (scenes/mesh_gltf.cpp); `folder` holds the files its URIs name (none:
+// a buffer or image in another file is refused).
+inline constexpr std::uintmax_t kMaxGltfFileBytes = (std::uintmax_t{1} << 31) - 1;
+MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
+                   const std::optional<std::string>& folder, std::size_t max_triangles);
+
+// The mean linear colour of a PNG image's bytes (sRGB decoded, alpha ignored), or
+// nothing for bytes that are not a PNG it can read (scenes/mesh_materials.cpp).
+std::optional<Rgb> png_mean_colour(std::string_view bytes);
 
 }  // namespace raybundle::scenes::mesh_detail

@@ -8,13 +8,13 @@
 # build-fuzz/findings/NAME/. Prints a line per harness and writes them to
 # build-fuzz/fuzz-report.md; exits 1 on any finding.
 # Usage: scripts/fuzz.sh [SECONDS] [HARNESS ...]   (default: 600 s; scene obj
-#        ply-ascii ply-binary off checkpoint mtl)
+#        ply-ascii ply-binary off checkpoint mtl gltf glb)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-600}
 shift || true
 harnesses=("$@")
-[ ${#harnesses[@]} -gt 0 ] || harnesses=(scene obj ply-ascii ply-binary off checkpoint mtl)
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(scene obj ply-ascii ply-binary off checkpoint mtl gltf glb)
 jobs=${RAYBUNDLE_JOBS:-2}
 
 ./scripts/setup-deps.sh --fuzz

@@ -247,7 +247,7 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
                               Contains("zero.off: is not a regular file"));
         }
         CHECK_THROWS_WITH(read_mesh_file(dir.write("x.stl", "solid"), "x.stl"),
-                          "x.stl: unknown mesh format '.stl' (known: .obj, .ply, .off)");
+                          "x.stl: unknown mesh format '.stl' (known: .obj, .ply, .off, .gltf, .glb)");
         CHECK_THROWS_WITH(load_scene(fifo), Contains("f.ply: is not a regular file") && Contains("scene file"));
     }
 }

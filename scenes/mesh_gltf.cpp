@@ -1,0 +1,589 @@
+// glTF 2.0 (.gltf and .glb) through tinygltf (scenes/tiny_gltf.cpp): the triangles of
+// the default scene's nodes in world space, with their materials mapped to ours, the
+// KHR_lights_punctual point lights and the first camera (docs/scene-format.md, "glTF").
+// tinygltf parses the JSON and the GLB container and decodes data URIs; everything it
+// leaves unchecked (accessor ranges, indices, the node tree) is checked here, before
+// anything is allocated for it.
+#include "scenes/errors.h"
+#include "scenes/mesh_readers.h"
+
+#include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+
+namespace raybundle::scenes::mesh_detail {
+
+namespace {
+
+constexpr std::size_t kMaxJsonNesting = 64;
+
+std::string number(double x) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", x);
+    return text;
+}
+
+// nlohmann's parser recurses once per level: a file nested thousands deep would
+// overflow the stack inside tinygltf. Counted here first (strings skipped).
+void check_nesting(std::string_view json, const std::string& shown) {
+    std::size_t depth = 0;
+    bool in_string = false, escaped = false;
+    for (const char c : json) {
+        if (in_string) {
+            if (escaped) escaped = false;
+            else if (c == '\\') escaped = true;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '{' || c == '[') {
+            if (++depth > kMaxJsonNesting)
+                throw SceneError(shown, "", "JSON nested more than " + std::to_string(kMaxJsonNesting) + " deep");
+        } else if ((c == '}' || c == ']') && depth > 0) {
+            --depth;
+        }
+    }
+}
+
+// The JSON chunk of a GLB (for check_nesting); tinygltf checks the container itself.
+std::string_view glb_json(std::string_view bytes) {
+    if (bytes.size() < 20) return {};
+    std::uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
+}
+
+// File access for tinygltf: regular files under the asset's folder only, through
+// read_input_file (no FIFO, device or directory; at most 2 GiB), recorded as inputs.
+struct Files {
+    std::optional<std::string> folder;
+    std::string shown;
+    std::vector<std::string> read;
+};
+
+bool file_exists(const std::string& path, void* user) {
+    std::error_code ec;
+    return static_cast<Files*>(user)->folder && std::filesystem::is_regular_file(path, ec);
+}
+std::string expand_path(const std::string& path, void*) { return path; }  // no wordexp
+bool read_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+    auto& files = *static_cast<Files*>(user);
+    if (!files.folder) {
+        *err += "'" + path + "' is another file, and this glTF was read from memory";
+        return false;
+    }
+    try {
+        const std::string bytes = read_input_file(path, path, "glTF resource", kMaxGltfFileBytes);
+        out->assign(bytes.begin(), bytes.end());
+        files.read.push_back(path);
+        return true;
+    } catch (const SceneError& e) {
+        *err += e.what();
+        return false;
+    }
+}
+bool write_file(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+    *err += "the reader writes nothing";
+    return false;
+}
+// Images keep their encoded bytes: a texture is read by its mean colour (PNG only).
+bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, int, const unsigned char* bytes,
+                int size, void*) {
+    if (size > 0) image->image.assign(bytes, bytes + size);
+    image->width = image->height = 0;
+    return true;
+}
+
+// The first line of tinygltf's message, without its trailing newline.
+std::string first_line(const std::string& text) {
+    std::string line = text.substr(0, text.find('\n'));
+    if (line.size() > 300) line = line.substr(0, 300) + "...";
+    return line;
+}
+
+using Matrix4 = Eigen::Matrix4d;
+
+// A run of elements of an accessor, checked against its buffer view and buffer.
+struct Elements {
+    const unsigned char* base = nullptr;
+    std::size_t stride = 0, count = 0;
+    int component = 0, components = 0;
+};
+
+class Reader {
+public:
+    Reader(const tinygltf::Model& model, const std::string& shown, std::size_t max_triangles, MeshData& out)
+        : model_(model), shown_(shown), max_triangles_(max_triangles), out_(out) {}
+
+    void read() {
+        check_extensions();
+        read_materials();
+        for (const int root : roots()) visit(root, Matrix4::Identity(), 0);
+        if (out_.triangles.empty()) throw SceneError(shown_, "", "the glTF scene places no triangles");
+        // Only the materials the placed triangles use, in order of first use.
+        std::vector<int> used(out_.materials.size(), -1);
+        std::vector<std::string> names;
+        std::vector<Material> defs;
+        for (int& m : out_.triangle_material) {
+            auto& u = used[static_cast<std::size_t>(m)];
+            if (u < 0) {
+                u = static_cast<int>(names.size());
+                names.push_back(out_.materials[static_cast<std::size_t>(m)]);
+                defs.push_back(material_def(m));
+            }
+            m = u;
+        }
+        out_.materials = std::move(names);
+        out_.material_defs = std::move(defs);
+    }
+
+private:
+    [[noreturn]] void fail(const std::string& where, const std::string& what) const {
+        throw SceneError(shown_, where, what);
+    }
+    void warn(const std::string& what) { out_.warnings.push_back(shown_ + ": " + what); }
+
+    // Extensions: those it reads, those it may ignore with a warning, and required
+    // ones it cannot read (compressed or quantized geometry would be misread).
+    void check_extensions() {
+        static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                                   "KHR_materials_unlit"};
+        for (const auto& e : model_.extensionsRequired)
+            if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");
+        for (const auto& e : model_.extensionsUsed)
+            if (!read.count(e)) warn("extension " + e + " is not read (ignored)");
+    }
+
+    // ------------------------------------------------------------------ materials
+    // The mean colour of a texture (PNG; embedded, a data URI, or a file beside the asset).
+    std::optional<Rgb> texture_mean(int texture, const std::string& where) {
+        if (texture < 0) return std::nullopt;
+        if (static_cast<std::size_t>(texture) >= model_.textures.size()) fail(where, "texture index out of range");
+        const int source = model_.textures[static_cast<std::size_t>(texture)].source;
+        if (source < 0 || static_cast<std::size_t>(source) >= model_.images.size())
+            fail(where, "texture " + std::to_string(texture) + ": image index out of range");
+        const auto& image = model_.images[static_cast<std::size_t>(source)];
+        std::optional<Rgb> mean;
+        if (!image.image.empty()) {
+            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(image.image.data()), image.image.size()));
+        } else if (image.bufferView >= 0) {
+            const auto view = buffer_view(image.bufferView, where + ": image");
+            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(view.first), view.second));
+        }
+        return mean;
+    }
+
+    // glTF's metallic-roughness model as ours: base colour (times its texture's mean)
+    // split into a diffuse part (1 - metallic) and a Phong lobe (metallic) whose
+    // exponent follows the roughness (n = 2 / roughness^4 - 2: the Phong lobe of the
+    // GGX width alpha = roughness^2); a lobe of exponent 0 is diffuse and joins it. The
+    // emission is emissiveFactor times KHR_materials_emissive_strength.
+    Material material(const tinygltf::Material& m, const std::string& name, const std::string& where) {
+        Material out;
+        out.name = name;
+        const auto& pbr = m.pbrMetallicRoughness;
+        const auto factor = [&](const std::vector<double>& v, std::size_t n, const char* key) {
+            if (v.size() < n) fail(where, std::string(key) + " has " + std::to_string(v.size()) + " values");
+            Rgb c(v[0], v[1], v[2]);
+            if (!c.allFinite() || (c < 0.0).any()) fail(where, std::string(key) + " is negative or not finite");
+            return c;
+        };
+        Rgb base = factor(pbr.baseColorFactor, 4, "baseColorFactor");
+        if (pbr.baseColorTexture.index >= 0) {
+            if (const auto mean = texture_mean(pbr.baseColorTexture.index, where)) {
+                base = base * *mean;
+                warn("material '" + name + "': its base colour texture is read as its mean colour");
+            } else {
+                warn("material '" + name + "': its base colour texture is not read (not a PNG); its factor is the colour");
+            }
+        }
+        const double metallic = pbr.metallicFactor, roughness = pbr.roughnessFactor;
+        if (!(metallic >= 0.0 && metallic <= 1.0)) fail(where, "metallicFactor " + number(metallic) + " is not in 0..1");
+        if (!(roughness >= 0.0 && roughness <= 1.0)) fail(where, "roughnessFactor " + number(roughness) + " is not in 0..1");
+        if (pbr.metallicRoughnessTexture.index >= 0)
+            warn("material '" + name + "': its metallic-roughness texture is not read (the factors are)");
+        out.albedo = base * (1.0 - metallic);
+        const double exponent = roughness > 0.0 ? std::min(2.0 / std::pow(roughness, 4) - 2.0, 1e4) : 1e4;
+        if (metallic > 0.0 && exponent > 0.0) {
+            out.specular = base * metallic;
+            out.exponent = exponent;
+        } else {
+            out.albedo = base;
+        }
+        Rgb emission = factor(m.emissiveFactor, 3, "emissiveFactor");
+        if (const auto it = m.extensions.find("KHR_materials_emissive_strength"); it != m.extensions.end()) {
+            const auto& strength = it->second.Get("emissiveStrength");
+            if (!strength.IsNumber() || !(strength.GetNumberAsDouble() >= 0.0) ||
+                !std::isfinite(strength.GetNumberAsDouble()))
+                fail(where, "KHR_materials_emissive_strength: emissiveStrength is not a number >= 0");
+            emission *= strength.GetNumberAsDouble();
+        }
+        if (m.emissiveTexture.index >= 0 && (emission > 0.0).any()) {
+            if (const auto mean = texture_mean(m.emissiveTexture.index, where)) {
+                emission = emission * *mean;
+                warn("material '" + name + "': its emissive texture is read as its mean colour");
+            } else {
+                warn("material '" + name + "': its emissive texture is not read (not a PNG); its factor is the emission");
+            }
+        }
+        out.emission = emission;
+        out.two_sided = m.doubleSided;
+        if (m.alphaMode == "BLEND" || m.alphaMode == "MASK")
+            warn("material '" + name + "': alphaMode " + m.alphaMode + " is read as OPAQUE");
+        const Rgb sum = out.albedo + out.specular;
+        if (const double most = sum.maxCoeff(); !(most < 1.0)) {
+            const double scale = 0.99 / most;
+            out.albedo *= scale;
+            out.specular *= scale;
+            warn("material '" + name + "': reflects " + number(most) + " of the light it receives: scaled by " +
+                 number(scale));
+        }
+        return out;
+    }
+
+    // Every material of the file under a name of its own ("material 3" where it has
+    // none, "name #2" for the second of a name), and glTF's default material last; they
+    // are mapped (material()) once the triangles are placed, those used only.
+    void read_materials() {
+        std::map<std::string, int> seen;
+        auto unique = [&](std::string name) {
+            const int n = ++seen[name];
+            return n == 1 ? name : name + " #" + std::to_string(n);
+        };
+        for (std::size_t i = 0; i < model_.materials.size(); ++i) {
+            const auto& m = model_.materials[i];
+            out_.materials.push_back(unique(m.name.empty() ? "material " + std::to_string(i) : m.name));
+        }
+        default_material_ = static_cast<int>(out_.materials.size());
+        out_.materials.push_back(unique("(default)"));
+    }
+
+    Material material_def(int index) {
+        const std::string& name = out_.materials[static_cast<std::size_t>(index)];
+        if (index < default_material_)
+            return material(model_.materials[static_cast<std::size_t>(index)], name,
+                            "materials[" + std::to_string(index) + "]");
+        tinygltf::Material fallback;  // glTF's defaults: white, metallic 1, roughness 1
+        fallback.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+        fallback.emissiveFactor = {0.0, 0.0, 0.0};
+        fallback.pbrMetallicRoughness.metallicFactor = fallback.pbrMetallicRoughness.roughnessFactor = 1.0;
+        return material(fallback, name, "a primitive without material");
+    }
+
+    // ------------------------------------------------------------------ node tree
+    std::vector<int> roots() const {
+        if (!model_.scenes.empty()) {
+            const int s = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+            if (static_cast<std::size_t>(s) >= model_.scenes.size())
+                fail("scene", "default scene " + std::to_string(s) + " out of range");
+            return model_.scenes[static_cast<std::size_t>(s)].nodes;
+        }
+        // No scene: every node that is nobody's child.
+        std::vector<bool> child(model_.nodes.size(), false);
+        for (const auto& n : model_.nodes)
+            for (int c : n.children)
+                if (c >= 0 && static_cast<std::size_t>(c) < child.size()) child[static_cast<std::size_t>(c)] = true;
+        std::vector<int> out;
+        for (std::size_t i = 0; i < child.size(); ++i)
+            if (!child[i]) out.push_back(static_cast<int>(i));
+        return out;
+    }
+
+    Matrix4 local(const tinygltf::Node& n, const std::string& where) const {
+        Matrix4 m = Matrix4::Identity();
+        if (n.matrix.size() == 16) {
+            for (int i = 0; i < 16; ++i) m(i % 4, i / 4) = n.matrix[static_cast<std::size_t>(i)];  // column-major
+        } else {
+            if (n.translation.size() == 3) m.block<3, 1>(0, 3) = Vec3(n.translation[0], n.translation[1], n.translation[2]);
+            Eigen::Matrix3d rs = Eigen::Matrix3d::Identity();
+            if (n.rotation.size() == 4) {
+                const Eigen::Quaterniond q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+                if (!(q.norm() > 0.0)) fail(where, "rotation is not a unit quaternion");
+                rs = q.normalized().toRotationMatrix();
+            }
+            if (n.scale.size() == 3) rs = rs * Vec3(n.scale[0], n.scale[1], n.scale[2]).asDiagonal();
+            m.block<3, 3>(0, 0) = rs;
+        }
+        if (!m.allFinite()) fail(where, "its transform is not finite");
+        return m;
+    }
+
+    void visit(int index, const Matrix4& parent, std::size_t depth) {
+        const std::string where = "nodes[" + std::to_string(index) + "]";
+        if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size()) fail(where, "node index out of range");
+        if (depth > model_.nodes.size()) fail(where, "is its own ancestor");  // unreachable after `placed`
+        if (!placed_.insert(index).second)
+            fail(where, on_path_.count(index) ? "is its own ancestor (the node tree has a cycle)"
+                                              : "has two parents (a node is placed once)");
+        on_path_.insert(index);
+        const auto& node = model_.nodes[static_cast<std::size_t>(index)];
+        const Matrix4 world = parent * local(node, where);
+        if (node.mesh >= 0) place_mesh(node, world, where);
+        if (node.camera >= 0) place_camera(node, world, where);
+        if (const auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end())
+            place_light(it->second, world, where);
+        for (const int c : node.children) visit(c, world, depth + 1);
+        on_path_.erase(index);
+    }
+
+    // --------------------------------------------------------------- accessors
+    std::pair<const unsigned char*, std::size_t> buffer_view(int index, const std::string& where) const {
+        if (index < 0 || static_cast<std::size_t>(index) >= model_.bufferViews.size())
+            fail(where, "bufferView " + std::to_string(index) + " out of range");
+        const auto& view = model_.bufferViews[static_cast<std::size_t>(index)];
+        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model_.buffers.size())
+            fail(where, "bufferViews[" + std::to_string(index) + "]: buffer " + std::to_string(view.buffer) +
+                            " out of range");
+        const auto& data = model_.buffers[static_cast<std::size_t>(view.buffer)].data;
+        if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset)
+            fail(where, "bufferViews[" + std::to_string(index) + "]: bytes " + std::to_string(view.byteOffset) + ".." +
+                            std::to_string(view.byteOffset + view.byteLength) + " lie outside its buffer of " +
+                            std::to_string(data.size()) + " bytes (missing or short buffer?)");
+        return {data.data() + view.byteOffset, view.byteLength};
+    }
+
+    Elements elements(int index, const std::string& where, const char* what) const {
+        const std::string at = where + ": " + what;
+        if (index < 0 || static_cast<std::size_t>(index) >= model_.accessors.size())
+            fail(at, "accessor " + std::to_string(index) + " out of range");
+        const auto& a = model_.accessors[static_cast<std::size_t>(index)];
+        const std::string named = at + " (accessors[" + std::to_string(index) + "])";
+        if (a.sparse.isSparse) fail(named, "sparse accessors are not read");
+        if (a.bufferView < 0) fail(named, "has no bufferView");
+        const auto [base, length] = buffer_view(a.bufferView, named);
+        Elements e;
+        e.component = a.componentType;
+        e.components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
+        const int bytes = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+        if (e.components <= 0 || bytes <= 0) fail(named, "unknown type or componentType");
+        const std::size_t size = static_cast<std::size_t>(e.components) * static_cast<std::size_t>(bytes);
+        const std::size_t declared = model_.bufferViews[static_cast<std::size_t>(a.bufferView)].byteStride;
+        e.stride = declared == 0 ? size : declared;
+        if (e.stride < size) fail(named, "byteStride " + std::to_string(e.stride) + " is less than an element");
+        e.count = a.count;
+        if (e.count > 0 && (a.byteOffset > length || size > length - a.byteOffset ||
+                            (e.count - 1) > (length - a.byteOffset - size) / e.stride))
+            fail(named, std::to_string(e.count) + " elements from byte " + std::to_string(a.byteOffset) +
+                            " do not fit in its bufferView of " + std::to_string(length) + " bytes");
+        e.base = base + a.byteOffset;
+        return e;
+    }
+
+    std::vector<Vec3> vec3s(int index, const std::string& where, const char* what) const {
+        const Elements e = elements(index, where, what);
+        if (e.components != 3 || e.component != TINYGLTF_COMPONENT_TYPE_FLOAT)
+            fail(where + ": " + what, "expected VEC3 of FLOAT");
+        std::vector<Vec3> out(e.count);
+        for (std::size_t i = 0; i < e.count; ++i) {
+            float f[3];
+            std::memcpy(f, e.base + i * e.stride, sizeof f);
+            out[i] = Vec3(f[0], f[1], f[2]);
+        }
+        return out;
+    }
+
+    std::vector<std::uint32_t> indices(int index, std::size_t vertices, const std::string& where) const {
+        std::vector<std::uint32_t> out;
+        if (index < 0) {
+            out.resize(vertices);
+            for (std::size_t i = 0; i < vertices; ++i) out[i] = static_cast<std::uint32_t>(i);
+            return out;
+        }
+        const Elements e = elements(index, where, "indices");
+        if (e.components != 1) fail(where + ": indices", "expected SCALAR");
+        out.resize(e.count);
+        for (std::size_t i = 0; i < e.count; ++i) {
+            const unsigned char* p = e.base + i * e.stride;
+            std::uint32_t v = 0;
+            if (e.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+                v = *p;
+            } else if (e.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+                std::uint16_t s;
+                std::memcpy(&s, p, 2);
+                v = s;
+            } else if (e.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+                std::memcpy(&v, p, 4);
+            } else {
+                fail(where + ": indices", "expected UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT");
+            }
+            if (v >= vertices)
+                fail(where + ": indices", "index " + std::to_string(v) + " at " + std::to_string(i) +
+                                              " out of range (" + std::to_string(vertices) + " vertices)");
+            out[i] = v;
+        }
+        return out;
+    }
+
+    // ------------------------------------------------------------------ placing
+    void place_mesh(const tinygltf::Node& node, const Matrix4& world, const std::string& where) {
+        if (static_cast<std::size_t>(node.mesh) >= model_.meshes.size())
+            fail(where, "mesh " + std::to_string(node.mesh) + " out of range");
+        const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
+        const std::string group = !node.name.empty() ? node.name : !mesh.name.empty() ? mesh.name : where;
+        const int group_index = static_cast<int>(out_.groups.size());
+        out_.groups.push_back(group);
+        const Eigen::Matrix3d linear = world.block<3, 3>(0, 0);
+        const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
+        const bool flipped = linear.determinant() < 0.0;  // a mirror turns front faces round
+        for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
+            const auto& prim = mesh.primitives[p];
+            const std::string at = "meshes[" + std::to_string(node.mesh) + "].primitives[" + std::to_string(p) + "]";
+            if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+                prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+                warn(at + ": points or lines (mode " + std::to_string(prim.mode) + ") are not surfaces: skipped");
+                continue;
+            }
+            const auto position = prim.attributes.find("POSITION");
+            if (position == prim.attributes.end()) fail(at, "has no POSITION");
+            const std::vector<Vec3> local_positions = vec3s(position->second, at, "POSITION");
+            const std::vector<std::uint32_t> idx = indices(prim.indices, local_positions.size(), at);
+            std::vector<std::array<std::uint32_t, 3>> tris;
+            if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
+                for (std::size_t i = 0; i + 2 < idx.size(); i += 3) tris.push_back({idx[i], idx[i + 1], idx[i + 2]});
+            } else if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+                for (std::size_t i = 0; i + 2 < idx.size(); ++i)
+                    tris.push_back(i % 2 == 0 ? std::array{idx[i], idx[i + 1], idx[i + 2]}
+                                              : std::array{idx[i + 1], idx[i], idx[i + 2]});
+            } else {
+                for (std::size_t i = 1; i + 1 < idx.size(); ++i) tris.push_back({idx[0], idx[i], idx[i + 1]});
+            }
+            if (tris.size() > max_triangles_ - std::min(max_triangles_, out_.triangles.size()))
+                fail(at, "more than " + std::to_string(max_triangles_) + " triangles once every node is placed");
+            std::vector<Vec3> normals;
+            if (const auto n = prim.attributes.find("NORMAL"); n != prim.attributes.end()) {
+                normals = vec3s(n->second, at, "NORMAL");
+                if (normals.size() != local_positions.size())
+                    fail(at + ": NORMAL", std::to_string(normals.size()) + " normals for " +
+                                              std::to_string(local_positions.size()) + " positions");
+            }
+            int material = default_material_;
+            if (prim.material >= 0) {
+                if (static_cast<std::size_t>(prim.material) >= model_.materials.size())
+                    fail(at, "material " + std::to_string(prim.material) + " out of range");
+                material = prim.material;
+            }
+            // The vertices this primitive uses, placed in the world.
+            const std::size_t first = out_.vertices.size();
+            for (const auto& v : local_positions) {
+                const Vec3 w = (world * v.homogeneous()).head<3>();
+                if (!w.allFinite()) fail(at, "a position is not finite");
+                out_.vertices.push_back(w);
+            }
+            if (out_.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+                fail(at, "more than 2^31 vertices once every node is placed");
+            for (auto t : tris) {
+                if (flipped) std::swap(t[1], t[2]);
+                out_.triangles.push_back({static_cast<int>(first + t[0]), static_cast<int>(first + t[1]),
+                                          static_cast<int>(first + t[2])});
+                out_.triangle_material.push_back(material);
+                out_.triangle_group.push_back(group_index);
+                std::array<Vec3, 3> corner;
+                for (int k = 0; k < 3; ++k) {
+                    if (normals.empty()) {
+                        corner[static_cast<std::size_t>(k)] = Vec3::Zero();
+                        continue;
+                    }
+                    const Vec3 n = normal_matrix * normals[t[static_cast<std::size_t>(k)]];
+                    // A zero or broken normal leaves its corner to the computed normals.
+                    corner[static_cast<std::size_t>(k)] = n.allFinite() && n.norm() > 0.0 ? n.normalized() : Vec3::Zero();
+                }
+                out_.normals.push_back(corner);
+            }
+        }
+    }
+
+    void place_camera(const tinygltf::Node& node, const Matrix4& world, const std::string& where) {
+        if (static_cast<std::size_t>(node.camera) >= model_.cameras.size())
+            fail(where, "camera " + std::to_string(node.camera) + " out of range");
+        if (out_.camera) return;  // the first camera counts
+        const auto& cam = model_.cameras[static_cast<std::size_t>(node.camera)];
+        if (cam.type != "perspective") {
+            warn(where + ": an " + cam.type + " camera is not read (the model is framed instead)");
+            return;
+        }
+        const Vec3 eye = world.block<3, 1>(0, 3);
+        const Vec3 forward = -world.block<3, 1>(0, 2), up = world.block<3, 1>(0, 1);
+        const double fov = cam.perspective.yfov * 180.0 / M_PI;
+        if (!(forward.norm() > 0.0) || !(up.cross(forward).norm() > 1e-9 * up.norm() * forward.norm()) ||
+            !(fov > 0.0 && fov < 180.0)) {
+            warn(where + ": its camera is degenerate (the model is framed instead)");
+            return;
+        }
+        Camera c;
+        c.eye = eye;
+        c.target = eye + forward.normalized();
+        c.up = up.normalized();
+        c.fov_y = fov;
+        const double aspect = cam.perspective.aspectRatio;
+        if (aspect > 0.0 && aspect <= 16.0) {
+            c.height = 512;
+            c.width = std::max(1, static_cast<int>(std::lround(512 * aspect)));
+        }
+        out_.camera = c;
+    }
+
+    void place_light(const tinygltf::Value& ext, const Matrix4& world, const std::string& where) {
+        const auto& index = ext.Get("light");
+        if (!index.IsInt() || index.Get<int>() < 0 || static_cast<std::size_t>(index.Get<int>()) >= model_.lights.size())
+            fail(where, "KHR_lights_punctual: light index missing or out of range");
+        const auto& light = model_.lights[static_cast<std::size_t>(index.Get<int>())];
+        const std::string named = "light '" + (light.name.empty() ? std::to_string(index.Get<int>()) : light.name) + "'";
+        if (light.type != "point") {
+            warn(where + ": " + named + ": a " + light.type + " light is not read (point lights are)");
+            return;
+        }
+        Rgb colour = Rgb::Ones();
+        if (light.color.size() == 3) colour = Rgb(light.color[0], light.color[1], light.color[2]);
+        const Rgb intensity = colour * light.intensity;
+        if (!intensity.allFinite() || (intensity < 0.0).any())
+            fail(where, named + ": intensity " + number(light.intensity) + " or colour is negative or not finite");
+        if (light.range > 0.0) warn(where + ": " + named + ": its range is not read (the light reaches everywhere)");
+        PointLight p;
+        p.position = world.block<3, 1>(0, 3);
+        p.intensity = intensity;  // candela (lm/sr): the scene's radiant intensity unit
+        out_.point_lights.push_back(p);
+    }
+
+    const tinygltf::Model& model_;
+    const std::string& shown_;
+    std::size_t max_triangles_;
+    MeshData& out_;
+    int default_material_ = -1;
+    std::set<int> placed_, on_path_;
+};
+
+}  // namespace
+
+MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
+                   const std::optional<std::string>& folder, std::size_t max_triangles) {
+    check_nesting(binary ? glb_json(content) : content, shown);
+    Files files{folder, shown, {}};
+    tinygltf::TinyGLTF loader;
+    loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
+    loader.SetImageLoader(&keep_image, nullptr);
+    loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
+    tinygltf::Model model;
+    std::string err, warn;
+    const std::string base = folder.value_or("");
+    const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
+                                                         reinterpret_cast<const unsigned char*>(content.data()),
+                                                         static_cast<unsigned int>(content.size()), base)
+                           : loader.LoadASCIIFromString(&model, &err, &warn, content.data(),
+                                                        static_cast<unsigned int>(content.size()), base);
+    if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
+    MeshData out;
+    Reader(model, shown, max_triangles, out).read();
+    out.resources = std::move(files.read);
+    // No file gives normals at every corner: the computed ones serve.
+    bool any = false;
+    for (const auto& n : out.normals) any = any || n[0] != Vec3::Zero() || n[1] != Vec3::Zero() || n[2] != Vec3::Zero();
+    if (!any) out.normals.clear();
+    return out;
+}
+
+}  // namespace raybundle::scenes::mesh_detail

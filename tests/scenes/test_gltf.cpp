@@ -1,0 +1,350 @@
+// glTF 2.0 assets (issue 28): the node tree placed in world space, the materials
+// mapped, the point lights and the first camera read; a malformed file refused in one
+// line; a glTF file alone is a scene; the baked .glb out (render/patch_io.h).
+#include "render/patch_io.h"
+#include "scenes/errors.h"
+#include "scenes/loader.h"
+#include "scenes/mesh_file.h"
+#include "solver/radiance_field.h"
+
+#include "temp_dir.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+using namespace raybundle::scenes;
+using Catch::Matchers::Contains;
+using nlohmann::json;
+using raybundle::test::TempDir;
+
+namespace {
+
+std::string base64(const std::string& bytes) {
+    static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    std::size_t i = 0;
+    for (; i + 2 < bytes.size(); i += 3) {
+        const auto n = (std::uint32_t(std::uint8_t(bytes[i])) << 16) | (std::uint32_t(std::uint8_t(bytes[i + 1])) << 8) |
+                       std::uint8_t(bytes[i + 2]);
+        for (int k = 3; k >= 0; --k) out += digits[(n >> (6 * k)) & 63];
+    }
+    if (i < bytes.size()) {
+        std::uint32_t n = std::uint32_t(std::uint8_t(bytes[i])) << 16;
+        if (i + 1 < bytes.size()) n |= std::uint32_t(std::uint8_t(bytes[i + 1])) << 8;
+        out += digits[(n >> 18) & 63];
+        out += digits[(n >> 12) & 63];
+        out += i + 1 < bytes.size() ? digits[(n >> 6) & 63] : '=';
+        out += '=';
+    }
+    return out;
+}
+
+template <class T>
+void append(std::string& bytes, const std::vector<T>& values) {
+    bytes.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+}
+
+// A unit right triangle in the xy plane facing +z (positions, normals, ushort indices,
+// with 2 bytes of padding), then a quad's four corners: one buffer as a data URI.
+json asset() {
+    std::string bin;
+    append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});  // 0..35
+    append(bin, std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1});  // 36..71
+    append(bin, std::vector<std::uint16_t>{0, 1, 2, 0});          // 72..79 (padded)
+    return {{"asset", {{"version", "2.0"}}},
+            {"scene", 0},
+            {"scenes", {{{"nodes", {0}}}}},
+            {"nodes",
+             {{{"name", "parent"}, {"translation", {0, 0, 5}}, {"children", {1}}},
+              {{"name", "tri"}, {"mesh", 0}, {"scale", {2, 2, 2}}}}},
+            {"meshes",
+             {{{"name", "triangle"},
+               {"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"material", 0}}}}}}},
+            {"materials",
+             {{{"name", "paint"},
+               {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.4, 0.3, 1}}, {"metallicFactor", 0.0}}}}}},
+            {"buffers", {{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + base64(bin)}}}},
+            {"bufferViews",
+             {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 36}},
+              {{"buffer", 0}, {"byteOffset", 36}, {"byteLength", 36}},
+              {{"buffer", 0}, {"byteOffset", 72}, {"byteLength", 6}}}},
+            {"accessors",
+             {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
+               {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+              {{"bufferView", 1}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}},
+              {{"bufferView", 2}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}}}}};
+}
+
+MeshData parse(const json& doc) { return parse_mesh(doc.dump(), "gltf", "a.gltf"); }
+
+// The same document as a GLB, its buffer the binary chunk.
+std::string glb(json doc, const std::string& bin) {
+    doc["buffers"][0].erase("uri");
+    doc["buffers"][0]["byteLength"] = bin.size();
+    std::string text = doc.dump();
+    text.resize((text.size() + 3) / 4 * 4, ' ');
+    std::string padded = bin;
+    padded.resize((padded.size() + 3) / 4 * 4, '\0');
+    std::string out;
+    auto word = [&](std::uint32_t w) { out.append(reinterpret_cast<const char*>(&w), 4); };
+    word(0x46546C67u), word(2), word(static_cast<std::uint32_t>(28 + text.size() + padded.size()));
+    word(static_cast<std::uint32_t>(text.size())), word(0x4E4F534Au);
+    out += text;
+    word(static_cast<std::uint32_t>(padded.size())), word(0x004E4942u);
+    return out + padded;
+}
+
+std::string decoded_buffer() {
+    std::string bin;
+    append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+    append(bin, std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1});
+    append(bin, std::vector<std::uint16_t>{0, 1, 2, 0});
+    return bin;
+}
+
+}  // namespace
+
+TEST_CASE("glTF: the node tree places its meshes in world space, mirrors keep their fronts", "[scenes][gltf]") {
+    const MeshData d = parse(asset());
+    REQUIRE(d.triangles.size() == 1);
+    REQUIRE(d.vertices.size() == 3);
+    // Scaled by 2 under a parent moved 5 along z.
+    CHECK(d.vertices[1].isApprox(Vec3(2, 0, 5)));
+    CHECK(d.vertices[2].isApprox(Vec3(0, 2, 5)));
+    CHECK(d.groups == std::vector<std::string>{"tri"});
+    REQUIRE(d.normals.size() == 1);
+    CHECK(d.normals[0][0].isApprox(Vec3(0, 0, 1)));
+    // A rotation of 90 degrees about x turns the face to -y; a matrix does what TRS does.
+    json rotated = asset();
+    rotated["nodes"][1]["rotation"] = {std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)};
+    const MeshData r = parse(rotated);
+    CHECK(r.vertices[2].isApprox(Vec3(0, 0, 7)));
+    CHECK(r.normals[0][0].isApprox(Vec3(0, -1, 0)));
+    json matrix = asset();
+    matrix["nodes"][1].erase("scale");
+    matrix["nodes"][1]["matrix"] = {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 1, 0, 0, 1};
+    CHECK(parse(matrix).vertices[1].isApprox(Vec3(3, 0, 5)));
+    // A mirror (scale -1 in x): the corners turn round so that the front, by the
+    // corners' order, still faces where the file's normal does.
+    json mirrored = asset();
+    mirrored["nodes"][1]["scale"] = {-1, 1, 1};
+    const MeshData m = parse(mirrored);
+    const Vec3 e1 = m.vertices[m.triangles[0][1]] - m.vertices[m.triangles[0][0]];
+    const Vec3 e2 = m.vertices[m.triangles[0][2]] - m.vertices[m.triangles[0][0]];
+    CHECK(e1.cross(e2).z() > 0.0);
+    CHECK(m.normals[0][0].isApprox(Vec3(0, 0, 1)));
+    // The same asset as a GLB reads the same.
+    const MeshData b = parse_mesh(glb(asset(), decoded_buffer()), "glb", "a.glb");
+    CHECK(b.vertices == d.vertices);
+    CHECK(b.triangles == d.triangles);
+}
+
+TEST_CASE("glTF: metallic-roughness, emission and sides map to our materials", "[scenes][gltf]") {
+    json doc = asset();
+    doc["materials"][0] = {
+        {"name", "lamp"},
+        {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.6, 0.4, 1}}, {"metallicFactor", 0.25}, {"roughnessFactor", 0.5}}},
+        {"emissiveFactor", {1.0, 0.5, 0.25}},
+        {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 8.0}}}}},
+        {"doubleSided", true}};
+    doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    const MeshData d = parse(doc);
+    REQUIRE(d.material_defs.size() == 1);
+    const Material& m = d.material_defs[0];
+    CHECK(d.materials == std::vector<std::string>{"lamp"});
+    CHECK(m.albedo.isApprox(Rgb(0.6, 0.45, 0.3)));      // base * (1 - metallic)
+    CHECK(m.specular.isApprox(Rgb(0.2, 0.15, 0.1)));     // base * metallic
+    CHECK(m.exponent == Approx(2.0 / 0.0625 - 2.0));     // 2 / roughness^4 - 2
+    CHECK(m.emission.isApprox(Rgb(8.0, 4.0, 2.0)));      // factor * strength
+    CHECK(m.two_sided);
+    CHECK(d.warnings.empty());
+    // Roughness 1: the lobe of exponent 0 is diffuse and joins the albedo. Without a
+    // material: glTF's default, white (scaled to 0.99, with a warning).
+    doc["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 1.0;
+    CHECK(parse(doc).material_defs[0].albedo.isApprox(Rgb(0.8, 0.6, 0.4)));
+    CHECK_FALSE(parse(doc).material_defs[0].glossy());
+    doc["meshes"][0]["primitives"][0].erase("material");
+    const MeshData plain = parse(doc);
+    CHECK(plain.materials == std::vector<std::string>{"(default)"});
+    CHECK(plain.material_defs[0].albedo.isApprox(Rgb::Constant(0.99)));
+    REQUIRE(plain.warnings.size() == 1);
+    CHECK_THAT(plain.warnings[0], Contains("a.gltf") && Contains("(default)") && Contains("scaled"));
+    // An extension it does not read is a warning; a required one an error.
+    doc["extensionsUsed"] = {"KHR_texture_transform"};
+    CHECK_THAT(parse(doc).warnings[0], Contains("KHR_texture_transform"));
+    doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    CHECK_THROWS_WITH(parse(doc), Contains("a.gltf") && Contains("KHR_draco_mesh_compression"));
+}
+
+TEST_CASE("glTF: point lights and the first camera, placed by their nodes", "[scenes][gltf]") {
+    json doc = asset();
+    doc["extensionsUsed"] = {"KHR_lights_punctual"};
+    doc["extensions"] = json::parse(R"({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 40.0},
+        {"type": "spot", "name": "torch", "intensity": 1.0, "spot": {}}]}})");
+    doc["nodes"].push_back({{"translation", {1, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+    // A camera 10 above the origin looking down (-z turned to -y), 4:3.
+    doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", M_PI / 4}, {"aspectRatio", 4.0 / 3.0}, {"znear", 0.1}}}}};
+    doc["nodes"].push_back({{"camera", 0}, {"translation", {0, 10, 0}}, {"rotation", {-std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}}});
+    doc["scenes"][0]["nodes"] = {0, 2, 3, 4};
+    const MeshData d = parse(doc);
+    REQUIRE(d.point_lights.size() == 1);
+    CHECK(d.point_lights[0].position.isApprox(Vec3(1, 2, 3)));
+    CHECK(d.point_lights[0].intensity.isApprox(Rgb(40.0, 20.0, 10.0)));
+    REQUIRE(d.warnings.size() == 1);
+    CHECK_THAT(d.warnings[0], Contains("torch") && Contains("spot"));
+    REQUIRE(d.camera);
+    CHECK(d.camera->eye.isApprox(Vec3(0, 10, 0)));
+    CHECK((d.camera->target - d.camera->eye).normalized().isApprox(Vec3(0, -1, 0)));
+    CHECK(d.camera->up.isApprox(Vec3(0, 0, -1)));
+    CHECK(d.camera->fov_y == Approx(45.0));
+    CHECK(d.camera->width == 683);
+    CHECK(d.camera->height == 512);
+}
+
+TEST_CASE("glTF: a malformed file ends in one line naming the file and the object", "[scenes][gltf]") {
+    const auto fails = [](const json& doc, const std::string& what) {
+        INFO(what);
+        try {
+            parse(doc);
+            FAIL("no error");
+        } catch (const SceneError& e) {
+            const std::string text = e.what();
+            INFO(text);
+            CHECK(text.find('\n') == std::string::npos);
+            CHECK_THAT(text, Contains("a.gltf") && Contains(what));
+        }
+    };
+    json doc = asset();
+    doc["buffers"][0]["uri"] = "missing.bin";  // read from memory: no folder to look in
+    fails(doc, "missing.bin");
+    doc = asset();
+    doc["buffers"][0]["uri"] = "data:application/octet-stream;base64,@@@@";
+    fails(doc, "not a valid glTF");
+    doc = asset();
+    doc["accessors"][0]["count"] = 4;  // 48 bytes in a view of 36
+    fails(doc, "accessors[0]");
+    doc = asset();
+    doc["accessors"][0]["count"] = 4000000000u;  // huge
+    fails(doc, "do not fit");
+    doc = asset();
+    doc["bufferViews"][1]["byteLength"] = 1000;  // beyond its buffer
+    fails(doc, "outside its buffer");
+    doc = asset();
+    doc["accessors"][2]["bufferView"] = 7;
+    fails(doc, "invalid bufferView");  // tinygltf checks this one
+    doc = asset();
+    doc["accessors"][0]["componentType"] = 5123;  // positions as shorts
+    fails(doc, "expected VEC3 of FLOAT");
+    doc = asset();
+    doc["nodes"][1]["children"] = {0};  // a cycle
+    fails(doc, "own ancestor");
+    doc = asset();
+    doc["nodes"].push_back({{"children", {1}}});  // a second parent
+    doc["scenes"][0]["nodes"] = {0, 2};
+    fails(doc, "two parents");
+    doc = asset();
+    doc["nodes"][1]["mesh"] = 3;
+    fails(doc, "mesh 3 out of range");
+    doc = asset();
+    doc["accessors"][0]["sparse"] = {{"count", 1},
+                                     {"indices", {{"bufferView", 2}, {"componentType", 5123}}},
+                                     {"values", {{"bufferView", 0}}}};
+    fails(doc, "sparse");
+    doc = asset();
+    doc["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] = 2.0;
+    fails(doc, "metallicFactor");
+    // An index past the vertices: a triangle strip's index buffer made longer.
+    std::string bin = decoded_buffer();
+    bin[76] = 9;  // the fourth index, read once the count is 4
+    doc = asset();
+    doc["accessors"][2]["count"] = 4;
+    doc["bufferViews"][2]["byteLength"] = 8;
+    doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64(bin);
+    doc["meshes"][0]["primitives"][0]["mode"] = 5;
+    fails(doc, "index 9");
+    // Nested too deep for a recursive parser; not glTF at all; a GLB cut short.
+    std::string deep = R"({"asset": {"version": "2.0"}, "extras": )" + std::string(5000, '[') + std::string(5000, ']') + "}";
+    CHECK_THROWS_WITH(parse_mesh(deep, "gltf", "a.gltf"), Contains("nested"));
+    CHECK_THROWS_WITH(parse_mesh("{]", "gltf", "a.gltf"), Contains("a.gltf") && Contains("not a valid glTF"));
+    const std::string whole = glb(asset(), decoded_buffer());
+    CHECK_THROWS_WITH(parse_mesh(whole.substr(0, whole.size() - 20), "glb", "a.glb"), Contains("a.glb"));
+    // Instancing past the triangle limit.
+    doc = asset();
+    for (int k = 0; k < 10; ++k) doc["nodes"].push_back({{"mesh", 0}}), doc["scenes"][0]["nodes"].push_back(2 + k);
+    CHECK_THROWS_WITH(parse_mesh(doc.dump(), "gltf", "a.gltf", 5), Contains("more than 5 triangles"));
+}
+
+TEST_CASE("glTF: a file alone is a scene, its buffers beside it; in a scene file it brings its materials",
+          "[scenes][gltf]") {
+    TempDir dir;
+    json doc = asset();
+    doc["buffers"][0]["uri"] = "tri.bin";
+    dir.write("tri.bin", decoded_buffer());
+    doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.01}}}}};
+    doc["nodes"].push_back({{"camera", 0}, {"translation", {0.5, 0.5, 9}}});
+    doc["scenes"][0]["nodes"] = {0, 2};
+    const std::string path = dir.write("tri.gltf", doc.dump());
+    const Scene alone = load_scene(path);
+    CHECK(alone.camera.eye.isApprox(Vec3(0.5, 0.5, 9)));
+    CHECK(alone.camera.fov_y == Approx(0.8 * 180 / M_PI));
+    CHECK(alone.materials[alone.find_material("paint")].albedo.isApprox(Rgb(0.5, 0.4, 0.3)));
+    CHECK(std::find(alone.files.begin(), alone.files.end(), (dir.path / "tri.bin").string()) != alone.files.end());
+    // -D overrides the generated document, the camera too.
+    const Scene moved = load_scene(path, {{"camera.eye", "[0.5, 0.5, 20]"}});
+    CHECK(moved.camera.eye.isApprox(Vec3(0.5, 0.5, 20)));
+    // In a scene file: the scene's material of the same name wins.
+    const std::string scene = dir.write(
+        "s.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]}, "materials": {"paint": {"albedo": [0.1, 0.2, 0.3]}},
+                   "objects": [{"mesh": "tri.gltf"}]})");
+    const Scene s = load_scene(scene);
+    CHECK(s.materials[s.find_material("paint")].albedo.isApprox(Rgb(0.1, 0.2, 0.3)));
+    // A missing buffer file names the scene, the object and the file.
+    std::filesystem::remove(dir.path / "tri.bin");
+    CHECK_THROWS_WITH(load_scene(scene), Contains("s.json") && Contains("objects[0]") && Contains("tri.bin"));
+}
+
+TEST_CASE("baked glb: the patches with their radiance, COLOR_0 after the exposure", "[render][gltf]") {
+    TempDir dir;
+    json doc = asset();
+    const Scene scene = load_scene(dir.write("tri.gltf", doc.dump()));
+    raybundle::solver::RadianceField field;
+    field.radiance.resize(scene.patch_count());
+    for (std::size_t i = 0; i < field.radiance.size(); ++i) field.radiance[i] = Rgb(0.25 * i, 0.5, 3.0);
+    const std::string out = (dir.path / "lit.glb").string();
+    raybundle::render::write_patch_glb(out, scene, field, 1.0);
+    std::ifstream in(out, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // The reader reads it back: one triangle per patch, where the patches are.
+    const MeshData back = parse_mesh(bytes, "glb", "lit.glb");
+    CHECK(back.triangles.size() == scene.patch_count());
+    REQUIRE(bytes.size() > 20);
+    std::uint32_t json_length = 0;
+    std::memcpy(&json_length, bytes.data() + 12, 4);
+    const json j = json::parse(bytes.substr(20, json_length));
+    CHECK(j["asset"]["extras"]["exposure"] == 1.0);
+    CHECK(j["extensionsUsed"] == json{"KHR_materials_unlit"});
+    const std::size_t n = 3 * scene.patch_count();
+    const char* bin = bytes.data() + 20 + json_length + 8;
+    auto at = [&](int attribute, std::size_t vertex, int c) {
+        float f;
+        std::memcpy(&f, bin + (attribute * 3 * n + 3 * vertex + c) * 4, 4);
+        return f;
+    };
+    for (std::size_t i = 0; i < scene.patch_count(); ++i)
+        for (int k = 0; k < 3; ++k)
+            for (int c = 0; c < 3; ++c) {
+                CHECK(at(3, 3 * i + k, c) == static_cast<float>(field.radiance[i][c]));  // _RADIANCE
+                CHECK(at(2, 3 * i + k, c) == static_cast<float>(std::min(1.0, 2.0 * field.radiance[i][c])));  // COLOR_0
+            }
+}
