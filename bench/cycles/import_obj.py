@@ -1,12 +1,16 @@
-"""Renders an OBJ file as Blender imports it (with its MTL) with Cycles on the CPU.
+"""Renders an OBJ file (with its MTL) or a glTF file as Blender imports it, with Cycles
+on the CPU.
 
     blender -b --factory-startup --python bench/cycles/import_obj.py -- \
-        --obj MODEL.obj --output OUT.exr --spp 1024 --eye X Y Z --target X Y Z \
+        --obj MODEL.obj|.gltf|.glb --output OUT.exr --spp 1024 --eye X Y Z --target X Y Z \
         [--fov-y 40] [--size 256] [-t THREADS] [--seed S] [--timing TIMING.json]
 
 Blender's own OBJ importer (bpy.ops.wm.obj_import, the file's axes kept: forward +Y,
-up +Z) reads the geometry and the MTL; raybundle's reading of the same files is what
-the comparison checks (bench/run_asset_bench.sh, docs/bench-assets.md). Each imported
+up +Z) reads the geometry and the MTL, or its glTF importer (bpy.ops.import_scene.gltf,
+whose turn of glTF's +Y up to Blender's +Z is undone, so that the camera is given in
+the file's coordinates as for raybundle; the normals and smooth shading it imports
+are kept, where an OBJ's faces are flat); raybundle's reading of the same files is
+what the comparison checks (bench/run_asset_bench.sh, docs/bench-assets.md). Each imported
 material keeps its colours as Blender read them: the Principled BSDF's base colour
 becomes a Lambert Diffuse BSDF of that colour (Principled's diffuse is Disney's, with
 retro-reflection, not the Lambert reflector an MTL's Kd means), its emission colour
@@ -26,7 +30,13 @@ import os
 import sys
 
 import bpy
+import numpy
 from mathutils import Matrix, Vector
+
+# Blender 3.4's glTF importer uses numpy.bool, an alias that Debian 12's numpy (1.24)
+# no longer has: restored for it.
+if "bool" not in numpy.__dict__:
+    numpy.bool = bool
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import import_scene  # noqa: E402  (its functions; its main() does not run)
@@ -93,10 +103,23 @@ def main():
     args = parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    bpy.ops.wm.obj_import(filepath=os.path.abspath(args.obj), forward_axis="Y", up_axis="Z")
+    gltf = args.obj.lower().endswith((".gltf", ".glb"))
+    if gltf:
+        bpy.ops.import_scene.gltf(filepath=os.path.abspath(args.obj))
+    else:
+        bpy.ops.wm.obj_import(filepath=os.path.abspath(args.obj), forward_axis="Y", up_axis="Z")
     objects = [o for o in scene.objects if o.type == "MESH"]
     if not objects:
         raise SystemExit("%s: Blender imported no mesh" % args.obj)
+    if gltf:
+        # Back to the file's coordinates: the importer turned +Y up to +Z (x, -z, y).
+        back = Matrix.Rotation(-math.pi / 2, 4, "X")
+        for o in objects:
+            world = o.matrix_world.copy()
+            o.parent = None
+            o.matrix_world = back @ world
+        if any(o.type == "LIGHT" for o in scene.objects):
+            raise SystemExit("%s: punctual lights: this bench compares emissive surfaces" % args.obj)
     duplicates = sum(remove_duplicate_faces(o) for o in objects)
     # The scale import_scene uses: the bounds with the eye to a diagonal of 1.
     pts = [o.matrix_world @ v.co for o in objects for v in o.data.vertices] + [Vector(args.eye)]
@@ -106,7 +129,8 @@ def main():
     materials = {}
     for o in objects:
         o.matrix_world = Matrix.Scale(scale, 4) @ o.matrix_world
-        o.data.polygons.foreach_set("use_smooth", [False] * len(o.data.polygons))
+        if not gltf:
+            o.data.polygons.foreach_set("use_smooth", [False] * len(o.data.polygons))
         for slot in o.material_slots:
             if slot.material and slot.material.name not in materials:
                 m = diffuse_of(slot.material)
