@@ -16,12 +16,15 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <unordered_map>
 
 namespace raybundle::scenes::mesh_detail {
 
 namespace {
 
 constexpr std::size_t kMaxJsonNesting = 64;
+// The most primitives the node tree may place (a forest of instances has a few million).
+constexpr std::size_t kMaxPlacements = 10'000'000;
 
 std::string number(double x) {
     char text[32];
@@ -50,25 +53,50 @@ void check_nesting(std::string_view json, const std::string& shown) {
     }
 }
 
-// The JSON chunk of a GLB (for check_nesting); tinygltf checks the container itself.
-std::string_view glb_json(std::string_view bytes) {
-    if (bytes.size() < 20) return {};
-    std::uint32_t length = 0;
-    std::memcpy(&length, bytes.data() + 12, 4);
-    return bytes.substr(20, std::min<std::size_t>(length, bytes.size() - 20));
+// The GLB container, checked before tinygltf reads it (2.7.0 lets a BIN chunk's length
+// reach 8 bytes past the data); returns the JSON chunk, for check_nesting.
+std::string_view glb_json(std::string_view bytes, const std::string& shown) {
+    const auto word = [&](std::size_t at) {
+        std::uint32_t w = 0;
+        std::memcpy(&w, bytes.data() + at, 4);
+        return std::size_t{w};
+    };
+    if (bytes.size() < 20 || word(0) != 0x46546C67u) throw SceneError(shown, "", "not a GLB file (no glTF header)");
+    if (word(4) != 2) throw SceneError(shown, "", "GLB version " + std::to_string(word(4)) + " (2 is read)");
+    const std::size_t length = word(8), json = word(12);
+    if (length > bytes.size()) throw SceneError(shown, "", "GLB header says " + std::to_string(length) +
+                                                                " bytes, the file has " + std::to_string(bytes.size()));
+    if (word(16) != 0x4E4F534Au || json > length - 20)
+        throw SceneError(shown, "", "the GLB's first chunk is not JSON within the file");
+    if (const std::size_t bin_at = 20 + json; bin_at + 8 <= length) {
+        if (word(bin_at) > length - bin_at - 8)
+            throw SceneError(shown, "", "the GLB's binary chunk of " + std::to_string(word(bin_at)) +
+                                            " bytes runs past the end of the file");
+    }
+    return bytes.substr(20, json);
 }
 
-// File access for tinygltf: regular files under the asset's folder only, through
-// read_input_file (no FIFO, device or directory; at most 2 GiB), recorded as inputs.
+// File access for tinygltf: regular files in the asset's folder or below it only,
+// through read_input_file (no FIFO, device or directory; at most 2 GiB each, 4 GiB in
+// all), recorded as inputs.
 struct Files {
     std::optional<std::string> folder;
-    std::string shown;
     std::vector<std::string> read;
+    std::uintmax_t bytes = 0;
 };
 
+bool inside_folder(const Files& files, const std::string& path) {
+    if (!files.folder) return false;
+    std::error_code ec;
+    const auto folder = std::filesystem::weakly_canonical(*files.folder, ec);
+    const auto file = std::filesystem::weakly_canonical(path, ec);
+    if (ec) return false;
+    const auto rel = file.lexically_relative(folder);
+    return !rel.empty() && *rel.begin() != "..";
+}
 bool file_exists(const std::string& path, void* user) {
     std::error_code ec;
-    return static_cast<Files*>(user)->folder && std::filesystem::is_regular_file(path, ec);
+    return inside_folder(*static_cast<Files*>(user), path) && std::filesystem::is_regular_file(path, ec);
 }
 std::string expand_path(const std::string& path, void*) { return path; }  // no wordexp
 bool read_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
@@ -77,8 +105,17 @@ bool read_file(std::vector<unsigned char>* out, std::string* err, const std::str
         *err += "'" + path + "' is another file, and this glTF was read from memory";
         return false;
     }
+    if (!inside_folder(files, path)) {
+        *err += "'" + path + "' lies outside the asset's folder";
+        return false;
+    }
     try {
         const std::string bytes = read_input_file(path, path, "glTF resource", kMaxGltfFileBytes);
+        files.bytes += bytes.size();
+        if (files.bytes > 2 * kMaxGltfFileBytes) {
+            *err += "its buffers and images exceed 4 GiB";
+            return false;
+        }
         out->assign(bytes.begin(), bytes.end());
         files.read.push_back(path);
         return true;
@@ -91,10 +128,12 @@ bool write_file(std::string* err, const std::string&, const std::vector<unsigned
     *err += "the reader writes nothing";
     return false;
 }
-// Images keep their encoded bytes: a texture is read by its mean colour (PNG only).
+// Images keep their encoded bytes (a texture is read by its mean colour, PNG only):
+// those of a data URI or a file. An image in a buffer view is left there, for the
+// reader's checked buffer_view() (tinygltf passes its bytes unchecked).
 bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, int, const unsigned char* bytes,
                 int size, void*) {
-    if (size > 0) image->image.assign(bytes, bytes + size);
+    if (image->bufferView < 0 && size > 0) image->image.assign(bytes, bytes + size);
     image->width = image->height = 0;
     return true;
 }
@@ -123,7 +162,7 @@ public:
     void read() {
         check_extensions();
         read_materials();
-        for (const int root : roots()) visit(root, Matrix4::Identity(), 0);
+        place_tree(roots());
         if (out_.triangles.empty()) throw SceneError(shown_, "", "the glTF scene places no triangles");
         // Only the materials the placed triangles use, in order of first use.
         std::vector<int> used(out_.materials.size(), -1);
@@ -151,8 +190,7 @@ private:
     // Extensions: those it reads, those it may ignore with a warning, and required
     // ones it cannot read (compressed or quantized geometry would be misread).
     void check_extensions() {
-        static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
-                                                   "KHR_materials_unlit"};
+        static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
         for (const auto& e : model_.extensionsRequired)
             if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");
         for (const auto& e : model_.extensionsUsed)
@@ -163,6 +201,10 @@ private:
     // The mean colour of a texture (PNG; embedded, a data URI, or a file beside the asset).
     std::optional<Rgb> texture_mean(int texture, const std::string& where) {
         if (texture < 0) return std::nullopt;
+        if (const auto it = texture_means_.find(texture); it != texture_means_.end()) return it->second;
+        return texture_means_[texture] = decode_texture(texture, where);
+    }
+    std::optional<Rgb> decode_texture(int texture, const std::string& where) {
         if (static_cast<std::size_t>(texture) >= model_.textures.size()) fail(where, "texture index out of range");
         const int source = model_.textures[static_cast<std::size_t>(texture)].source;
         if (source < 0 || static_cast<std::size_t>(source) >= model_.images.size())
@@ -217,11 +259,14 @@ private:
         }
         Rgb emission = factor(m.emissiveFactor, 3, "emissiveFactor");
         if (const auto it = m.extensions.find("KHR_materials_emissive_strength"); it != m.extensions.end()) {
-            const auto& strength = it->second.Get("emissiveStrength");
-            if (!strength.IsNumber() || !(strength.GetNumberAsDouble() >= 0.0) ||
-                !std::isfinite(strength.GetNumberAsDouble()))
-                fail(where, "KHR_materials_emissive_strength: emissiveStrength is not a number >= 0");
-            emission *= strength.GetNumberAsDouble();
+            if (!it->second.IsObject()) fail(where, "KHR_materials_emissive_strength is not an object");
+            const auto& strength = it->second.Get("emissiveStrength");  // 1 where absent
+            if (it->second.Has("emissiveStrength")) {
+                if (!strength.IsNumber() || !(strength.GetNumberAsDouble() >= 0.0) ||
+                    !std::isfinite(strength.GetNumberAsDouble()))
+                    fail(where, "KHR_materials_emissive_strength: emissiveStrength is not a number >= 0");
+                emission *= strength.GetNumberAsDouble();
+            }
         }
         if (m.emissiveTexture.index >= 0 && (emission > 0.0).any()) {
             if (const auto mean = texture_mean(m.emissiveTexture.index, where)) {
@@ -246,8 +291,9 @@ private:
         return out;
     }
 
-    // Every material of the file under a name of its own ("material 3" where it has
-    // none, "name #2" for the second of a name), and glTF's default material last; they
+    // Every material of the file under a name of its own ("(a.glb material 3)" where it
+    // has none, "name #2" for the second of a name), and glTF's default material last
+    // ("(a.glb default)"); they
     // are mapped (material()) once the triangles are placed, those used only.
     void read_materials() {
         std::map<std::string, int> seen;
@@ -255,12 +301,15 @@ private:
             const int n = ++seen[name];
             return n == 1 ? name : name + " #" + std::to_string(n);
         };
+        // Names the file does not give carry its name: another file's "material 0" is
+        // another material.
+        const std::string file = shown_.substr(shown_.find_last_of('/') == std::string::npos ? 0 : shown_.find_last_of('/') + 1);
         for (std::size_t i = 0; i < model_.materials.size(); ++i) {
             const auto& m = model_.materials[i];
-            out_.materials.push_back(unique(m.name.empty() ? "material " + std::to_string(i) : m.name));
+            out_.materials.push_back(unique(m.name.empty() ? "(" + file + " material " + std::to_string(i) + ")" : m.name));
         }
         default_material_ = static_cast<int>(out_.materials.size());
-        out_.materials.push_back(unique("(default)"));
+        out_.materials.push_back(unique("(" + file + " default)"));
     }
 
     Material material_def(int index) {
@@ -313,22 +362,40 @@ private:
         return m;
     }
 
-    void visit(int index, const Matrix4& parent, std::size_t depth) {
-        const std::string where = "nodes[" + std::to_string(index) + "]";
-        if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size()) fail(where, "node index out of range");
-        if (depth > model_.nodes.size()) fail(where, "is its own ancestor");  // unreachable after `placed`
-        if (!placed_.insert(index).second)
-            fail(where, on_path_.count(index) ? "is its own ancestor (the node tree has a cycle)"
-                                              : "has two parents (a node is placed once)");
-        on_path_.insert(index);
-        const auto& node = model_.nodes[static_cast<std::size_t>(index)];
-        const Matrix4 world = parent * local(node, where);
-        if (node.mesh >= 0) place_mesh(node, world, where);
-        if (node.camera >= 0) place_camera(node, world, where);
-        if (const auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end())
-            place_light(it->second, world, where);
-        for (const int c : node.children) visit(c, world, depth + 1);
-        on_path_.erase(index);
+    // Depth first without recursion (a chain of nodes may be as long as the file
+    // allows): a node's exit mark sits below its children on the stack.
+    void place_tree(const std::vector<int>& roots) {
+        struct Item {
+            int node;
+            Matrix4 parent;
+            bool exit;
+        };
+        std::vector<Item> stack;
+        for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.push_back({*r, Matrix4::Identity(), false});
+        while (!stack.empty()) {
+            const Item item = stack.back();
+            stack.pop_back();
+            if (item.exit) {
+                on_path_.erase(item.node);
+                continue;
+            }
+            const int index = item.node;
+            const std::string where = "nodes[" + std::to_string(index) + "]";
+            if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size()) fail(where, "node index out of range");
+            if (!placed_.insert(index).second)
+                fail(where, on_path_.count(index) ? "is its own ancestor (the node tree has a cycle)"
+                                                  : "has two parents (a node is placed once)");
+            on_path_.insert(index);
+            const auto& node = model_.nodes[static_cast<std::size_t>(index)];
+            const Matrix4 world = item.parent * local(node, where);
+            if (!world.allFinite()) fail(where, "its transform, times its parents', is not finite");
+            if (node.mesh >= 0) place_mesh(node, world, where);
+            if (node.camera >= 0) place_camera(node, world, where);
+            if (const auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end())
+                place_light(it->second, world, where);
+            stack.push_back({index, Matrix4::Identity(), true});
+            for (auto c = node.children.rbegin(); c != node.children.rend(); ++c) stack.push_back({*c, world, false});
+        }
     }
 
     // --------------------------------------------------------------- accessors
@@ -374,17 +441,16 @@ private:
         return e;
     }
 
-    std::vector<Vec3> vec3s(int index, const std::string& where, const char* what) const {
+    Elements vec3s(int index, const std::string& where, const char* what) const {
         const Elements e = elements(index, where, what);
         if (e.components != 3 || e.component != TINYGLTF_COMPONENT_TYPE_FLOAT)
             fail(where + ": " + what, "expected VEC3 of FLOAT");
-        std::vector<Vec3> out(e.count);
-        for (std::size_t i = 0; i < e.count; ++i) {
-            float f[3];
-            std::memcpy(f, e.base + i * e.stride, sizeof f);
-            out[i] = Vec3(f[0], f[1], f[2]);
-        }
-        return out;
+        return e;
+    }
+    static Vec3 vec3_at(const Elements& e, std::size_t i) {
+        float f[3];
+        std::memcpy(f, e.base + i * e.stride, sizeof f);
+        return Vec3(f[0], f[1], f[2]);
     }
 
     std::vector<std::uint32_t> indices(int index, std::size_t vertices, const std::string& where) const {
@@ -420,6 +486,77 @@ private:
     }
 
     // ------------------------------------------------------------------ placing
+    // A primitive as its placements use it: its triangles over the vertices they use
+    // (not the whole POSITION accessor, which other primitives may share), decoded at
+    // its first placement.
+    struct Primitive {
+        bool surface = false;
+        int material = -1;
+        std::vector<Vec3> positions, normals;  // normals: empty, or one per position
+        std::vector<std::array<std::uint32_t, 3>> triangles;
+    };
+
+    // How many triangles a primitive gives, from its counts alone.
+    static std::size_t triangle_count(int mode, std::size_t indices) {
+        if (mode == TINYGLTF_MODE_TRIANGLES) return indices / 3;
+        return indices >= 3 ? indices - 2 : 0;
+    }
+
+    Primitive decode(int mesh_index, std::size_t p) {
+        const auto& prim = model_.meshes[static_cast<std::size_t>(mesh_index)].primitives[p];
+        const std::string at = "meshes[" + std::to_string(mesh_index) + "].primitives[" + std::to_string(p) + "]";
+        Primitive out;
+        if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+            prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+            warn(at + ": points or lines (mode " + std::to_string(prim.mode) + ") are not surfaces: skipped");
+            return out;
+        }
+        out.surface = true;
+        const auto position = prim.attributes.find("POSITION");
+        if (position == prim.attributes.end()) fail(at, "has no POSITION");
+        const Elements positions = vec3s(position->second, at, "POSITION");
+        const std::size_t count = prim.indices >= 0 ? elements(prim.indices, at, "indices").count : positions.count;
+        if (triangle_count(prim.mode, count) > max_triangles_ - std::min(max_triangles_, out_.triangles.size()))
+            fail(at, "more than " + std::to_string(max_triangles_) + " triangles once every node is placed");
+        const std::vector<std::uint32_t> idx = indices(prim.indices, positions.count, at);
+        std::vector<std::array<std::uint32_t, 3>> tris;
+        if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
+            for (std::size_t i = 0; i + 2 < idx.size(); i += 3) tris.push_back({idx[i], idx[i + 1], idx[i + 2]});
+        } else if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+            for (std::size_t i = 0; i + 2 < idx.size(); ++i)
+                tris.push_back(i % 2 == 0 ? std::array{idx[i], idx[i + 1], idx[i + 2]}
+                                          : std::array{idx[i + 1], idx[i], idx[i + 2]});
+        } else {
+            for (std::size_t i = 1; i + 1 < idx.size(); ++i) tris.push_back({idx[0], idx[i], idx[i + 1]});
+        }
+        std::optional<Elements> normals;
+        if (const auto n = prim.attributes.find("NORMAL"); n != prim.attributes.end()) {
+            normals = vec3s(n->second, at, "NORMAL");
+            if (normals->count != positions.count)
+                fail(at + ": NORMAL", std::to_string(normals->count) + " normals for " +
+                                          std::to_string(positions.count) + " positions");
+        }
+        // The vertices the triangles use, in order of first use.
+        std::unordered_map<std::uint32_t, std::uint32_t> remap;
+        for (auto& t : tris)
+            for (auto& v : t) {
+                const auto [it, added] = remap.emplace(v, static_cast<std::uint32_t>(out.positions.size()));
+                if (added) {
+                    out.positions.push_back(vec3_at(positions, v));
+                    if (normals) out.normals.push_back(vec3_at(*normals, v));
+                }
+                v = it->second;
+            }
+        out.triangles = std::move(tris);
+        out.material = default_material_;
+        if (prim.material >= 0) {
+            if (static_cast<std::size_t>(prim.material) >= model_.materials.size())
+                fail(at, "material " + std::to_string(prim.material) + " out of range");
+            out.material = prim.material;
+        }
+        return out;
+    }
+
     void place_mesh(const tinygltf::Node& node, const Matrix4& world, const std::string& where) {
         if (static_cast<std::size_t>(node.mesh) >= model_.meshes.size())
             fail(where, "mesh " + std::to_string(node.mesh) + " out of range");
@@ -431,66 +568,42 @@ private:
         const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
         const bool flipped = linear.determinant() < 0.0;  // a mirror turns front faces round
         for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
-            const auto& prim = mesh.primitives[p];
+            // Placements are bounded too: a mesh of many empty primitives under many
+            // nodes would otherwise take time without end.
+            if (++placements_ > kMaxPlacements)
+                fail(where, "more than " + std::to_string(kMaxPlacements) + " primitives once every node is placed");
+            const std::pair<int, std::size_t> key(node.mesh, p);
+            auto it = decoded_.find(key);
+            if (it == decoded_.end()) it = decoded_.emplace(key, decode(node.mesh, p)).first;
+            const Primitive& prim = it->second;
+            if (!prim.surface) continue;
             const std::string at = "meshes[" + std::to_string(node.mesh) + "].primitives[" + std::to_string(p) + "]";
-            if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
-                prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) {
-                warn(at + ": points or lines (mode " + std::to_string(prim.mode) + ") are not surfaces: skipped");
-                continue;
-            }
-            const auto position = prim.attributes.find("POSITION");
-            if (position == prim.attributes.end()) fail(at, "has no POSITION");
-            const std::vector<Vec3> local_positions = vec3s(position->second, at, "POSITION");
-            const std::vector<std::uint32_t> idx = indices(prim.indices, local_positions.size(), at);
-            std::vector<std::array<std::uint32_t, 3>> tris;
-            if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
-                for (std::size_t i = 0; i + 2 < idx.size(); i += 3) tris.push_back({idx[i], idx[i + 1], idx[i + 2]});
-            } else if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-                for (std::size_t i = 0; i + 2 < idx.size(); ++i)
-                    tris.push_back(i % 2 == 0 ? std::array{idx[i], idx[i + 1], idx[i + 2]}
-                                              : std::array{idx[i + 1], idx[i], idx[i + 2]});
-            } else {
-                for (std::size_t i = 1; i + 1 < idx.size(); ++i) tris.push_back({idx[0], idx[i], idx[i + 1]});
-            }
-            if (tris.size() > max_triangles_ - std::min(max_triangles_, out_.triangles.size()))
+            if (prim.triangles.size() > max_triangles_ - std::min(max_triangles_, out_.triangles.size()))
                 fail(at, "more than " + std::to_string(max_triangles_) + " triangles once every node is placed");
-            std::vector<Vec3> normals;
-            if (const auto n = prim.attributes.find("NORMAL"); n != prim.attributes.end()) {
-                normals = vec3s(n->second, at, "NORMAL");
-                if (normals.size() != local_positions.size())
-                    fail(at + ": NORMAL", std::to_string(normals.size()) + " normals for " +
-                                              std::to_string(local_positions.size()) + " positions");
-            }
-            int material = default_material_;
-            if (prim.material >= 0) {
-                if (static_cast<std::size_t>(prim.material) >= model_.materials.size())
-                    fail(at, "material " + std::to_string(prim.material) + " out of range");
-                material = prim.material;
-            }
             // The vertices this primitive uses, placed in the world.
             const std::size_t first = out_.vertices.size();
-            for (const auto& v : local_positions) {
+            if (first + prim.positions.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+                fail(at, "more than 2^31 vertices once every node is placed");
+            for (const auto& v : prim.positions) {
                 const Vec3 w = (world * v.homogeneous()).head<3>();
                 if (!w.allFinite()) fail(at, "a position is not finite");
                 out_.vertices.push_back(w);
             }
-            if (out_.vertices.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-                fail(at, "more than 2^31 vertices once every node is placed");
-            for (auto t : tris) {
+            for (auto t : prim.triangles) {
                 if (flipped) std::swap(t[1], t[2]);
                 out_.triangles.push_back({static_cast<int>(first + t[0]), static_cast<int>(first + t[1]),
                                           static_cast<int>(first + t[2])});
-                out_.triangle_material.push_back(material);
+                out_.triangle_material.push_back(prim.material);
                 out_.triangle_group.push_back(group_index);
                 std::array<Vec3, 3> corner;
-                for (int k = 0; k < 3; ++k) {
-                    if (normals.empty()) {
-                        corner[static_cast<std::size_t>(k)] = Vec3::Zero();
+                for (std::size_t k = 0; k < 3; ++k) {
+                    if (prim.normals.empty()) {
+                        corner[k] = Vec3::Zero();
                         continue;
                     }
-                    const Vec3 n = normal_matrix * normals[t[static_cast<std::size_t>(k)]];
+                    const Vec3 n = normal_matrix * prim.normals[t[k]];
                     // A zero or broken normal leaves its corner to the computed normals.
-                    corner[static_cast<std::size_t>(k)] = n.allFinite() && n.norm() > 0.0 ? n.normalized() : Vec3::Zero();
+                    corner[k] = n.allFinite() && n.norm() > 0.0 ? n.normalized() : Vec3::Zero();
                 }
                 out_.normals.push_back(corner);
             }
@@ -528,6 +641,7 @@ private:
     }
 
     void place_light(const tinygltf::Value& ext, const Matrix4& world, const std::string& where) {
+        if (!ext.IsObject()) fail(where, "KHR_lights_punctual is not an object");
         const auto& index = ext.Get("light");
         if (!index.IsInt() || index.Get<int>() < 0 || static_cast<std::size_t>(index.Get<int>()) >= model_.lights.size())
             fail(where, "KHR_lights_punctual: light index missing or out of range");
@@ -555,14 +669,17 @@ private:
     MeshData& out_;
     int default_material_ = -1;
     std::set<int> placed_, on_path_;
+    std::map<std::pair<int, std::size_t>, Primitive> decoded_;
+    std::size_t placements_ = 0;
+    std::map<int, std::optional<Rgb>> texture_means_;  // per texture, decoded once
 };
 
 }  // namespace
 
 MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
                    const std::optional<std::string>& folder, std::size_t max_triangles) {
-    check_nesting(binary ? glb_json(content) : content, shown);
-    Files files{folder, shown, {}};
+    check_nesting(binary ? glb_json(content, shown) : content, shown);
+    Files files{folder, {}, 0};
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
     loader.SetImageLoader(&keep_image, nullptr);
@@ -570,13 +687,21 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     tinygltf::Model model;
     std::string err, warn;
     const std::string base = folder.value_or("");
-    const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                                         reinterpret_cast<const unsigned char*>(content.data()),
-                                                         static_cast<unsigned int>(content.size()), base)
-                           : loader.LoadASCIIFromString(&model, &err, &warn, content.data(),
-                                                        static_cast<unsigned int>(content.size()), base);
-    if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
+    bool ok = false;
     MeshData out;
+    // tinygltf and nlohmann may throw (a std::out_of_range from a buffer of byteLength
+    // 0 beside a BIN chunk, a JSON type error): each is this file's fault, in one line.
+    try {
+        ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(content.data()),
+                                                  static_cast<unsigned int>(content.size()), base)
+                    : loader.LoadASCIIFromString(&model, &err, &warn, content.data(),
+                                                 static_cast<unsigned int>(content.size()), base);
+    } catch (const std::bad_alloc&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw SceneError(shown, "", std::string("not a valid glTF 2.0 file: ") + first_line(e.what()));
+    }
+    if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
     Reader(model, shown, max_triangles, out).read();
     out.resources = std::move(files.read);
     // No file gives normals at every corner: the computed ones serve.

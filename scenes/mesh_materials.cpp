@@ -94,8 +94,8 @@ std::optional<Rgb> png_mean_colour(std::string_view bytes) {
     image.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size())) return std::nullopt;
     image.format = PNG_FORMAT_RGB;
-    // At most 16k x 16k texels (768 MB): a larger header is not a texture to average.
-    if (image.width == 0 || image.height == 0 || image.width > 16384 || image.height > 16384) {
+    // At most 8k x 8k texels (192 MB): a larger header is not a texture to average.
+    if (image.width == 0 || image.height == 0 || image.width > 8192 || image.height > 8192) {
         png_image_free(&image);
         return std::nullopt;
     }

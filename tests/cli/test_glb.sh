@@ -35,7 +35,8 @@ for asset in cornell-box.glb lamp-room.gltf suzanne.glb; do
   [ -s "${asset%%.*}.png" ] || fail "$asset: no image"
 done
 
-# The baked asset: valid, and its colours the PLY's radiance.
+# The baked asset: valid (0 errors, 0 warnings), its vertices the PLY's, its colours
+# the PLY's radiance.
 if "$bin" solve "$src/scenes/examples/gltf/cornell-box.glb" --patch-size 0.2 --iterations 200 --width 32 --height 32 \
      --exposure -1 -o lit.glb --ply lit.ply -q 2>err.txt; then
   node "$src/tests/cli/validate_gltf.js" "$validator" lit.glb || fail "the baked lit.glb does not validate"
@@ -60,6 +61,10 @@ vertices = int(header.split("element vertex ")[1].split()[0])
 faces = int(header.split("element face ")[1].split()[0])
 if 3 * faces != len(radiance) // 3:
     sys.exit("%d PLY faces, %d glb vertices" % (faces, len(radiance) // 3))
+positions = floats("POSITION")
+ply_positions = struct.unpack_from("<%df" % (3 * vertices), ply, header_end)
+if positions != ply_positions:
+    sys.exit("POSITION differs from the PLY's vertices")
 offset = header_end + 12 * vertices
 worst = 0.0
 for f in range(faces):
@@ -75,7 +80,8 @@ for f in range(faces):
             worst = max(worst, abs(colour[v] - want))
 if worst > 1e-6 * 2.0 ** exposure:
     sys.exit("COLOR_0 differs from min(1, 2^exposure L) by %g" % worst)
-print("baked: %d patches, _RADIANCE equal to the PLY's, COLOR_0 = min(1, 2^%g L) within %g" % (faces, exposure, worst))
+print("baked: %d patches, POSITION and _RADIANCE equal to the PLY's, COLOR_0 = min(1, 2^%g L) within %g"
+      % (faces, exposure, worst))
 PY
 else
   fail "the baked asset run failed: $(cat err.txt)"

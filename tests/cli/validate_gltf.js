@@ -1,6 +1,6 @@
 // Validates glTF files with the Khronos glTF validator (npm gltf-validator): prints
 // each file's error, warning and info counts and its first issues, and exits 1 when
-// any file has an error. Usage: node validate_gltf.js VALIDATOR_DIR FILE...
+// any file has an error or a warning. Usage: node validate_gltf.js VALIDATOR_DIR FILE...
 // (VALIDATOR_DIR: the node_modules folder that holds gltf-validator).
 const fs = require('fs');
 const path = require('path');
@@ -20,7 +20,7 @@ async function main() {
     const i = report.issues;
     console.log(`${file}: ${i.numErrors} errors, ${i.numWarnings} warnings, ${i.numInfos} infos`);
     for (const m of i.messages) console.log(`  ${['error', 'warning', 'info', 'hint'][m.severity]} ${m.code} ${m.pointer || ''}: ${m.message}`);
-    if (i.numErrors > 0) failed = true;
+    if (i.numErrors > 0 || i.numWarnings > 0) failed = true;
   }
   process.exit(failed ? 1 : 0);
 }

@@ -173,10 +173,10 @@ TEST_CASE("glTF: metallic-roughness, emission and sides map to our materials", "
     CHECK_FALSE(parse(doc).material_defs[0].glossy());
     doc["meshes"][0]["primitives"][0].erase("material");
     const MeshData plain = parse(doc);
-    CHECK(plain.materials == std::vector<std::string>{"(default)"});
+    CHECK(plain.materials == std::vector<std::string>{"(a.gltf default)"});
     CHECK(plain.material_defs[0].albedo.isApprox(Rgb::Constant(0.99)));
     REQUIRE(plain.warnings.size() == 1);
-    CHECK_THAT(plain.warnings[0], Contains("a.gltf") && Contains("(default)") && Contains("scaled"));
+    CHECK_THAT(plain.warnings[0], Contains("a.gltf") && Contains("default") && Contains("scaled"));
     // An extension it does not read is a warning; a required one an error.
     doc["extensionsUsed"] = {"KHR_texture_transform"};
     CHECK_THAT(parse(doc).warnings[0], Contains("KHR_texture_transform"));
@@ -266,7 +266,7 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     fails(doc, "metallicFactor");
     // An index past the vertices: a triangle strip's index buffer made longer.
     std::string bin = decoded_buffer();
-    bin[76] = 9;  // the fourth index, read once the count is 4
+    bin[78] = 9;  // the fourth index (bytes 78-79), read once the count is 4
     doc = asset();
     doc["accessors"][2]["count"] = 4;
     doc["bufferViews"][2]["byteLength"] = 8;
@@ -279,10 +279,71 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     CHECK_THROWS_WITH(parse_mesh("{]", "gltf", "a.gltf"), Contains("a.gltf") && Contains("not a valid glTF"));
     const std::string whole = glb(asset(), decoded_buffer());
     CHECK_THROWS_WITH(parse_mesh(whole.substr(0, whole.size() - 20), "glb", "a.glb"), Contains("a.glb"));
+    // A chain of 100,000 nodes (each the child of the one before) is placed without
+    // recursion: no stack overflow, the translations add up.
+    doc = asset();
+    const int chain = 100000;
+    doc["nodes"] = json::array();
+    for (int k = 0; k < chain; ++k) {
+        json node = {{"translation", {0, 0, 0.001}}};
+        if (k + 1 < chain) node["children"] = {k + 1};
+        else node["mesh"] = 0;
+        doc["nodes"].push_back(node);
+    }
+    CHECK(parse(doc).vertices[0].z() == Approx(100.0));
+    // A GLB whose binary chunk runs past the file, or whose buffer says 0 bytes beside
+    // a binary chunk (tinygltf throws std::out_of_range there): one line each.
+    std::string cut = whole;
+    cut.resize(cut.size() - 4);
+    const std::uint32_t shorter = static_cast<std::uint32_t>(cut.size());
+    std::memcpy(cut.data() + 8, &shorter, 4);  // the header agrees, the chunk does not
+    CHECK_THROWS_WITH(parse_mesh(cut, "glb", "a.glb"), Contains("a.glb") && Contains("binary chunk"));
+    json zero = asset();
+    zero["buffers"][0].erase("uri");
+    std::string zero_glb = glb(zero, decoded_buffer());
+    {
+        const std::uint32_t json_length = [&] { std::uint32_t w; std::memcpy(&w, zero_glb.data() + 12, 4); return w; }();
+        std::string text = zero_glb.substr(20, json_length);
+        const auto at = text.find("\"byteLength\":80");
+        REQUIRE(at != std::string::npos);
+        text.replace(at, 16, "\"byteLength\":0 ");
+        zero_glb.replace(20, json_length, text);
+    }
+    CHECK_THROWS_AS(parse_mesh(zero_glb, "glb", "a.glb"), SceneError);
+    // An image in a buffer view beyond its buffer: refused, not read past.
+    doc = asset();
+    doc["images"] = {{{"bufferView", 3}, {"mimeType", "image/png"}}};
+    doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 70}, {"byteLength", 100000}});
+    doc["textures"] = {{{"source", 0}}};
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    fails(doc, "outside its buffer");
     // Instancing past the triangle limit.
     doc = asset();
     for (int k = 0; k < 10; ++k) doc["nodes"].push_back({{"mesh", 0}}), doc["scenes"][0]["nodes"].push_back(2 + k);
     CHECK_THROWS_WITH(parse_mesh(doc.dump(), "gltf", "a.gltf", 5), Contains("more than 5 triangles"));
+}
+
+TEST_CASE("glTF: a warning per primitive, not per placement; unread extensions and defaults", "[scenes][gltf]") {
+    json doc = asset();
+    doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});  // lines
+    for (int k = 0; k < 1000; ++k) doc["nodes"].push_back({{"mesh", 0}}), doc["scenes"][0]["nodes"].push_back(2 + k);
+    const MeshData d = parse(doc);
+    CHECK(d.triangles.size() == 1001);
+    REQUIRE(d.warnings.size() == 1);
+    CHECK_THAT(d.warnings[0], Contains("mode 1"));
+    // Each placement takes the vertices its triangles use, not its whole accessor.
+    CHECK(d.vertices.size() == 3 * 1001);
+    // KHR_materials_unlit is not read: a warning. KHR_materials_emissive_strength
+    // without its value: 1.
+    json unlit = asset();
+    unlit["extensionsUsed"] = {"KHR_materials_unlit", "KHR_materials_emissive_strength"};
+    unlit["materials"][0]["extensions"] = {{"KHR_materials_unlit", json::object()},
+                                           {"KHR_materials_emissive_strength", json::object()}};
+    unlit["materials"][0]["emissiveFactor"] = {0.5, 0.5, 0.5};
+    const MeshData u = parse(unlit);
+    REQUIRE(u.warnings.size() == 1);
+    CHECK_THAT(u.warnings[0], Contains("KHR_materials_unlit"));
+    CHECK(u.material_defs[0].emission.isApprox(Rgb::Constant(0.5)));
 }
 
 TEST_CASE("glTF: a file alone is a scene, its buffers beside it; in a scene file it brings its materials",
@@ -309,6 +370,14 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it; in a scene file
                    "objects": [{"mesh": "tri.gltf"}]})");
     const Scene s = load_scene(scene);
     CHECK(s.materials[s.find_material("paint")].albedo.isApprox(Rgb(0.1, 0.2, 0.3)));
+    // A buffer outside the asset's folder is refused.
+    dir.write("outside.bin", decoded_buffer());
+    std::filesystem::create_directories(dir.path / "sub");
+    json escape = asset();
+    escape["buffers"][0]["uri"] = "../outside.bin";
+    const std::string nested = (dir.path / "sub" / "x.gltf").string();
+    std::ofstream(nested) << escape.dump();
+    CHECK_THROWS_WITH(load_scene(nested), Contains("x.gltf") && Contains("outside.bin"));
     // A missing buffer file names the scene, the object and the file.
     std::filesystem::remove(dir.path / "tri.bin");
     CHECK_THROWS_WITH(load_scene(scene), Contains("s.json") && Contains("objects[0]") && Contains("tri.bin"));
