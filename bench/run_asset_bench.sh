@@ -15,7 +15,7 @@
 #
 # Usage: [REF_SPP=8192] [BUDGET_SECONDS="8 32 128"] [MODEL=F EYE="x y z" TARGET="x y z" FOV=deg OUT_NAME=F.md]
 #        bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]
-# Installs blender with apt-get when missing (sudo when not root).
+# Installs blender and python3-numpy with apt-get when missing (sudo when not root).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -40,9 +40,11 @@ while [ $# -gt 0 ]; do
     *) echo "usage: bench/run_asset_bench.sh [--threads N] [--no-build] [--out DIR]" >&2; exit 2 ;;
   esac
 done
-if ! command -v blender >/dev/null; then
-  if [ "$(id -u)" -eq 0 ]; then apt-get install -y --no-install-recommends blender
-  else sudo apt-get install -y --no-install-recommends blender; fi
+# Blender, and numpy for its glTF importer and exporter (Debian's blender does not
+# depend on it).
+if ! command -v blender >/dev/null || ! dpkg-query -W -f='${Status}' python3-numpy 2>/dev/null | grep -q "ok installed"; then
+  if [ "$(id -u)" -eq 0 ]; then apt-get install -y --no-install-recommends blender python3-numpy
+  else sudo apt-get install -y --no-install-recommends blender python3-numpy; fi
 fi
 [ "$build" -eq 1 ] && ./scripts/build.sh >/dev/null
 mkdir -p "$out"

@@ -4,6 +4,8 @@ under the ceiling, a dense mesh), so that raybundle reads glTF as Blender writes
 
     blender -b --factory-startup --python bench/cycles/make_gltf_assets.py -- OUT_DIR
 
+(Blender's glTF exporter needs python3-numpy, which Debian's blender does not pull in.)
+
   cornell-box.glb   McGuire's CornellBox-Original.obj + .mtl (scenes/examples/) through
                     Blender's OBJ importer: its light an emissive material (Ke 17 12 4:
                     emissiveFactor with KHR_materials_emissive_strength), and a camera.
