@@ -323,7 +323,7 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     CHECK_THROWS_WITH(parse_mesh(doc.dump(), "gltf", "a.gltf", 5), Contains("more than 5 triangles"));
 }
 
-TEST_CASE("glTF: a warning per primitive, not per placement; unread extensions and defaults", "[scenes][gltf]") {
+TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions and defaults", "[scenes][gltf]") {
     json doc = asset();
     doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});  // lines
     for (int k = 0; k < 1000; ++k) doc["nodes"].push_back({{"mesh", 0}}), doc["scenes"][0]["nodes"].push_back(2 + k);
@@ -346,7 +346,7 @@ TEST_CASE("glTF: a warning per primitive, not per placement; unread extensions a
     CHECK(u.material_defs[0].emission.isApprox(Rgb::Constant(0.5)));
 }
 
-TEST_CASE("glTF: a file alone is a scene, its buffers beside it; in a scene file it brings its materials",
+TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file it brings its materials",
           "[scenes][gltf]") {
     TempDir dir;
     json doc = asset();
