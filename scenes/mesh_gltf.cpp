@@ -280,14 +280,9 @@ private:
         out.two_sided = m.doubleSided;
         if (m.alphaMode == "BLEND" || m.alphaMode == "MASK")
             warn("material '" + name + "': alphaMode " + m.alphaMode + " is read as OPAQUE");
-        const Rgb sum = out.albedo + out.specular;
-        if (const double most = sum.maxCoeff(); !(most < 1.0)) {
-            const double scale = 0.99 / most;
-            out.albedo *= scale;
-            out.specular *= scale;
-            warn("material '" + name + "': reflects " + number(most) + " of the light it receives: scaled by " +
-                 number(scale));
-        }
+        if (const auto sum = keep_energy(out))
+            warn("material '" + name + "': reflects " + number(sum->first) + " of the light it receives: scaled by " +
+                 number(0.99 / sum->first));
         return out;
     }
 

@@ -73,21 +73,24 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
                                " is the colour");
         }
     }
-    const Rgb sum = out.albedo + out.specular;
-    Eigen::Index channel = 0;
-    if (const double most = sum.maxCoeff(&channel); !(most < 1.0)) {
-        const double scale = 0.99 / most;
-        out.albedo *= scale;
-        out.specular *= scale;
-        warnings.push_back(named + ": Kd + Ks = " + number(most) + " in channel " + "rgb"[channel] +
-                           ": both scaled by " + number(scale) + " (a surface reflects less than it receives)");
-    }
+    if (const auto sum = mesh_detail::keep_energy(out))
+        warnings.push_back(named + ": Kd + Ks = " + number(sum->first) + " in channel " + "rgb"[sum->second] +
+                           ": both scaled by " + number(0.99 / sum->first) + " (a surface reflects less than it receives)");
     return out;
 }
 
 }  // namespace
 
 namespace mesh_detail {
+
+std::optional<std::pair<double, int>> keep_energy(Material& m) {
+    Eigen::Index channel = 0;
+    const double most = (m.albedo + m.specular).maxCoeff(&channel);
+    if (most < 1.0) return std::nullopt;
+    m.albedo *= 0.99 / most;
+    m.specular *= 0.99 / most;
+    return std::pair{most, static_cast<int>(channel)};
+}
 
 std::optional<Rgb> png_mean_colour(std::string_view bytes) {
     png_image image{};

@@ -165,6 +165,12 @@ inline constexpr std::uintmax_t kMaxGltfFileBytes = (std::uintmax_t{1} << 31) - 
 MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
                    const std::optional<std::string>& folder, std::size_t max_triangles);
 
+// Where albedo + specular reaches 1 in a channel, scales both so that the most is 0.99
+// (a surface reflects less than it receives) and returns the sum it had there and its
+// channel (0, 1, 2), for the caller's warning; nothing when it was below 1
+// (scenes/mesh_materials.cpp).
+std::optional<std::pair<double, int>> keep_energy(Material& m);
+
 // The mean linear colour of a PNG image's bytes (sRGB decoded, alpha ignored), or
 // nothing for bytes that are not a PNG it can read (scenes/mesh_materials.cpp).
 std::optional<Rgb> png_mean_colour(std::string_view bytes);
