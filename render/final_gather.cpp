@@ -126,9 +126,12 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     };
     parallel_rows(block.count(), run.threads, [&](int row) {
         const int y = block.row(row);
+        // Counted here and stored once a row: rows side by side belong to different
+        // threads, and counters next to each other in memory would share a cache line.
+        long cam = 0, shadow = 0, gathered = 0;
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
-            ++camera_rays[y];
+            ++cam;
             const GSample& s = gbuffer.at(x, y);
             const Vec3& d = s.direction;
             if (s.patch < 0 && o.spp == 1) put(r.direct, x, y, background(scene, d));  // the sky, or black
@@ -141,13 +144,16 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             put(r.position, x, y, s.point);
             if (o.spp == 1) {
                 Rgb direct = scene.material_of(s.patch).emission +
-                             g.direct(s.patch, s.point, n, -d, o.direct_samples, rng, shadow_rays[y]);
+                             g.direct(s.patch, s.point, n, -d, o.direct_samples, rng, shadow);
                 if (scene.material_of(s.patch).glossy() && o.glossy_rays > 0)
-                    direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gather_rays[y]);
+                    direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gathered);
                 put(r.direct, x, y, direct);
             }
-            put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gather_rays[y]));
+            put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gathered));
         }
+        camera_rays[y] = cam;
+        shadow_rays[y] = shadow;
+        gather_rays[y] = gathered;
         row_done("final gather", t0);
     });
     for (Image* image : {&r.direct, &r.indirect, &r.normal, &r.depth, &r.position}) block.share(*image);
@@ -179,6 +185,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         std::vector<Vec3> cand_n;
         std::vector<double> cand_d;
         std::vector<std::pair<int, int>> cand_xy;
+        long cam = 0, shadow = 0, gathered = 0, looked = 0, crossed = 0;  // stored once a row, as in pass 1
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
             Rgb sum = Rgb::Zero();
@@ -194,7 +201,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     const double r1 = rng.uniform(), r2 = rng.uniform();
                     const auto [fx, fy] = emission_strata.point(s, r1, r2);
                     const Vec3 d = camera.direction(x + fx, y + fy);
-                    ++camera_rays[y];
+                    ++cam;
                     const auto hit = caster.intersect(camera.eye(), d);
                     if (!hit.valid())
                         seen += background(scene, d);
@@ -208,7 +215,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     fx += x;
                     fy += y;
                     const Vec3 d = camera.direction(fx, fy);
-                    ++camera_rays[y];
+                    ++cam;
                     const auto hit = caster.intersect(camera.eye(), d);
                     if (!hit.valid() && !emission_apart) {
                         sum += background(scene, d);
@@ -217,10 +224,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     if (!hit.valid() || patches[hit.patch].normal.dot(d) >= 0.0) continue;
                     const Vec3 point = camera.eye() + hit.t * d;
                     const Vec3 n = g.shading_normal(hit.patch, hit.b1, hit.b2, -d);
-                    Rgb L = g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow_rays[y]);
+                    Rgb L = g.direct(hit.patch, point, n, -d, o.direct_samples, rng, shadow);
                     if (!emission_apart) L += scene.material_of(hit.patch).emission;
                     if (scene.material_of(hit.patch).glossy() && o.glossy_rays > 0)
-                        L += g.glossy(hit.patch, point, n, -d, o.glossy_rays, rng, gather_rays[y]);
+                        L += g.glossy(hit.patch, point, n, -d, o.glossy_rays, rng, gathered);
                     direct += L;
                     // The four guide pixels around the sample point.
                     cand_n.clear();
@@ -240,8 +247,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     if (best >= 0) {
                         const auto [bx, by] = cand_xy[static_cast<std::size_t>(best)];
                         L += scene.material_of(hit.patch).albedo * get(r.indirect_filtered, bx, by);
-                        ++lookups[y];
-                        if (std::abs(cand_d[static_cast<std::size_t>(best)] - hit.t) > 0.1 * hit.t) ++across[y];
+                        ++looked;
+                        if (std::abs(cand_d[static_cast<std::size_t>(best)] - hit.t) > 0.1 * hit.t) ++crossed;
                     }
                     sum += L;
                 }
@@ -250,6 +257,11 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             }
             put(r.image, x, y, sum);
         }
+        camera_rays[y] += cam;
+        shadow_rays[y] += shadow;
+        gather_rays[y] += gathered;
+        lookups[y] = looked;
+        across[y] = crossed;
         if (o.spp > 1) row_done("final gather (samples)", t2);
     });
     block.share(r.image);

@@ -26,10 +26,17 @@ void BackendSet::transfer_batch(const std::vector<Vec3>& directions, const std::
         for (std::size_t k = 0; k < n; ++k) all_[0]->transfer(directions[k], jitters[k], out[k]);
         return;
     }
-    // Thread t takes the directions t, t + T, ...; the first runs here.
+    // Thread t takes the directions t, t + T, ...; the first runs here. Each fills a
+    // matrix of its own and swaps it into place: out[k] and out[k + 1] share a cache
+    // line, and a backend appending to them directly made the two threads fight over
+    // it at every entry (2 threads gave 1.5x instead of 1.9x on the Cornell box).
+    if (scratch_.size() < T) scratch_.resize(T);
     run_threads(static_cast<int>(T), [&](int t) {
-        for (std::size_t k = static_cast<std::size_t>(t); k < n; k += T)
-            all_[static_cast<std::size_t>(t)]->transfer(directions[k], jitters[k], out[k]);
+        GeometryMatrix& mine = scratch_[static_cast<std::size_t>(t)];
+        for (std::size_t k = static_cast<std::size_t>(t); k < n; k += T) {
+            all_[static_cast<std::size_t>(t)]->transfer(directions[k], jitters[k], mine);
+            std::swap(mine, out[k]);  // out[k]'s old storage is reused for the next one
+        }
     });
 }
 

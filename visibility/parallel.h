@@ -33,6 +33,7 @@ public:
 private:
     std::vector<std::unique_ptr<Backend>> owned_;
     std::vector<Backend*> all_;
+    std::vector<GeometryMatrix> scratch_;  // one per thread (transfer_batch)
 };
 
 }  // namespace raybundle::visibility
