@@ -147,14 +147,23 @@ void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, do
 // common cell of a hashed grid (each triangle listed in the cells it meets once they
 // are grown by `grow`, not in every cell of its box: a sliver across the scene meets a
 // line of cells, its box a block of them). The cells are the median triangle's size
-// (at least `grow`, at most 1/128 of the scene). Each pair once, in index order.
+// (at least `grow`, at most 1/128 of the scene), or larger where the surface would
+// cover more than 4 of them per triangle. The pairs do not depend on the cells' size:
+// each once, in index order.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
                                                                      double radius) {
     std::vector<double> sizes;
     sizes.reserve(tris.size());
     for (const auto& t : tris) sizes.push_back(t.size);
     std::nth_element(sizes.begin(), sizes.begin() + static_cast<long>(sizes.size() / 2), sizes.end());
-    const double cell = std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 128.0);
+    // At least so large that the surface covers about 4 cells per triangle: a coarse room
+    // of a few dozen triangles, cut into cells of 1/128 of its size, listed each wall
+    // in 16k cells (0.4 s for the Cornell box, longer than its solve's first second).
+    double area = 0.0;
+    for (const auto& t : tris) area += 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
+    const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));
+    const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 128.0),
+                                 std::min(by_area, radius));
     auto key = [](const Cell& c) {
         return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
                static_cast<std::uint64_t>(c.z() & 0x1fffff);
