@@ -11,6 +11,7 @@
 #include "render/run_record.h"
 #include "scenes/errors.h"
 
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 
@@ -19,7 +20,7 @@ namespace raybundle::apps {
 namespace {
 
 // The outputs asked for, all written or none (render/output_set.h).
-void write_outputs(const Command& c, const scenes::Scene& scene, const render::RunResult& r) {
+void write_outputs(const Command& c, const scenes::Scene& scene, const render::RunResult& r, double seconds_scene) {
     render::OutputSet outputs(render::signal_tracker());
     for (const auto& path : c.images)
         outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, r.image, c.exposure); });
@@ -40,6 +41,10 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
             outputs.stage(path, [&](const std::string& tmp) { render::write_patch_glb(tmp, scene, *r.field, c.exposure); });
     if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { render::write_convergence_csv(tmp, r.rows); });
     nlohmann::json record = r.record;
+    // Reading and preparing the scene (refinement, contacts, normals) came first, on one thread.
+    if (record.contains("phases"))
+        record["phases"].insert(record["phases"].begin(),
+                                nlohmann::json::object({{"phase", "scene"}, {"seconds", seconds_scene}, {"threads", 1}}));
     if (r.signal != 0) record["interrupted_by"] = render::signal_name(r.signal);
     if (!c.stats.empty()) outputs.stage(c.stats, [&](const std::string& tmp) { render::write_json(tmp, record); });
     outputs.commit();
@@ -71,7 +76,9 @@ int solve(const Command& c, Ranks& ranks) {
     try {
         if (ranks.spread()) render::require_spreadable(config, ranks.size());
         if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
+        const auto t_scene = std::chrono::steady_clock::now();
         const scenes::Scene scene = load_scene(c);
+        const double seconds_scene = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_scene).count();
         render::check_outputs(c.outputs, render::with_scene_files(c.inputs, scene));  // its meshes too
         render::require_memory(config, scene);
         try {
@@ -90,7 +97,7 @@ int solve(const Command& c, Ranks& ranks) {
         const render::RunResult result = render::run(scene, config, hooks);
         bar.clear();
         if (!ranks.leader()) return result.signal != 0 ? 128 + result.signal : 0;
-        write_outputs(c, scene, result);
+        write_outputs(c, scene, result, seconds_scene);
         if (!c.quiet) print_summary(c, scene, result);
         // A signal that came while the outputs were written counts too.
         if (const int signal = result.signal != 0 ? result.signal : render::stop_requested(); signal != 0) {

@@ -3,11 +3,13 @@
 #include "render/gbuffer.h"
 #include "sampling/streams.h"
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -341,17 +343,27 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         while (done < per_chain) {
             long count = next_record - done;
             if (o.pause) count = std::min(count, std::max(1L, o.pause_every));
-            for (int h = 0; h < 2; ++h) {
+            // Each chain's steps so far in this call, and the progress of both as one.
+            long chain_done[2] = {0, 0};
+            std::mutex progress_lock;
+            auto advance_chain = [&](int h) {
                 sampling::ProgressCallback progress;
                 if (r.progress)
                     progress = [&, h](const sampling::Progress& p) {
+                        const std::lock_guard<std::mutex> lock(progress_lock);
+                        chain_done[h] = p.done;
                         sampling::Progress q = p;
                         q.phase = "solve";
-                        q.done = 2 * done + h * count + p.done;
+                        q.done = 2 * done + chain_done[0] + chain_done[1];
                         q.total = 2 * per_chain;
                         r.progress(q);
                     };
                 chains[h]->advance(count, progress);
+            };
+            if (o.chains_side_by_side) {
+                run_threads(2, advance_chain);
+            } else {
+                for (int h = 0; h < 2; ++h) advance_chain(h);
             }
             done += count;
             out.steps += 2 * count;

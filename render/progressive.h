@@ -133,6 +133,10 @@ struct FieldImageOptions {
     // A solve going on from a checkpoint: the chains, restored, have each done this many
     // steps of the first round (before any image).
     long resume_steps = 0;
+    // The two chains advance at the same time, each on a thread of its own (their
+    // solvers share nothing but the const Transport, and each chain's result is a
+    // function of its own steps alone). Off where the chains talk to a team.
+    bool chains_side_by_side = false;
 };
 
 // A run stopped before it had an image to show.

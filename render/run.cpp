@@ -8,6 +8,7 @@
 #include "sampling/streams.h"
 #include "scenes/errors.h"
 #include "scenes/ray_caster.h"
+#include "visibility/backend.h"
 
 #include <algorithm>
 #include <array>
@@ -352,17 +353,33 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     const json identity = run_identity(c.identity, scene);
     if (c.resume) require_same_run(c.resume_file, c.resume->identity, identity);
     if (team) require_same_everywhere(identity, *team);
-    const scenes::RayCaster caster(scene);
+    // Each phase's wall seconds and threads, in order (the stats' "phases").
+    json phases = json::array();
+    auto phase = [&phases](const char* name, double seconds, int threads) {
+        phases.push_back({{"phase", name}, {"seconds", seconds}, {"threads", threads}});
+    };
+    auto t_phase = Clock::now();
+    const scenes::RayCaster caster(scene, c.run.threads);
+    phase("ray_caster", since(t_phase), c.run.threads);
     // The scene's warnings (the camera's view on a grid of at most 128^2 rays).
+    t_phase = Clock::now();
     const SceneSummary summary = summarize(scene, caster, c.run.threads, 128 * 128);
+    phase("scene_check", since(t_phase), c.run.threads);
     warn_about(scene, summary, hooks);
-    if (c.solver.method == "pathtrace") return path_trace_run(scene, caster, c, t_start);
+    if (c.solver.method == "pathtrace") {
+        RunResult traced = path_trace_run(scene, caster, c, t_start);
+        phase("path_trace", traced.rounds.seconds_render, c.run.threads);
+        traced.record["phases"] = phases;
+        return traced;
+    }
 
     // The first shot (point lights) and the diffuse shot, once, before any direction.
     solver::ShotOptions shots = c.shots;
     std::string shot_choice;
     std::tie(shots.diffuse_shot, shot_choice) = decide_diffuse_shot(scene, c.diffuse_shot);
-    const solver::Transport transport(scene, shots, c.run);
+    const solver::Transport transport(scene, shots, c.run, &caster);
+    phase("first_shot", transport.shot_stats().seconds, 1);
+    phase("diffuse_shot", transport.shot_stats().diffuse_seconds, c.run.threads);
     // Two independent chains, whose difference estimates the error (render/progressive.h).
     // Spread over a team, each member runs its share of both (TeamChain).
     const int rank = team ? team->rank() : 0, members = team ? team->size() : 1;
@@ -371,11 +388,21 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     solver::SolverOptions mine = per_chain;
     mine.steps = std::max(1L, steps_of(per_chain.steps, rank, members));
     const auto first_chain = 2 * static_cast<std::uint64_t>(rank);
-    SolverChain chain_a(transport, mine, c.run, first_chain), chain_b(transport, mine, c.run, first_chain + 1);
+    // In one process with two threads or more, the chains run side by side and share
+    // the threads (the first takes the odd one); a team's members advance their chains
+    // in turn, since each advance talks to the team.
+    const auto& backends = visibility::backend_infos();
+    const bool side_by_side = !team && c.run.threads >= 2 &&
+                              std::any_of(backends.begin(), backends.end(), [&](const visibility::BackendInfo& b) {
+                                  return b.name == c.solver.visibility && b.side_by_side;
+                              });
+    sampling::RunOptions run_a = c.run, run_b = c.run;
+    if (side_by_side) run_a.threads = (c.run.threads + 1) / 2, run_b.threads = c.run.threads / 2;
+    SolverChain chain_a(transport, mine, run_a, first_chain), chain_b(transport, mine, run_b, first_chain + 1);
     std::optional<TeamChain> team_a, team_b;
     if (team) team_a.emplace(chain_a, *team), team_b.emplace(chain_b, *team);
-    FieldChain& run_a = team ? static_cast<FieldChain&>(*team_a) : chain_a;
-    FieldChain& run_b = team ? static_cast<FieldChain&>(*team_b) : chain_b;
+    FieldChain& field_a = team ? static_cast<FieldChain&>(*team_a) : chain_a;
+    FieldChain& field_b = team ? static_cast<FieldChain&>(*team_b) : chain_b;
     // What the method converges to on a scene with a known answer (walks truncated at D
     // bounces: a known fraction of it on a homogeneous scene).
     std::optional<double> exact;
@@ -389,6 +416,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     image_options.gather = c.gather.gather_rays > 0;
     image_options.gather_options = c.gather;
     image_options.shading = c.shading;
+    image_options.chains_side_by_side = side_by_side;
     RunResult out;
     std::vector<ConvergenceRow>& rows = out.rows;
     double seconds_before = 0.0;  // of a resumed run's solve
@@ -421,7 +449,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     const PinholeCamera camera(scene.camera);
     std::optional<FieldImage> made_or_none;
     try {
-        made_or_none = field_image(scene, caster, camera, run_a, run_b, image_options, c.rounds, c.run, observe);
+        made_or_none = field_image(scene, caster, camera, field_a, field_b, image_options, c.rounds, c.run, observe);
     } catch (const Interrupted& e) {
         const int asked = hooks.stop_requested ? hooks.stop_requested() : 0;
         throw RunInterrupted(e.what(), team ? pauses.signal() : asked, pauses.checkpointed());
@@ -452,7 +480,17 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     out.image = std::move(made.image);
     out.gather = std::move(made.gather);
     out.field = std::move(made.field);
+    phase("solve", out.rounds.seconds_solve, c.run.threads);
+    if (out.gather) {
+        phase("gather_guides", out.gather->seconds_guides, c.run.threads);
+        phase("filter", out.gather->seconds_filter, c.run.threads);
+        phase("gather_samples", out.gather->seconds_samples, c.run.threads);
+    } else {
+        phase("patch_image", out.rounds.seconds_render, c.run.threads);
+    }
     FieldRunFacts facts;
+    facts.phases = std::move(phases);
+    facts.side_by_side = side_by_side;
     facts.coplanar_overlaps = summary.overlaps.pairs;
     facts.members = members;
     facts.seconds_total = since(t_start);

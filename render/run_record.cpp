@@ -128,6 +128,14 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
     stats["seconds_total"] = facts.seconds_total;
     stats["seconds_solve"] = seconds_solve;
     stats["seconds_render"] = seconds_render;
+    stats["phases"] = facts.phases;
+    if (facts.side_by_side) {
+        const int t = c.run.threads;
+        stats["decisions"]["threads"] =
+            "the two chains side by side on " + std::to_string((t + 1) / 2) + " and " + std::to_string(t / 2) +
+            " threads (one backend each; each chain's light moves in order, so any count gives the same result)" +
+            (r.gather ? "; final gather and filters: " + std::to_string(t) : "");
+    }
     // This run's steps only (a resumed run's solver counts the steps before it too).
     const long steps_here = r.steps - 2 * facts.resume_steps;
     const double directions_per_step =

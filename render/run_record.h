@@ -21,6 +21,8 @@ struct FieldRunFacts {
     long resume_steps = 0;            // per chain, of a resumed run
     double seconds_before = 0.0;      // of a resumed run's solve
     std::optional<double> exact;
+    nlohmann::json phases;            // [{phase, seconds, threads}, ...] in order
+    bool side_by_side = false;        // the chains ran side by side (render/progressive.h)
 };
 
 nlohmann::json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solver::Transport& transport,

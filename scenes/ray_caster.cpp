@@ -24,8 +24,9 @@ struct RayCaster::Impl {
     }
 };
 
-RayCaster::RayCaster(const Scene& scene) : impl_(std::make_unique<Impl>()) {
-    impl_->device = rtcNewDevice(nullptr);
+RayCaster::RayCaster(const Scene& scene, int threads) : impl_(std::make_unique<Impl>()) {
+    const std::string config = threads > 0 ? "threads=" + std::to_string(threads) : std::string();
+    impl_->device = rtcNewDevice(config.empty() ? nullptr : config.c_str());
     if (!impl_->device)
         throw std::runtime_error("Embree: cannot create a device (error " +
                                  std::to_string(rtcGetDeviceError(nullptr)) + ")");

@@ -20,7 +20,9 @@ struct RayHit {
 
 class RayCaster {
 public:
-    explicit RayCaster(const Scene& scene);
+    // Builds the BVH on `threads` threads (0: Embree's choice, every hardware thread);
+    // the BVH, and so every hit, is the same for any count.
+    explicit RayCaster(const Scene& scene, int threads = 0);
     ~RayCaster();
     RayCaster(const RayCaster&) = delete;
     RayCaster& operator=(const RayCaster&) = delete;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <cmath>
 
@@ -41,7 +42,8 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
     }
 }
 
-Transport::Transport(const scenes::Scene& scene, ShotOptions options, const sampling::RunOptions& run)
+Transport::Transport(const scenes::Scene& scene, ShotOptions options, const sampling::RunOptions& run,
+                     const scenes::RayCaster* given)
     : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()), diffuse_shot_(options.diffuse_shot) {
     if (diffuse_shot_ && glossy_)
         throw scenes::OptionError("diffuse_shot", "supports diffuse scenes only (this scene has glossy materials)");
@@ -49,7 +51,9 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
         init(nullptr, nullptr);
         return;
     }
-    const scenes::RayCaster caster(scene);
+    std::optional<scenes::RayCaster> own;
+    if (!given) own.emplace(scene, run.threads);
+    const scenes::RayCaster& caster = given ? *given : *own;
     FirstShot shot;
     if (!scene.point_lights.empty()) {
         const auto t0 = std::chrono::steady_clock::now();

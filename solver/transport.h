@@ -38,8 +38,10 @@ public:
     // Computes the first shot when the scene has point lights (building a ray caster),
     // and skips it when it has none; the diffuse shot when asked (throws
     // OptionError("diffuse_shot") for a scene with glossy materials), on run.threads
-    // with progress through `run`.
-    explicit Transport(const scenes::Scene& scene, ShotOptions options = {}, const sampling::RunOptions& run = {});
+    // with progress through `run`. The shots cast their rays with `caster` where one is
+    // given (the run's), else with one of their own.
+    explicit Transport(const scenes::Scene& scene, ShotOptions options = {}, const sampling::RunOptions& run = {},
+                       const scenes::RayCaster* caster = nullptr);
 
     // What the first shot did: point lights, shadow rays, seconds (zeros: skipped),
     // and the same for the diffuse shot.
