@@ -3,6 +3,7 @@
 #include "sampling/streams.h"
 #include "sampling/walk_sampler.h"
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <chrono>
@@ -96,24 +97,26 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
       jitter_(run.seed, sampling::streams::kMapJitters(run.chain, run.jitter_stream, 16)) {
     const std::size_t n = t_.patches(), slots = t_.slots();
     const int D = options.depth;
-    dirs_.resize(static_cast<std::size_t>(D));
-    out_.assign(slots, Rgb::Zero());
+    work_.resize(1);
+    Work& work = work_.front();
+    work.dirs.resize(static_cast<std::size_t>(D));
+    work.out.assign(slots, Rgb::Zero());
     sum_.assign(n, Rgb::Zero());
-    walk_.assign(n, Rgb::Zero());
-    std::size_t vectors = 3;  // out_, sum_ and walk_
+    work.walk.assign(n, Rgb::Zero());
+    std::size_t vectors = 3;  // work.out, sum_ and work.walk
     if (method == WalkMethod::walk) {
-        irr_.assign(slots, Rgb::Zero());
-        next_.assign(slots, Rgb::Zero());
+        work.irr.assign(slots, Rgb::Zero());
+        work.next.assign(slots, Rgb::Zero());
         vectors += 2;
         if (options.unbiased) {
-            chain_.assign(slots, Rgb::Zero());
+            work.chain.assign(slots, Rgb::Zero());
             ++vectors;
         }
         report_.decisions["storage"] = "plain walk: the max-bounce irradiance" +
                                        std::string(options.unbiased ? " and the last-bounce chain (unbiased)" : "");
     } else {
         const std::size_t entries = glossy_ ? table_index(0, D) : static_cast<std::size_t>(D);
-        table_.assign(entries, std::vector<Rgb>(slots, Rgb::Zero()));
+        work.table.assign(entries, std::vector<Rgb>(slots, Rgb::Zero()));
         vectors += entries;
         report_.decisions["storage"] = glossy_ ? "the bounce table, D(D+1)/2 = " + std::to_string(entries) +
                                                      " entries (glossy materials need the direction each arrived along)"
@@ -126,6 +129,17 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     }
     report_.method = walk_method_name(method);
     report_.visibility = describe(backends_);
+    // Walks of a source that does not adapt are independent of each other (without the
+    // unbiased correction, which carries one walk's light into the next): with several
+    // backends, whole walks go side by side, one per thread, each with vectors of its
+    // own. Otherwise a walk's D directions do (at most D threads busy).
+    side_by_side_ = backends_.threads() > 1 && !source_->adapts() && !options.unbiased;
+    if (side_by_side_) vectors = vectors * static_cast<std::size_t>(backends_.threads()) - (backends_.threads() - 1);
+    report_.decisions["walk_threads"] =
+        backends_.threads() == 1 ? std::string("one walk at a time")
+        : side_by_side_          ? "whole walks side by side, " + std::to_string(backends_.threads()) + " at a time"
+                                 : std::string("one walk at a time, its directions side by side (") +
+                                       (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")";
     report_.bytes_per_patch = vectors * sizeof(Rgb);
     report_.details = {{"depth", D}, {"sampler", sampling::sampler_name(options.sampler)}, {"unbiased", options.unbiased}};
     if (glossy_) {
@@ -150,17 +164,35 @@ SolverReport GlobalWalks::report() const {
     return r;
 }
 
-void GlobalWalks::transfer_all() {
-    jitters_.clear();
-    for (std::size_t d = 0; d < dirs_.size(); ++d) {
+void GlobalWalks::draw_jitters(Work& work) {
+    work.jitters.clear();
+    for (std::size_t d = 0; d < work.dirs.size(); ++d) {
         const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
-        jitters_.emplace_back(x, y);
+        work.jitters.emplace_back(x, y);
     }
+}
+
+void GlobalWalks::transfer_all(Work& work, visibility::Backend* alone) {
     const auto t0 = Clock::now();
-    backends_.transfer_batch(dirs_, jitters_, matrices_);
-    report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
-    for (const auto& m : matrices_) report_.entries_total += m.entries.size();
-    report_.directions += static_cast<long>(matrices_.size());
+    if (alone) {
+        work.matrices.resize(work.dirs.size());
+        for (std::size_t d = 0; d < work.dirs.size(); ++d) alone->transfer(work.dirs[d], work.jitters[d], work.matrices[d]);
+    } else {
+        backends_.transfer_batch(work.dirs, work.jitters, work.matrices);
+    }
+    work.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (const auto& m : work.matrices) work.entries += m.entries.size();
+    work.directions += static_cast<long>(work.matrices.size());
+}
+
+void GlobalWalks::count(Work& work) {
+    report_.seconds_visibility += work.seconds_visibility;
+    report_.seconds_transport += work.seconds_transport;
+    report_.entries_total += work.entries;
+    report_.directions += work.directions;
+    work.seconds_visibility = work.seconds_transport = 0.0;
+    work.entries = 0;
+    work.directions = 0;
 }
 
 Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
@@ -170,92 +202,92 @@ Rgb GlobalWalks::walk_emission(std::size_t j, const Vec3& out) const {
     return e;
 }
 
-void GlobalWalks::accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance) {
+void GlobalWalks::accumulate(Work& work, std::size_t i, const Vec3& arrived, const Rgb& irradiance) const {
     if (glossy_)
-        walk_[i] += t_.reflected(i, arrived, to_eye_[i], irradiance);
+        work.walk[i] += t_.reflected(i, arrived, to_eye_[i], irradiance);
     else
-        walk_[i] += irradiance;
+        work.walk[i] += irradiance;
 }
 
-void GlobalWalks::walk_plain() {
+void GlobalWalks::walk_plain(Work& work) {
     const std::size_t n = t_.patches();
     const int D = options_.depth;
     const bool unbiased = options_.unbiased;
-    std::fill(irr_.begin(), irr_.end(), Rgb::Zero());
-    if (unbiased) std::fill(chain_.begin(), chain_.end(), Rgb::Zero());
+    std::fill(work.irr.begin(), work.irr.end(), Rgb::Zero());
+    if (unbiased) std::fill(work.chain.begin(), work.chain.end(), Rgb::Zero());
     Vec3 prev = Vec3::Zero();
     for (int d = 0; d < D; ++d) {
-        const Vec3& w = dirs_[d];
-        const auto& matrix = matrices_[d];
+        const Vec3& w = work.dirs[d];
+        const auto& matrix = work.matrices[d];
         const auto t0 = Clock::now();
         // I <- A(w) (Le + C + 4 pi F I)
         for (std::size_t j = 0; j < n; ++j) {
-            out_[j] = walk_emission(j, w);
-            if (d > 0) out_[j] += t_.reflected(j, prev, w, irr_[j]);
+            work.out[j] = walk_emission(j, w);
+            if (d > 0) work.out[j] += t_.reflected(j, prev, w, work.irr[j]);
         }
-        t_.set_sky(w, out_);
-        std::fill(next_.begin(), next_.end(), Rgb::Zero());
-        t_.gather(matrix, out_, next_, false, 1.0);
-        irr_.swap(next_);
+        t_.set_sky(w, work.out);
+        std::fill(work.next.begin(), work.next.end(), Rgb::Zero());
+        t_.gather(matrix, work.out, work.next, false, 1.0);
+        work.irr.swap(work.next);
         if (unbiased) {
             // J <- A(w) 4 pi F J, started from the emission (and sky): exactly d bounces.
             for (std::size_t j = 0; j < n; ++j)
-                out_[j] = d == 0 ? walk_emission(j, w) : t_.reflected(j, prev, w, chain_[j]);
+                work.out[j] = d == 0 ? walk_emission(j, w) : t_.reflected(j, prev, w, work.chain[j]);
             if (d == 0)
-                t_.set_sky(w, out_);
+                t_.set_sky(w, work.out);
             else
-                out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
-            std::fill(next_.begin(), next_.end(), Rgb::Zero());
-            t_.gather(matrix, out_, next_, false, 1.0);
-            chain_.swap(next_);
+                work.out[t_.sky_front()] = work.out[t_.sky_back()] = Rgb::Zero();
+            std::fill(work.next.begin(), work.next.end(), Rgb::Zero());
+            t_.gather(matrix, work.out, work.next, false, 1.0);
+            work.chain.swap(work.next);
         }
         prev = w;
-        report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+        work.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
     }
-    for (std::size_t i = 0; i < n; ++i) accumulate(i, prev, irr_[i]);
+    for (std::size_t i = 0; i < n; ++i) accumulate(work, i, prev, work.irr[i]);
     if (unbiased) {
-        for (std::size_t i = 0; i < n; ++i) correction_[i] = chain_[i];
+        for (std::size_t i = 0; i < n; ++i) correction_[i] = work.chain[i];
         correction_dir_ = prev;
         correction_both_ = false;
         correction_scale_ = 1.0;
     }
 }
 
-void GlobalWalks::walk_combined(bool both) {
+void GlobalWalks::walk_combined(Work& work, bool both) {
     const std::size_t n = t_.patches();
     const int D = options_.depth;
-    for (auto& v : table_) std::fill(v.begin(), v.end(), Rgb::Zero());
-    // Diffuse: table_[b] is the running sum over the directions so far of the b-bounce
-    // irradiance. Glossy: table_[table_index(b, t)] the b-bounce irradiance whose last
+    for (auto& v : work.table) std::fill(v.begin(), v.end(), Rgb::Zero());
+    // Diffuse: work.table[b] is the running sum over the directions so far of the b-bounce
+    // irradiance. Glossy: work.table[table_index(b, t)] the b-bounce irradiance whose last
     // direction was w_t.
-    auto slot = [&](int b, int t) -> std::vector<Rgb>& { return glossy_ ? table_[table_index(b, t)] : table_[b]; };
+    auto slot = [&](int b, int t) -> std::vector<Rgb>& { return glossy_ ? work.table[table_index(b, t)] : work.table[b]; };
     for (int t = 0; t < D; ++t) {
-        const Vec3& w = dirs_[t];
-        const auto& matrix = matrices_[t];
+        const Vec3& w = work.dirs[t];
+        const auto& matrix = work.matrices[t];
         const auto t0 = Clock::now();
         // Highest bounce first, so that (diffuse) the running sums still hold only the
         // directions before w_t.
         for (int b = t; b >= 1; --b) {
             for (std::size_t j = 0; j < n; ++j) {
                 if (!glossy_) {
-                    out_[j] = t_.diffuse_reflectance(j) * table_[b - 1][j];
+                    work.out[j] = t_.diffuse_reflectance(j) * work.table[b - 1][j];
                 } else {
                     const Vec3 out = t_.departure(j, w, both);
                     Rgb sum = Rgb::Zero();
                     for (int s = b - 1; s < t; ++s) {
-                        const Rgb& z = table_[table_index(b - 1, s)][j];
-                        if ((z != 0.0).any()) sum += t_.reflected(j, t_.arrival(j, dirs_[s], both), out, z);
+                        const Rgb& z = work.table[table_index(b - 1, s)][j];
+                        if ((z != 0.0).any()) sum += t_.reflected(j, t_.arrival(j, work.dirs[s], both), out, z);
                     }
-                    out_[j] = sum;
+                    work.out[j] = sum;
                 }
             }
-            out_[t_.sky_front()] = out_[t_.sky_back()] = Rgb::Zero();
-            t_.gather(matrix, out_, slot(b, t), both, 1.0);
+            work.out[t_.sky_front()] = work.out[t_.sky_back()] = Rgb::Zero();
+            t_.gather(matrix, work.out, slot(b, t), both, 1.0);
         }
-        for (std::size_t j = 0; j < n; ++j) out_[j] = walk_emission(j, t_.departure(j, w, both));
-        t_.set_sky(w, out_);
-        t_.gather(matrix, out_, slot(0, t), both, 1.0);
-        report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
+        for (std::size_t j = 0; j < n; ++j) work.out[j] = walk_emission(j, t_.departure(j, w, both));
+        t_.set_sky(w, work.out);
+        t_.gather(matrix, work.out, slot(0, t), both, 1.0);
+        work.seconds_transport += std::chrono::duration<double>(Clock::now() - t0).count();
     }
     // Each b-bounce sample set: C(D, b+1) subsequences, times 2^(b+1) sign choices.
     std::vector<double> inv_samples(static_cast<std::size_t>(D));
@@ -264,13 +296,13 @@ void GlobalWalks::walk_combined(bool both) {
     for (std::size_t i = 0; i < n; ++i) {
         if (!glossy_) {
             Rgb irr = Rgb::Zero();
-            for (int b = 0; b < D; ++b) irr += inv_samples[b] * table_[b][i];
-            walk_[i] += irr;
+            for (int b = 0; b < D; ++b) irr += inv_samples[b] * work.table[b][i];
+            work.walk[i] += irr;
         } else {
             for (int t = 0; t < D; ++t)
                 for (int b = 0; b <= t; ++b) {
-                    const Rgb& z = table_[table_index(b, t)][i];
-                    if ((z != 0.0).any()) accumulate(i, t_.arrival(i, dirs_[t], both), inv_samples[b] * z);
+                    const Rgb& z = work.table[table_index(b, t)][i];
+                    if ((z != 0.0).any()) accumulate(work, i, t_.arrival(i, work.dirs[t], both), inv_samples[b] * z);
                 }
         }
     }
@@ -278,39 +310,69 @@ void GlobalWalks::walk_combined(bool both) {
         // Bounce D-1 has one subsequence, ending at w_D.
         const auto& last = slot(D - 1, D - 1);
         for (std::size_t i = 0; i < n; ++i) correction_[i] = last[i];
-        correction_dir_ = dirs_[D - 1];
+        correction_dir_ = work.dirs[D - 1];
         correction_both_ = both;
         correction_scale_ = inv_samples[D - 1];
     }
 }
 
-void GlobalWalks::evaluate() {
-    std::fill(walk_.begin(), walk_.end(), Rgb::Zero());
-    transfer_all();
+void GlobalWalks::start_walk(Work& work, const double* point) {
+    for (int d = 0; d < options_.depth; ++d) work.dirs[d] = sampling::uniform_sphere(point[2 * d], point[2 * d + 1]);
+    draw_jitters(work);
+}
+
+void GlobalWalks::evaluate(Work& work, visibility::Backend* alone) {
+    std::fill(work.walk.begin(), work.walk.end(), Rgb::Zero());
+    transfer_all(work, alone);
     if (method_ == WalkMethod::walk)
-        walk_plain();
+        walk_plain(work);
     else
-        walk_combined(method_ == WalkMethod::bidirectional);
+        walk_combined(work, method_ == WalkMethod::bidirectional);
 }
 
 double GlobalWalks::evaluate_at(const double* point) {
-    for (int d = 0; d < options_.depth; ++d) dirs_[d] = sampling::uniform_sphere(point[2 * d], point[2 * d + 1]);
-    evaluate();
+    Work& work = work_.front();
+    start_walk(work, point);
+    evaluate(work, nullptr);
     if (!source_->adapts()) return 0.0;
     double sum = 0.0;
-    for (std::size_t p = 0; p < walk_.size(); ++p) sum += luminance(weights_.weight[p] * walk_[p]);
+    for (std::size_t p = 0; p < work.walk.size(); ++p) sum += luminance(weights_.weight[p] * work.walk[p]);
     return std::max(0.0, sum);
 }
 
 void GlobalWalks::advance(long total) {
     const auto start = Clock::now();
-    for (long m = 0; m < total; ++m) {
-        source_->propose(walks_done_, point_.data());
-        const double importance = evaluate_at(point_.data());
-        source_->accept(walk_, importance, sum_);
-        ++walks_done_;
-        ++report_.steps;
-        run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
+    if (!side_by_side_) {
+        for (long m = 0; m < total; ++m) {
+            source_->propose(walks_done_, point_.data());
+            const double importance = evaluate_at(point_.data());
+            source_->accept(work_.front().walk, importance, sum_);
+            count(work_.front());
+            ++walks_done_;
+            ++report_.steps;
+            run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
+        }
+        return;
+    }
+    // Whole walks side by side, one per thread and backend: each proposed, its jitters
+    // drawn and its sum taken in walk order, so that the walks are those of one thread.
+    const int threads = backends_.threads();
+    if (work_.size() < static_cast<std::size_t>(threads)) work_.resize(static_cast<std::size_t>(threads), work_.front());
+    for (long m = 0; m < total;) {
+        const int batch = static_cast<int>(std::min<long>(threads, total - m));
+        for (int k = 0; k < batch; ++k) {
+            source_->propose(walks_done_ + k, point_.data());
+            start_walk(work_[static_cast<std::size_t>(k)], point_.data());
+        }
+        run_threads(batch, [&](int k) { evaluate(work_[static_cast<std::size_t>(k)], &backends_.at(k)); });
+        for (int k = 0; k < batch; ++k, ++m) {
+            Work& work = work_[static_cast<std::size_t>(k)];
+            source_->accept(work.walk, 0.0, sum_);
+            count(work);
+            ++walks_done_;
+            ++report_.steps;
+            run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
+        }
     }
 }
 

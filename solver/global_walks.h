@@ -88,18 +88,39 @@ private:
     GlobalWalks(const Transport& transport, std::unique_ptr<visibility::BackendSet> own,
                 visibility::BackendSet* backends, WalkMethod method, const SolverOptions& options,
                 const sampling::RunOptions& run);
-    void walk_plain();
-    void walk_combined(bool both);
-    // One walk along dirs_ (computes the matrices): its estimate into walk_.
-    void evaluate();
-    // The walk at `point` (2 depth coordinates), into walk_; its importance (0 for a
-    // source that does not adapt).
+    // One walk's directions, matrices and per-patch vectors, and the work it did (added
+    // to the report when the walk is taken).
+    struct Work {
+        std::vector<Vec3> dirs;
+        std::vector<Eigen::Vector2d> jitters;
+        std::vector<visibility::GeometryMatrix> matrices;  // one per direction of the walk
+        // Per patch (slots() long): plain walk: max-bounce irradiance I and, with
+        // `unbiased`, the exact-bounce chain J; combined: the table (glossy) or the
+        // running sums per bounce (diffuse).
+        std::vector<Rgb> irr, chain, out, next;
+        std::vector<std::vector<Rgb>> table;
+        std::vector<Rgb> walk;  // per patch: the walk's estimate
+        double seconds_visibility = 0.0, seconds_transport = 0.0;
+        std::size_t entries = 0;
+        long directions = 0;
+    };
+    void walk_plain(Work& work);
+    void walk_combined(Work& work, bool both);
+    // The directions of the walk at `point` (2 depth coordinates), and its jitters.
+    void start_walk(Work& work, const double* point);
+    // The walk (its matrices computed on `alone`, or on all the backends): its
+    // estimate into work.walk.
+    void evaluate(Work& work, visibility::Backend* alone);
+    // The walk at `point` in work_[0]; its importance (0 for a source that does not adapt).
     double evaluate_at(const double* point);
-    // The geometry matrices of the walk's directions, dirs_ -> matrices_.
-    void transfer_all();
+    void draw_jitters(Work& work);
+    // The geometry matrices of the walk's directions, dirs -> matrices.
+    void transfer_all(Work& work, visibility::Backend* alone);
+    // The walk's figures into the report, in walk order.
+    void count(Work& work);
     // Adds one walk's estimate for patch i (irradiance that arrived along `arrived`) to
-    // sum_: the irradiance itself (diffuse scene) or the radiance it sends to the eye.
-    void accumulate(std::size_t i, const Vec3& arrived, const Rgb& irradiance);
+    // work.walk: the irradiance itself (diffuse scene) or the radiance it sends to the eye.
+    void accumulate(Work& work, std::size_t i, const Vec3& arrived, const Rgb& irradiance) const;
     // The emission of the walk's transfers along `out`: own + first shot + correction.
     Rgb walk_emission(std::size_t j, const Vec3& out) const;
 
@@ -113,16 +134,9 @@ private:
     std::unique_ptr<WalkSource> source_;
     std::vector<double> point_;  // the walk's 2 depth coordinates
     sampling::Rng jitter_;
-    std::vector<Vec3> dirs_;
     std::vector<Vec3> to_eye_;
-    std::vector<Eigen::Vector2d> jitters_;
-    std::vector<visibility::GeometryMatrix> matrices_;  // one per direction of the walk
-
-    // Per patch (slots() long): plain walk: max-bounce irradiance I and, with
-    // `unbiased`, the exact-bounce chain J; combined: the table (glossy) or the running
-    // sums per bounce (diffuse).
-    std::vector<Rgb> irr_, chain_, out_, next_;
-    std::vector<std::vector<Rgb>> table_;
+    std::vector<Work> work_;    // [0]: the walk under way; side by side, one per thread
+    bool side_by_side_ = false;  // whole walks on the threads (else a walk's directions)
     // The unbiased correction: the previous walk's last-bounce irradiance (per patch),
     // and the direction it arrived along (with both: +-, per patch by its normal).
     std::vector<Rgb> correction_;
@@ -130,8 +144,7 @@ private:
     bool correction_both_ = false;
     double correction_scale_ = 0.0;  // 0: none yet
 
-    std::vector<Rgb> sum_;   // per patch: sum over walks of the reflected-radiance estimate
-    std::vector<Rgb> walk_;  // per patch: the current walk's estimate
+    std::vector<Rgb> sum_;  // per patch: sum over walks of the reflected-radiance estimate
     long walks_done_ = 0;
     SolverReport report_;
 

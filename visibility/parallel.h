@@ -24,6 +24,7 @@ public:
     explicit BackendSet(Backend& single);
 
     Backend& front() { return *all_.front(); }
+    Backend& at(int t) { return *all_[static_cast<std::size_t>(t)]; }
     int threads() const { return static_cast<int>(all_.size()); }
 
     // out[k] = A(directions[k]) with jitters[k]; out is resized to the batch.

@@ -88,6 +88,49 @@ TEST_CASE("run: the same seed gives the same image for any thread count, another
     CHECK(a.record.at("final_gather").at("gather_rays") == 4);
 }
 
+TEST_CASE("run: the chains side by side give the field of chains in turn, and the stats time every phase",
+          "[render][run]") {
+    // One thread: the chains in turn. Two and more: side by side, each on its share of
+    // the threads (render/progressive.h). Stochastic iteration batches its directions
+    // by the thread count, walks draw theirs one walk at a time: both must not care.
+    const auto method = GENERATE(as<std::string>{}, "iteration", "bidirectional");
+    const auto scene = small_box();
+    auto config = patch_image(method, method == "iteration" ? 120 : 30);
+    config.gather = render::GatherOptions{};
+    config.gather.gather_rays = 4;
+    std::vector<render::RunResult> runs;
+    for (int threads : {1, 2, 4}) {
+        config.run.threads = threads;
+        runs.push_back(render::run(scene, config));
+    }
+    for (std::size_t k = 1; k < runs.size(); ++k) {
+        INFO(method << ", run " << k);
+        CHECK(runs[k].image.rgb == runs[0].image.rgb);
+        bool same = true;
+        for (std::size_t i = 0; i < runs[0].field->radiance.size(); ++i)
+            same = same && (runs[k].field->radiance[i] == runs[0].field->radiance[i]).all();
+        CHECK(same);
+    }
+    CHECK_THAT(runs[0].record.at("decisions").at("threads").get<std::string>(),
+               !Catch::Contains("side by side"));
+    CHECK_THAT(runs[2].record.at("decisions").at("threads").get<std::string>(),
+               Catch::Contains("the two chains side by side on 2 and 2 threads"));
+    // The phases in order, each with its wall seconds and threads; together no longer
+    // than the run.
+    const auto& phases = runs[2].record.at("phases");
+    std::vector<std::string> names;
+    double sum = 0.0;
+    for (const auto& p : phases) {
+        names.push_back(p.at("phase"));
+        CHECK(p.at("seconds").get<double>() >= 0.0);
+        CHECK(p.at("threads") == (p.at("phase") == "first_shot" ? 1 : 4));
+        sum += p.at("seconds").get<double>();
+    }
+    CHECK(names == std::vector<std::string>{"ray_caster", "scene_check", "first_shot", "diffuse_shot", "solve",
+                                            "gather_guides", "filter", "gather_samples"});
+    CHECK(sum <= runs[2].record.at("seconds_total").get<double>());
+}
+
 TEST_CASE("run: the path tracer has no field, and a reference is compared", "[render][run][pathtrace]") {
     const auto scene = small_box();
     render::RunConfig config;
