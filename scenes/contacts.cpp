@@ -147,7 +147,7 @@ void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, do
 // common cell of a hashed grid (each triangle listed in the cells it meets once they
 // are grown by `grow`, not in every cell of its box: a sliver across the scene meets a
 // line of cells, its box a block of them). The cells are the median triangle's size
-// (at least `grow`, at most 1/128 of the scene), or larger where the surface would
+// (at least `grow`, at most 1/32 of the scene), or larger where the surface would
 // cover more than 4 of them per triangle. The pairs do not depend on the cells' size:
 // each once, in index order.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
@@ -162,7 +162,7 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
     double area = 0.0;
     for (const auto& t : tris) area += 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
     const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));
-    const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 128.0),
+    const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 32.0),
                                  std::min(by_area, radius));
     auto key = [](const Cell& c) {
         return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
