@@ -378,7 +378,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     std::string shot_choice;
     std::tie(shots.diffuse_shot, shot_choice) = decide_diffuse_shot(scene, c.diffuse_shot);
     const solver::Transport transport(scene, shots, c.run, &caster);
-    phase("first_shot", transport.shot_stats().seconds, 1);
+    phase("first_shot", transport.shot_stats().seconds, c.run.threads);
     phase("diffuse_shot", transport.shot_stats().diffuse_seconds, c.run.threads);
     // Two independent chains, whose difference estimates the error (render/progressive.h).
     // Spread over a team, each member runs its share of both (TeamChain).

@@ -62,19 +62,26 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     std::vector<Rgb> irradiance(n, Rgb::Zero());
     const double offset = 1e-6 * scene.bounds_radius();
     // Receivers are independent: bands of them on the run's threads; every sum is made
-    // in the same order whatever the split.
+    // in the same order whatever the split. Spread over a team, each member computes
+    // receivers rank, rank + size, ... and the members share them (with the rays each
+    // receiver cast), so that the shot is computed once, not once per member.
+    const sampling::Team* team = run.team && run.team->size() > 1 ? run.team : nullptr;
+    const int first = team ? team->rank() : 0, stride = team ? team->size() : 1;
+    const int mine = team ? team->rows_of(first, static_cast<int>(n)) : static_cast<int>(n);
+    std::vector<long> rays_of(team ? n : 0, 0);
     std::atomic<long> all_rays{0};
     std::mutex progress_lock;
     long done = 0;
     const auto start = std::chrono::steady_clock::now();
-    parallel_bands(static_cast<int>(n), run.threads, [&](int i0, int i1) {
+    parallel_bands(mine, run.threads, [&](int k0, int k1) {
         long rays = 0;
         std::vector<Vec3> targets;
-        for (int ii = i0; ii < i1; ++ii) {
-            const auto i = static_cast<std::size_t>(ii);
+        for (int k = k0; k < k1; ++k) {
+            const auto i = static_cast<std::size_t>(first) + static_cast<std::size_t>(k) * static_cast<std::size_t>(stride);
+            const long rays_before = rays;
             if (run.progress) {
                 const std::lock_guard<std::mutex> lock(progress_lock);
-                run.report("diffuse shot", ++done, static_cast<long>(n),
+                run.report("diffuse shot", ++done, static_cast<long>(mine),
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
             }
             const auto& p = patches[i];
@@ -130,50 +137,72 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                 });
                 irradiance[i] += scene.material_of(j).emission * (sum / (static_cast<double>(Ni) * Ni));
             }
+            if (team) rays_of[i] = rays - rays_before;
         }
         all_rays += rays;
     });
-    rays_out += all_rays;
+    if (team) {
+        team->share_rows(irradiance.data(), sizeof(Rgb), static_cast<int>(n));
+        team->share_rows(rays_of.data(), sizeof(long), static_cast<int>(n));
+        for (const long r : rays_of) rays_out += r;
+    } else {
+        rays_out += all_rays;
+    }
     return irradiance;
 }
 
-FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster) {
+FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads) {
     FirstShot shot;
     const std::size_t n = scene.patch_count();
     shot.irradiance.assign(n, Rgb::Zero());
     const auto& patches = scene.patch_list();
     const auto& pos = scene.vertex_positions();
     const double eps = 1e-9 * scene.bounds_radius();
-    for (const auto& light : scene.point_lights) {
-        for (std::size_t i = 0; i < n; ++i) {
+    // Receivers are independent: bands of them on the threads, each receiver's lights
+    // in the scene's order; the bands' glossy hits joined in band order (patch order,
+    // each patch's in light order) and their rays summed.
+    const int bands = std::max(1, std::min(threads, static_cast<int>(n)));
+    std::vector<std::vector<FirstShot::Hit>> hits(static_cast<std::size_t>(bands));
+    std::vector<long> rays(static_cast<std::size_t>(bands), 0);
+    run_threads(bands, [&](int t) {
+        const auto i0 = static_cast<std::size_t>(static_cast<long long>(n) * t / bands);
+        const auto i1 = static_cast<std::size_t>(static_cast<long long>(n) * (t + 1) / bands);
+        for (std::size_t i = i0; i < i1; ++i) {
             const auto& p = patches[i];
             const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
-            const Vec3 to_centre = p.centroid - light.position;
-            // The light must be in front of the patch's plane (emission and reception
-            // are one-sided); a light on the plane gives nothing.
-            if (p.normal.dot(light.position - a) <= 0.0) continue;
             const double edge = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-            const double dist = std::max(to_centre.norm(), eps);
-            const int N = std::clamp(static_cast<int>(std::ceil(8.0 * edge / dist)), 2, 64);
-            double sum = 0.0;
-            auto sample = [&](double u, double v) {
-                const Vec3 x = a + u * (b - a) + v * (c - a);
-                const Vec3 d = x - light.position;
-                const double r = d.norm();
-                const double cos_theta = -p.normal.dot(d) / r;
-                if (cos_theta <= 0.0) return;
-                ++shot.shadow_rays;
-                // Blocked if anything lies between the light and x (x's own patch is at r).
-                const auto hit = caster.intersect(light.position, d / r, 0.0, r * (1.0 - 1e-5));
-                if (hit.valid()) return;
-                sum += cos_theta / (r * r);
-            };
-            subtriangle_centroids(N, sample);
-            const Rgb e = light.intensity * (sum / (static_cast<double>(N) * N));
-            if ((e == 0.0).all()) continue;
-            shot.irradiance[i] += e;
-            if (scene.material_of(i).glossy()) shot.glossy_hits.push_back({static_cast<std::uint32_t>(i), to_centre / dist, e});
+            for (const auto& light : scene.point_lights) {
+                const Vec3 to_centre = p.centroid - light.position;
+                // The light must be in front of the patch's plane (emission and reception
+                // are one-sided); a light on the plane gives nothing.
+                if (p.normal.dot(light.position - a) <= 0.0) continue;
+                const double dist = std::max(to_centre.norm(), eps);
+                const int N = std::clamp(static_cast<int>(std::ceil(8.0 * edge / dist)), 2, 64);
+                double sum = 0.0;
+                auto sample = [&](double u, double v) {
+                    const Vec3 x = a + u * (b - a) + v * (c - a);
+                    const Vec3 d = x - light.position;
+                    const double r = d.norm();
+                    const double cos_theta = -p.normal.dot(d) / r;
+                    if (cos_theta <= 0.0) return;
+                    ++rays[static_cast<std::size_t>(t)];
+                    // Blocked if anything lies between the light and x (x's own patch is at r).
+                    const auto hit = caster.intersect(light.position, d / r, 0.0, r * (1.0 - 1e-5));
+                    if (hit.valid()) return;
+                    sum += cos_theta / (r * r);
+                };
+                subtriangle_centroids(N, sample);
+                const Rgb e = light.intensity * (sum / (static_cast<double>(N) * N));
+                if ((e == 0.0).all()) continue;
+                shot.irradiance[i] += e;
+                if (scene.material_of(i).glossy())
+                    hits[static_cast<std::size_t>(t)].push_back({static_cast<std::uint32_t>(i), to_centre / dist, e});
+            }
         }
+    });
+    for (std::size_t t = 0; t < hits.size(); ++t) {
+        shot.glossy_hits.insert(shot.glossy_hits.end(), hits[t].begin(), hits[t].end());
+        shot.shadow_rays += rays[t];
     }
     return shot;
 }

@@ -31,8 +31,10 @@ struct FirstShot {
     long shadow_rays = 0;
 };
 
-// Computes the first shot of every point light of the scene.
-FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster);
+// Computes the first shot of every point light of the scene, receivers split over
+// `threads` (the same result for any count); glossy hits in patch order, each patch's
+// in the lights' order.
+FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1);
 
 // The diffuse shot (004 section 9.1): the direct irradiance of every patch from every
 // emissive patch (W/m^2 per channel, patch average), for scenes with medium-sized

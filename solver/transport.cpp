@@ -57,7 +57,7 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
     FirstShot shot;
     if (!scene.point_lights.empty()) {
         const auto t0 = std::chrono::steady_clock::now();
-        shot = first_shot(scene, caster);
+        shot = first_shot(scene, caster, run.threads);
         shot_stats_.lights = scene.point_lights.size();
         shot_stats_.shadow_rays = shot.shadow_rays;
         shot_stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -2,7 +2,8 @@
 # The solver on MPI ranks (apps/ranks.h, docs/ranks.md), as a user starts it:
 #   - one rank under mpirun writes byte for byte what the program alone writes, and
 #     what the same program built without MPI writes;
-#   - two ranks on the homogeneous box converge to 1 like one process;
+#   - two ranks on the homogeneous box converge to 1 like one process, sharing out
+#     the diffuse shot;
 #   - the answer does not depend on the rank count (1, 2, 3 ranks agree within their
 #     noise), and the same seed and rank count give the same bytes, for any threads;
 #   - a rank that fails (its scene file missing) makes every rank exit with one line
@@ -46,6 +47,10 @@ print(a['relative_l1_error'], b['relative_l1_error'], b['mean_radiance'], b['ran
 python3 -c "import sys; e1, e2, m2 = map(float, sys.argv[1:4]); sys.exit(not (e2 < 0.01 and e2 < 1.5 * e1 and abs(m2 - 1) < 0.005))" \
   "$e1" "$e2" "$m2" && ok || fail "2 ranks: relative L1 error $e2 (alone $e1), mean radiance $m2"
 [ "$r2" = 2 ] && [ "$s2" = 4000 ] && ok || fail "2 ranks: stats ranks $r2, steps_planned $s2"
+# The diffuse shot is shared out, not computed by every rank: the same receivers and
+# shadow rays in all as one process's.
+[ "$(json c1.json "d['decisions']['diffuse_shot']")" = "$(json c2.json "d['decisions']['diffuse_shot']")" ] && ok ||
+  fail "2 ranks: the diffuse shot $(json c2.json "d['decisions']['diffuse_shot']"), alone $(json c1.json "d['decisions']['diffuse_shot']")"
 
 # The ranks' fields are averaged, each counted once: rank 0 of two runs what one
 # process runs with half the iterations (chains 0 and 1, steps split alike), so

@@ -8,6 +8,7 @@
 #include "scenes/builtin.h"
 #include "scenes/loader.h"
 #include "scenes/subdivide.h"
+#include "solver/first_shot.h"
 #include "solver/solver.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
@@ -90,7 +91,45 @@ private:
     std::vector<char> buffer_;
 };
 
+// The rows member k of `members` owns of `rows` (sampling::Team::rows_of).
+long team_rows(int k, int members, int rows) { return (rows - k + members - 1) / members; }
+
 }  // namespace
+
+TEST_CASE("diffuse shot: spread over a team, each member shoots to its receivers and all hold the whole shot",
+          "[render][team]") {
+    auto scene = scenes::make_builtin("cornell-box", 150.0);
+    const scenes::RayCaster caster(scene);
+    const int n = static_cast<int>(scene.patch_count());
+    long rays_alone = 0;
+    const auto alone = solver::diffuse_shot(scene, caster, rays_alone, sampling::RunOptions{});
+    for (const int members : {2, 3}) {
+        ThreadTeam team(members);
+        std::vector<ThreadTeam::Member> member;
+        for (int k = 0; k < members; ++k) member.emplace_back(team, k);
+        std::vector<std::vector<scenes::Rgb>> shots(static_cast<std::size_t>(members));
+        std::vector<long> rays(static_cast<std::size_t>(members), 0), receivers(static_cast<std::size_t>(members), 0);
+        std::vector<std::thread> threads;
+        for (int k = 0; k < members; ++k)
+            threads.emplace_back([&, k] {
+                sampling::RunOptions mine;
+                mine.team = &member[static_cast<std::size_t>(k)];
+                mine.threads = 2;
+                mine.progress_every = 1;
+                mine.progress = [&, k](const sampling::Progress& p) { receivers[static_cast<std::size_t>(k)] = p.total; };
+                shots[static_cast<std::size_t>(k)] = solver::diffuse_shot(scene, caster, rays[static_cast<std::size_t>(k)], mine);
+            });
+        for (auto& t : threads) t.join();
+        for (int k = 0; k < members; ++k) {
+            INFO(members << " members, member " << k);
+            CHECK(receivers[static_cast<std::size_t>(k)] == team_rows(k, members, n));
+            CHECK(rays[static_cast<std::size_t>(k)] == rays_alone);
+            bool same = true;
+            for (int i = 0; i < n; ++i) same = same && (shots[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] == alone[static_cast<std::size_t>(i)]).all();
+            CHECK(same);
+        }
+    }
+}
 
 TEST_CASE("final gather: spread over a team by rows, every member makes the image one process makes", "[render][gather]") {
     auto scene = scenes::make_builtin("cornell-box", 120.0);
