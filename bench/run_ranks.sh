@@ -10,6 +10,12 @@
 #   image:  the default pipeline (final gather, 64 rays, guided filter) at a ladder of
 #           iterations with the gather rays in proportion; error: the pipeline's own
 #           estimate (render/progressive.h: two independent halves).
+#   100k:   the Cornell box at --patch-size 10 (121,324 patches), 100 steps, no gather,
+#           where the scene's preparation and the diffuse shot are most of a run (each
+#           rank prepares the scene; the diffuse shot is shared out between ranks);
+#           error: the field's own estimate.
+# PARTS="field image 100k" (the default) chooses the parts; the field part's reference
+# is computed only when it runs.
 # Usage: bench/run_ranks.sh [OUT.csv]   (default docs/bench-ranks.csv; the build with
 # MPI first: scripts/setup-deps.sh --tests, scripts/build.sh -DRAYBUNDLE_REQUIRE_MPI=ON)
 set -euo pipefail
@@ -23,8 +29,11 @@ work=$(mktemp -d "${TMPDIR:-/tmp}/raybundle-ranks.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 scene=(--builtin cornell-box --seed 1 -q)
 
-echo "run_ranks: reference field (128000 iterations, 2 threads, seed 7)" >&2
-"$raybundle" solve --builtin cornell-box --seed 7 -q --gather 0 --iterations 128000 --threads 2 --patches "$work/ref.csv"
+parts=" ${PARTS:-field image 100k} "
+if [[ $parts == *" field "* ]]; then
+  echo "run_ranks: reference field (128000 iterations, 2 threads, seed 7)" >&2
+  "$raybundle" solve --builtin cornell-box --seed 7 -q --gather 0 --iterations 128000 --threads 2 --patches "$work/ref.csv"
+fi
 
 now() { date +%s.%N; }
 field_error() {  # area-weighted relative L1 of a patch CSV against the reference
@@ -45,11 +54,15 @@ run() {  # pipeline config ranks threads iterations gather_rays
   [ "$config" = "1 rank" ] && launch=("${mpi[@]}" -np 1)
   local t0 t1 error kind
   t0=$(now)
-  "${launch[@]}" "$raybundle" solve "${scene[@]}" --threads "$threads" --iterations "$iterations" --gather "$rays" \
-    --patches "$work/p.csv" --stats "$work/s.json"
+  local extra=()
+  [ "$pipeline" = 100k ] && extra=(--patch-size 10)
+  "${launch[@]}" "$raybundle" solve "${scene[@]}" "${extra[@]}" --threads "$threads" --iterations "$iterations" \
+    --gather "$rays" --patches "$work/p.csv" --stats "$work/s.json"
   t1=$(now)
   if [ "$pipeline" = field ]; then
     error=$(field_error "$work/p.csv") kind="field against the reference"
+  elif [ "$pipeline" = 100k ]; then
+    error=$(json "$work/s.json" "d['estimate']['field_estimated_error']") kind="field estimate"
   else
     error=$(json "$work/s.json" "d['estimate']['image_estimated_error']") kind="image estimate"
   fi
@@ -57,13 +70,23 @@ run() {  # pipeline config ranks threads iterations gather_rays
     "$(awk -v a="$t0" -v b="$t1" 'BEGIN { print b - a }')" "$(json "$work/s.json" "d['seconds_solve']")" \
     "$(json "$work/s.json" "d['seconds_render']")" "$error" "$kind" | tee -a "$out"
 }
-for iterations in 2000 8000 32000; do
-  run field "1 rank" 1 1 "$iterations" 0
-  run field "2 ranks" 2 1 "$iterations" 0
-  run field "1 process, 2 threads" 1 2 "$iterations" 0
-done
-for scale in 1 4; do
-  run image "1 rank" 1 1 $((1000 * scale)) $((16 * scale))
-  run image "2 ranks" 2 1 $((1000 * scale)) $((16 * scale))
-  run image "1 process, 2 threads" 1 2 $((1000 * scale)) $((16 * scale))
-done
+if [[ $parts == *" field "* ]]; then
+  for iterations in 2000 8000 32000; do
+    run field "1 rank" 1 1 "$iterations" 0
+    run field "2 ranks" 2 1 "$iterations" 0
+    run field "1 process, 2 threads" 1 2 "$iterations" 0
+  done
+fi
+if [[ $parts == *" image "* ]]; then
+  for scale in 1 4; do
+    run image "1 rank" 1 1 $((1000 * scale)) $((16 * scale))
+    run image "2 ranks" 2 1 $((1000 * scale)) $((16 * scale))
+    run image "1 process, 2 threads" 1 2 $((1000 * scale)) $((16 * scale))
+  done
+fi
+if [[ $parts == *" 100k "* ]]; then
+  for config in "1 rank" "2 ranks" "1 process, 2 threads"; do
+    case $config in "1 rank") n=1 t=1 ;; "2 ranks") n=2 t=1 ;; *) n=1 t=2 ;; esac
+    run 100k "$config" "$n" "$t" 100 0
+  done
+fi
