@@ -340,7 +340,9 @@ void check_command(const CLI::App& cmd, Command& c) {
 }
 
 scenes::Scene load_scene(const Command& c) {
-    return c.builtin.empty() ? scenes::load_scene(c.scene_file, c.overrides) : scenes::load_builtin(c.builtin, c.overrides);
+    const int threads = c.config.run.threads;
+    return c.builtin.empty() ? scenes::load_scene(c.scene_file, c.overrides, threads)
+                             : scenes::load_builtin(c.builtin, c.overrides, threads);
 }
 
 }  // namespace raybundle::apps

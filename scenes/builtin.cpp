@@ -349,7 +349,7 @@ std::vector<BuiltinInfo> builtin_scenes() {
     };
 }
 
-Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
+Scene make_builtin(const std::string& name, std::optional<double> patch_size, int threads) {
     Scene s;
     double default_size = 0.0;
     for (const auto& info : builtin_scenes())
@@ -373,7 +373,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size) {
     s.finalize();
     check_refinement(s, size, name);
     subdivide(s, size);
-    cut_at_contacts(s);
+    cut_at_contacts(s, threads);
     return s;
 }
 

@@ -17,9 +17,10 @@ struct BuiltinInfo {
 // The built-in scenes with one line each, for `raybundle scenes`.
 std::vector<BuiltinInfo> builtin_scenes();
 
-// Makes a built-in scene, refined to patch_size (its default when absent), finalized.
-// Throws SceneError for an unknown name or a patch size <= 0.
-Scene make_builtin(const std::string& name, std::optional<double> patch_size = std::nullopt);
+// Makes a built-in scene, refined to patch_size (its default when absent), finalized;
+// its contacts searched on `threads` threads. Throws SceneError for an unknown name or
+// a patch size <= 0.
+Scene make_builtin(const std::string& name, std::optional<double> patch_size = std::nullopt, int threads = 1);
 
 // Appends a convex planar quad as two triangles sharing an edge; the corners go
 // round the quad, and the front side faces `towards` (a point in front of it).

@@ -1,6 +1,7 @@
 #include "scenes/contacts.h"
 
 #include "scenes/subdivide.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <array>
@@ -151,7 +152,7 @@ void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, do
 // cover more than 4 of them per triangle. The pairs do not depend on the cells' size:
 // each once, in index order.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
-                                                                     double radius) {
+                                                                     double radius, int threads) {
     std::vector<double> sizes;
     sizes.reserve(tris.size());
     for (const auto& t : tris) sizes.push_back(t.size);
@@ -168,44 +169,57 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
         return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
                static_cast<std::uint64_t>(c.z() & 0x1fffff);
     };
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+    // Each triangle's cells, on the threads (bands of triangles); the grid filled in
+    // triangle order.
+    const int n = static_cast<int>(tris.size());
     std::vector<std::vector<std::uint64_t>> listed(tris.size());  // each triangle's cells
     std::vector<Eigen::AlignedBox3d> boxes(tris.size());
-    std::vector<Cell> met;
-    for (std::size_t i = 0; i < tris.size(); ++i) {
-        for (const auto& p : tris[i].p) boxes[i].extend(p);
-        boxes[i].min().array() -= grow;
-        boxes[i].max().array() += grow;
-        const Cell lo = (boxes[i].min().array() / cell).floor().cast<long>();
-        const Cell hi = (boxes[i].max().array() / cell).floor().cast<long>();
-        met.clear();
-        list_cells(tris[i].p, lo, hi, cell, grow, met);
-        for (const auto& c : met) {
-            cells[key(c)].push_back(static_cast<std::uint32_t>(i));
-            listed[i].push_back(key(c));
+    parallel_bands(n, threads, [&](int i0, int i1) {
+        std::vector<Cell> met;
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            for (const auto& p : tris[i].p) boxes[i].extend(p);
+            boxes[i].min().array() -= grow;
+            boxes[i].max().array() += grow;
+            const Cell lo = (boxes[i].min().array() / cell).floor().cast<long>();
+            const Cell hi = (boxes[i].max().array() / cell).floor().cast<long>();
+            met.clear();
+            list_cells(tris[i].p, lo, hi, cell, grow, met);
+            for (const auto& c : met) listed[i].push_back(key(c));
         }
-    }
+    });
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+    for (std::size_t i = 0; i < tris.size(); ++i)
+        for (const std::uint64_t k : listed[i]) cells[k].push_back(static_cast<std::uint32_t>(i));
     // Each triangle's partners: the later triangles of its cells, each once (the stamp
-    // says which triangle last took it), in index order.
+    // says which triangle last took it), in index order; bands of triangles on the
+    // threads, their pairs joined in band order.
+    const int bands = std::max(1, std::min(threads, n));
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found(static_cast<std::size_t>(bands));
+    run_threads(bands, [&](int t) {
+        const auto a0 = static_cast<std::uint32_t>(static_cast<long long>(n) * t / bands);
+        const auto a1 = static_cast<std::uint32_t>(static_cast<long long>(n) * (t + 1) / bands);
+        std::vector<std::uint32_t> stamp(tris.size(), std::numeric_limits<std::uint32_t>::max()), partners;
+        auto& pairs = found[static_cast<std::size_t>(t)];
+        for (std::uint32_t a = a0; a < a1; ++a) {
+            partners.clear();
+            for (const std::uint64_t k : listed[a])
+                for (const std::uint32_t b : cells.at(k))
+                    if (b > a && stamp[b] != a) {
+                        stamp[b] = a;
+                        if (boxes[a].intersects(boxes[b])) partners.push_back(b);
+                    }
+            std::sort(partners.begin(), partners.end());
+            for (const std::uint32_t b : partners) pairs.emplace_back(a, b);
+        }
+    });
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    std::vector<std::uint32_t> stamp(tris.size(), std::numeric_limits<std::uint32_t>::max()), partners;
-    for (std::uint32_t a = 0; a < tris.size(); ++a) {
-        partners.clear();
-        for (const std::uint64_t k : listed[a])
-            for (const std::uint32_t b : cells.at(k))
-                if (b > a && stamp[b] != a) {
-                    stamp[b] = a;
-                    if (boxes[a].intersects(boxes[b])) partners.push_back(b);
-                }
-        std::sort(partners.begin(), partners.end());
-        for (const std::uint32_t b : partners) pairs.emplace_back(a, b);
-    }
+    for (const auto& band : found) pairs.insert(pairs.end(), band.begin(), band.end());
     return pairs;
 }
 
 }  // namespace
 
-ContactCuts cut_at_contacts(Scene& scene) {
+ContactCuts cut_at_contacts(Scene& scene, int threads) {
     TriMesh& mesh = scene.mesh;
     const double radius = scene.bounds_radius();
     const double tol = 1e-7 * radius;
@@ -242,14 +256,23 @@ ContactCuts cut_at_contacts(Scene& scene) {
     // The contact lines of every triangle. Surfaces touch when nearer than 1e-3 of the
     // scene's radius and 1e-2 of the smaller triangle's size: a table top 0.75 above a
     // large ground plane does not, a light panel 1e-4 under a ceiling does.
+    // Each triangle's lines from its partners in pair order (as one thread going down
+    // the pairs would add them), triangles on the threads.
     std::vector<std::vector<Line>> lines(tris.size());
     const double widest = 1e-3 * radius;
-    for (const auto& [i, j] : candidate_pairs(tris, widest, radius)) {
-        const Tri &a = tris[i], &b = tris[j];
-        const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
-        contacts(a, b, contact, tol, lines[i]);
-        contacts(b, a, contact, tol, lines[j]);
+    std::vector<std::vector<std::uint32_t>> partners(tris.size());
+    for (const auto& [i, j] : candidate_pairs(tris, widest, radius, threads)) {
+        partners[i].push_back(j);
+        partners[j].push_back(i);
     }
+    parallel_rows(static_cast<int>(tris.size()), threads, [&](int u) {
+        const Tri& a = tris[static_cast<std::size_t>(u)];
+        for (const std::uint32_t v : partners[static_cast<std::size_t>(u)]) {
+            const Tri& b = tris[v];
+            const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
+            contacts(a, b, contact, tol, lines[static_cast<std::size_t>(u)]);
+        }
+    });
 
     // Cut each triangle along its lines, then split the cut edges where the contacts
     // end and mark the edges on the contacts. A vertex nearer a line than 1e-3 of its

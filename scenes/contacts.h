@@ -48,6 +48,7 @@ struct ContactCuts {
 // Cuts the scene's patches along their contact lines and marks the contact edges;
 // calls scene.finalize() when it changed anything. The scene must be finalized
 // before (bounds), and refined if it is to be (the loaders cut after subdivide()).
-ContactCuts cut_at_contacts(Scene& scene);
+// The contact search runs on `threads` threads (the same cuts for any count).
+ContactCuts cut_at_contacts(Scene& scene, int threads = 1);
 
 }  // namespace raybundle::scenes

@@ -566,7 +566,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
         check_refinement(scene, ps, shown, limits.max_patches);
         subdivide(scene, ps);
     }
-    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene);
+    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene, limits.threads);
     return scene;
 }
 
@@ -584,7 +584,7 @@ std::string extension_of(const std::string& path) {
 // A model file alone as a scene: the document parse_scene would read, with the file's
 // camera (glTF) or one that frames it from +z, and a patch size of 1/25 of its largest
 // extent.
-Scene load_model(const std::string& path, const Overrides& overrides) {
+Scene load_model(const std::string& path, const Overrides& overrides, int threads) {
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
     Vec3 lo = data.vertices.front(), hi = lo;
@@ -598,30 +598,35 @@ Scene load_model(const std::string& path, const Overrides& overrides) {
                    {"fov_y", fov}};
     if (data.camera) camera = camera_json(*data.camera);
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}, {"patch_size", size / 25.0}};
-    Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides);
+    LoadLimits limits;
+    limits.threads = threads;
+    Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides, limits);
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }
 
 }  // namespace
 
-Scene load_scene(const std::string& path, const Overrides& overrides) {
+Scene load_scene(const std::string& path, const Overrides& overrides, int threads) {
     const std::string ext = extension_of(path);
-    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides);
+    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides, threads);
     std::error_code ec;
     if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
         throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
-    Scene scene = parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides);
+    LoadLimits limits;
+    limits.threads = threads;
+    Scene scene =
+        parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides, limits);
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }
 
-Scene load_builtin(const std::string& name, const Overrides& overrides) {
+Scene load_builtin(const std::string& name, const Overrides& overrides, int threads) {
     std::optional<double> default_size;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
     if (!default_size) make_builtin(name);  // throws: unknown, listing the known ones
-    if (overrides.empty()) return make_builtin(name);
+    if (overrides.empty()) return make_builtin(name, std::nullopt, threads);
     // The overridable settings as documents, checked like a file's: the patch size
     // first (it makes the scene), then the camera.
     json sizes = {{"patch_size", *default_size}}, camera = json::object();
@@ -631,7 +636,7 @@ Scene load_builtin(const std::string& name, const Overrides& overrides) {
             throw SceneError(name, o.key, "a built-in scene takes overrides of camera.* and patch_size only");
         if (root_key == "patch_size") apply_override(sizes, o, name);
     }
-    Scene scene = make_builtin(name, Node(sizes, name, "").number("patch_size"));
+    Scene scene = make_builtin(name, Node(sizes, name, "").number("patch_size"), threads);
     camera["camera"] = camera_json(scene.camera);
     for (const Override& o : overrides)
         if (o.key.rfind("camera", 0) == 0) apply_override(camera, o, name);

@@ -24,12 +24,16 @@ using Overrides = std::vector<Override>;
 // side of its bounds looking at their centre and framing their x and y extents in 40°,
 // and a patch size of 1/25 of their largest extent; the overrides apply to that
 // document ("camera.eye", "patch_size", "materials.NAME" to replace an MTL material).
-Scene load_scene(const std::string& path, const Overrides& overrides = {});
+// Its preparation (the contact search) runs on `threads` threads: the same scene for
+// any count.
+Scene load_scene(const std::string& path, const Overrides& overrides = {}, int threads = 1);
 
 // Bounds on what a scene may grow to on load (the fuzzing harnesses lower them so that
-// every input stays within their memory and time limits: tests/fuzz/).
+// every input stays within their memory and time limits: tests/fuzz/), and the threads
+// that prepare it.
 struct LoadLimits {
     double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
+    int threads = 1;                   // the contact search (scenes/contacts.h)
 };
 
 // The same from JSON text; mesh paths resolve against base_dir, errors name `shown`.
@@ -38,6 +42,6 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
 // A built-in scene (scenes/builtin.h) with overrides of its camera ("camera.*") and
 // "patch_size", validated as in a file.
-Scene load_builtin(const std::string& name, const Overrides& overrides = {});
+Scene load_builtin(const std::string& name, const Overrides& overrides = {}, int threads = 1);
 
 }  // namespace raybundle::scenes

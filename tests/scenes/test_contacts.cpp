@@ -199,3 +199,25 @@ TEST_CASE("contacts: the sides part only along the contact, not along the rest o
     CHECK(parted >= 4);  // both sides' copies of the vertices at z = 0.25, 0.5, 0.75
     CHECK(shared >= 5);  // the open floor's vertices at z = 1, 1.25, ...
 }
+
+TEST_CASE("contacts: the search on several threads cuts the scene as one thread does", "[scenes][contacts]") {
+    // The Cornell box refined, its blocks on the floor and its light under the
+    // ceiling: every vertex, patch and contact edge the same for 1, 2 and 3 threads.
+    const auto one = scenes::make_builtin("cornell-box", 40.0, 1);
+    REQUIRE(one.contact_lines > 0);
+    for (const int threads : {2, 3}) {
+        INFO(threads << " threads");
+        const auto many = scenes::make_builtin("cornell-box", 40.0, threads);
+        CHECK(many.contact_lines == one.contact_lines);
+        CHECK(many.contact_splits == one.contact_splits);
+        CHECK(many.contact_edges == one.contact_edges);
+        REQUIRE(many.patch_count() == one.patch_count());
+        REQUIRE(many.vertex_positions().size() == one.vertex_positions().size());
+        bool same = true;
+        for (std::size_t v = 0; v < one.vertex_positions().size(); ++v)
+            same = same && many.vertex_positions()[v] == one.vertex_positions()[v];
+        for (std::size_t p = 0; p < one.patch_count(); ++p)
+            for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
+        CHECK(same);
+    }
+}
