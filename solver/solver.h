@@ -95,7 +95,9 @@ struct SolverReport {
     nlohmann::json decisions = nlohmann::json::object();  // what it decided for this scene, and why
 };
 
-class Solver {
+// A cache line of its own, like visibility::Backend: the two chains' solvers, made one
+// after another, advance side by side and write their counters at every step.
+class alignas(64) Solver {
 public:
     virtual ~Solver() = default;
     // `steps` more steps (or walks), going on from where the last call stopped: the
