@@ -357,7 +357,10 @@ void GlobalWalks::advance(long total) {
     // Whole walks side by side, one per thread and backend: each proposed, its jitters
     // drawn and its sum taken in walk order, so that the walks are those of one thread.
     const int threads = backends_.threads();
-    if (work_.size() < static_cast<std::size_t>(threads)) work_.resize(static_cast<std::size_t>(threads), work_.front());
+    if (work_.size() < static_cast<std::size_t>(threads)) {
+        const Work first = work_.front();  // a copy: resize() may move the vector
+        work_.resize(static_cast<std::size_t>(threads), first);
+    }
     for (long m = 0; m < total;) {
         const int batch = static_cast<int>(std::min<long>(threads, total - m));
         for (int k = 0; k < batch; ++k) {
