@@ -157,9 +157,9 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
     sizes.reserve(tris.size());
     for (const auto& t : tris) sizes.push_back(t.size);
     std::nth_element(sizes.begin(), sizes.begin() + static_cast<long>(sizes.size() / 2), sizes.end());
-    // At least so large that the surface covers about 4 cells per triangle: a coarse room
-    // of a few dozen triangles, cut into cells of 1/128 of its size, listed each wall
-    // in 16k cells (0.4 s for the Cornell box, longer than its solve's first second).
+    // At least so large that the surface covers about 4 cells per triangle: in cells of
+    // 1/128 of the scene, each wall of a coarse room of a few dozen triangles was
+    // listed in some 16k cells (0.6 s of the Cornell box's preparation).
     double area = 0.0;
     for (const auto& t : tris) area += 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
     const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));

@@ -34,7 +34,10 @@ public:
 private:
     std::vector<std::unique_ptr<Backend>> owned_;
     std::vector<Backend*> all_;
-    std::vector<GeometryMatrix> scratch_;  // one per thread (transfer_batch)
+    struct alignas(64) Scratch {
+        GeometryMatrix matrix;
+    };
+    std::vector<Scratch> scratch_;  // one per thread (transfer_batch)
 };
 
 }  // namespace raybundle::visibility
