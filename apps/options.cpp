@@ -205,17 +205,18 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     f.row("eps_depth", yes, value("--eps-depth", g.filter.eps_depth, "guided filter: regularisation of the depth")->check(kPositive));
     f.row("", no, cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR"));
     f.row("reference", no, cmd.add_option("--reference", c.reference, "an EXR of the same size (e.g. from --method pathtrace): the "
-                                                                      "image's relative L1 error and MSE against it go into the summary line and the stats")
+                                                                      "image's relative L1 error, MSE, 4x4-block error and worst 16x16 block against it go into the "
+                                                                      "summary line and the stats")
                                ->check(CLI::ExistingFile));
     f.row("target_error", yes, cmd.add_option("--target-error", c.config.rounds.target_error,
                                               "render in rounds until the image's estimated relative L1 error is at most E (e.g. 0.01)")
                                    ->check(kPositive & CLI::Range(0.0, 1.0)));
     f.row("time_budget", yes, cmd.add_option("--time-budget", c.config.rounds.time_budget,
-                                             "render in rounds for about S seconds (the first round always runs)")
+                                             "render in rounds for about S seconds in all, the scene's reading included (the first round always runs)")
                                   ->check(kPositive));
     f.row("", no, cmd.add_option("--stats", c.stats, "run statistics (JSON)"));
     f.row("", no, cmd.add_option("--csv", c.csv, "convergence: iteration,seconds,relative_l1_error,mean_radiance,estimated_error,"
-                                                 "round,image_estimated_error,image_relative_l1,image_mse"));
+                                                 "round,image_estimated_error,image_relative_l1,image_mse,image_block4_relative_l1,image_worst_block16"));
     f.row("", no, cmd.add_option("--csv-every", c.csv_every, "a convergence row every K steps (default: 100 rows)")
                       ->check(CLI::Range(1L, 1000000000L)));
     f.row("", no, cmd.add_option("--patches", c.patches_csv, "per-patch CSV: id,cx,cy,cz,nx,ny,nz,area,r,g,b"));

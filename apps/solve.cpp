@@ -97,6 +97,7 @@ int solve(const Command& c, Ranks& ranks) {
         hooks.stoppable = [] { render::set_stoppable(true); };
         hooks.stop_requested = [] { return render::stop_requested(); };
         hooks.temporaries = render::signal_tracker();
+        config.seconds_spent = seconds_scene;
         const render::RunResult result = render::run(scene, config, hooks);
         bar.clear();
         if (!ranks.leader()) return result.signal != 0 ? 128 + result.signal : 0;

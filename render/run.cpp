@@ -14,6 +14,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <mutex>
 
@@ -180,6 +181,44 @@ void require_same_everywhere(const json& identity, const sampling::Team& team) {
                        "and be given the same options");
 }
 
+// The rounds' options: a time budget less what the scene's reading and the run's
+// preparation took. Where that leaves nothing, the first round runs all the same and a
+// warning says so, with the least the scene takes.
+RoundOptions rounds_left(const RunConfig& c, double seconds_run, const RunHooks& hooks) {
+    RoundOptions o = c.rounds;
+    if (!(o.time_budget > 0.0)) return o;
+    const double spent = c.seconds_spent + seconds_run;
+    if (spent >= o.time_budget) {
+        if (hooks.warn) {
+            char line[256];
+            std::snprintf(line, sizeof line,
+                          "--time-budget %g: preparing the scene took %.2f s of it, nothing is left for the image; "
+                          "one first round runs (the least this scene takes is %.2f s and that round)",
+                          o.time_budget, spent, spent);
+            hooks.warn(line);
+        }
+        o.time_budget = 1e-9;  // not 0, which means no budget: the first round alone
+    } else {
+        o.time_budget -= spent;
+    }
+    return o;
+}
+
+// A time budget the first round alone overran (it always runs): the least this scene
+// takes with these flags, said once the run knows it.
+void warn_if_over(const RunConfig& c, const scenes::Scene& scene, const Rounds& rounds, double seconds,
+                  const RunHooks& hooks) {
+    const double S = c.rounds.time_budget;
+    if (!(S > 0.0) || seconds <= 1.15 * S + 0.5 || rounds.rounds.size() != 1 || !hooks.warn) return;
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "--time-budget %g: the first round took %.2f s and the run %.2f s, "
+                  "the least this scene takes at %dx%d with these flags (a smaller image, fewer --spp or "
+                  "--direct-samples take less)",
+                  S, rounds.rounds.front().seconds, seconds, scene.camera.width, scene.camera.height);
+    hooks.warn(line);
+}
+
 // Both chains' work in one report: counts and seconds added, the rest from chain 0.
 solver::SolverReport combined(const solver::SolverReport& a, const solver::SolverReport& b) {
     solver::SolverReport r = a;
@@ -191,9 +230,9 @@ solver::SolverReport combined(const solver::SolverReport& a, const solver::Solve
     return r;
 }
 
-std::optional<Compared> compare(const std::optional<Image>& ref, const Image& image) {
+std::optional<ImageError> compare(const std::optional<Image>& ref, const Image& image) {
     if (!ref) return std::nullopt;
-    return Compared{relative_l1(image, *ref), mse(image, *ref)};
+    return image_error(image, *ref);
 }
 
 // A CSV row at the end of a round: the image's estimate, and its true error where a
@@ -204,6 +243,8 @@ void add_image_columns(ConvergenceRow& row, const Snapshot& s, const std::option
     if (const auto against = compare(reference, *s.image)) {
         row.image_l1 = against->relative_l1;
         row.image_mse = against->mse;
+        row.image_block4_l1 = against->block4_l1;
+        row.image_worst_block16 = against->worst_block16;
     }
 }
 
@@ -321,10 +362,10 @@ std::pair<bool, std::string> decide_diffuse_shot(const scenes::Scene& scene, con
 
 // `--method pathtrace`: the reference image, no radiance field.
 RunResult path_trace_run(const scenes::Scene& scene, const scenes::RayCaster& caster, const RunConfig& c,
-                         Clock::time_point t_start) {
+                         const RoundOptions& rounds, Clock::time_point t_start) {
     const PinholeCamera camera(scene.camera);
     RunResult out;
-    const auto traced = traced_image(scene, caster, camera, c.path, c.rounds, c.run, [&](const Snapshot& s) {
+    const auto traced = traced_image(scene, caster, camera, c.path, rounds, c.run, [&](const Snapshot& s) {
         ConvergenceRow row;
         row.seconds = s.seconds;
         add_image_columns(row, s, c.reference);
@@ -367,7 +408,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     phase("scene_check", since(t_phase), c.run.threads);
     warn_about(scene, summary, hooks);
     if (c.solver.method == "pathtrace") {
-        RunResult traced = path_trace_run(scene, caster, c, t_start);
+        RunResult traced = path_trace_run(scene, caster, c, rounds_left(c, since(t_start), hooks), t_start);
         phase("path_trace", traced.rounds.seconds_render, c.run.threads);
         traced.record["phases"] = phases;
         return traced;
@@ -447,14 +488,16 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     // From here a first stop request ends the solve and makes the image of the steps done.
     if (hooks.stoppable) hooks.stoppable();
     const PinholeCamera camera(scene.camera);
+    const RoundOptions rounds = rounds_left(c, since(t_start), hooks);
     std::optional<FieldImage> made_or_none;
     try {
-        made_or_none = field_image(scene, caster, camera, field_a, field_b, image_options, c.rounds, c.run, observe);
+        made_or_none = field_image(scene, caster, camera, field_a, field_b, image_options, rounds, c.run, observe);
     } catch (const Interrupted& e) {
         const int asked = hooks.stop_requested ? hooks.stop_requested() : 0;
         throw RunInterrupted(e.what(), team ? pauses.signal() : asked, pauses.checkpointed());
     }
     FieldImage& made = *made_or_none;
+    warn_if_over(c, scene, made.rounds, c.seconds_spent + since(t_start), hooks);
     require_finite(made.field, scene);
     require_finite(made.image, "the image");
     // Every member's work in the report.

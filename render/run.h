@@ -24,6 +24,7 @@
 #include "render/checkpoint.h"
 #include "render/final_gather.h"
 #include "render/image.h"
+#include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/progressive.h"
 #include "render/shade.h"
@@ -54,6 +55,10 @@ struct RunConfig {
     Shading shading = Shading::Smooth;       // the patch image
     PathTraceOptions path;                   // --method pathtrace
     RoundOptions rounds;                     // target error, time budget
+    // Seconds the run has taken before run() was called (the scene's reading): a time
+    // budget counts them, with the run's own preparation (the shots), and gives the
+    // rounds what is left.
+    double seconds_spent = 0.0;
     long record_every = -1;                  // convergence rows every so many steps (0: about 100; -1: none)
     // The image is compared with this one (relative L1, MSE), named `reference_file`.
     std::optional<Image> reference;
@@ -88,14 +93,12 @@ struct RunHooks {
 struct ConvergenceRow {
     long steps = 0;
     double seconds = 0.0;
-    std::optional<double> error, mean, estimate, image_estimate, image_l1, image_mse;
+    std::optional<double> error, mean, estimate, image_estimate, image_l1, image_mse, image_block4_l1,
+        image_worst_block16;
     long round = 0;
 };
 void write_convergence_csv(const std::string& path, const std::vector<ConvergenceRow>& rows);
 
-struct Compared {
-    double relative_l1, mse;
-};
 
 struct RunResult {
     Image image;
@@ -107,7 +110,7 @@ struct RunResult {
     double mean_radiance = 0.0;
     double field_estimate = -1.0;                // the field's estimated relative L1 error (render/progressive.h)
     std::optional<double> error;                 // against the scene's exact answer
-    std::optional<Compared> against;             // against config.reference
+    std::optional<ImageError> against;             // against config.reference
     std::vector<ConvergenceRow> rows;            // every record_every steps and every round
     nlohmann::json record;                       // the stats: settings, decisions, figures
     int signal = 0;                              // the stop asked for (0: none)

@@ -26,7 +26,9 @@ constexpr std::pair<const char*, std::optional<double> ConvergenceRow::*> kRowVa
     {"estimate", &ConvergenceRow::estimate},
     {"image_estimate", &ConvergenceRow::image_estimate},
     {"image_l1", &ConvergenceRow::image_l1},
-    {"image_mse", &ConvergenceRow::image_mse}};
+    {"image_mse", &ConvergenceRow::image_mse},
+    {"image_block4_l1", &ConvergenceRow::image_block4_l1},
+    {"image_worst_block16", &ConvergenceRow::image_worst_block16}};
 
 json rounds_record(const Rounds& r, const RoundOptions& o) {
     json rounds = json::array();
@@ -187,9 +189,13 @@ json path_trace_record(const scenes::Scene& scene, const RunConfig& c, const Tra
               {"rounds", traced.rounds.stopped}}}};
 }
 
-void record_reference(json& record, const RunConfig& c, const std::optional<Compared>& against) {
+void record_reference(json& record, const RunConfig& c, const std::optional<ImageError>& against) {
     if (against)
-        record["reference"] = {{"file", c.reference_file}, {"relative_l1", against->relative_l1}, {"mse", against->mse}};
+        record["reference"] = {{"file", c.reference_file},
+                               {"relative_l1", against->relative_l1},
+                               {"mse", against->mse},
+                               {"block4_relative_l1", against->block4_l1},
+                               {"worst_block16", against->worst_block16}};
 }
 
 std::string contacts_line(const scenes::Scene& scene) {
@@ -221,7 +227,7 @@ void write_convergence_csv(const std::string& path, const std::vector<Convergenc
     write_atomically(path, [&](const std::string& tmp) {
         std::ofstream out(tmp);
         out << "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,"
-               "image_relative_l1,image_mse\n";
+               "image_relative_l1,image_mse,image_block4_relative_l1,image_worst_block16\n";
         out.precision(9);
         auto cell = [&](const std::optional<double>& v) {
             out << ',';
@@ -232,7 +238,8 @@ void write_convergence_csv(const std::string& path, const std::vector<Convergenc
             for (const auto* v : {&r.error, &r.mean, &r.estimate}) cell(*v);
             out << ',';
             if (r.round > 0) out << r.round;
-            for (const auto* v : {&r.image_estimate, &r.image_l1, &r.image_mse}) cell(*v);
+            for (const auto* v : {&r.image_estimate, &r.image_l1, &r.image_mse, &r.image_block4_l1, &r.image_worst_block16})
+                cell(*v);
             out << '\n';
         }
         out.close();
@@ -267,7 +274,9 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
     if (r.rounds.estimate >= 0.0)
         print(", estimated error %.2g %% (%zu round%s)", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
               r.rounds.rounds.size() == 1 ? "" : "s");
-    if (r.against) print(", against the reference: relative L1 %.4g, MSE %.4g", r.against->relative_l1, r.against->mse);
+    if (r.against)
+        print(", against the reference: relative L1 %.4g, MSE %.4g, 4x4 blocks %.4g, worst 16x16 block %+.4g",
+              r.against->relative_l1, r.against->mse, r.against->block4_l1, r.against->worst_block16);
     return out;
 }
 

@@ -30,7 +30,7 @@ nlohmann::json field_run_record(const scenes::Scene& scene, const RunConfig& c, 
 nlohmann::json path_trace_record(const scenes::Scene& scene, const RunConfig& c, const TracedImage& traced,
                                  double seconds_total);
 // The comparison with config.reference, where there is one.
-void record_reference(nlohmann::json& record, const RunConfig& c, const std::optional<Compared>& against);
+void record_reference(nlohmann::json& record, const RunConfig& c, const std::optional<ImageError>& against);
 
 // What the contacts between surfaces did to the scene (scenes/contacts.h), in a line.
 std::string contacts_line(const scenes::Scene& scene);

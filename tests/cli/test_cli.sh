@@ -222,7 +222,7 @@ if "$bin" solve --builtin homogeneous-box --width 32 --height 32 --iterations 20
   ok=1
   for f in h.exr h.png h.json h.csv h-patches.csv h.ply; do [ -s "$f" ] || { fail "good run: $f missing"; ok=0; }; done
   [ "$(head -1 h-patches.csv)" = "id,cx,cy,cz,nx,ny,nz,area,r,g,b" ] || { fail "patch CSV header"; ok=0; }
-  [ "$(head -1 h.csv)" = "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,image_relative_l1,image_mse" ] || { fail "convergence CSV header"; ok=0; }
+  [ "$(head -1 h.csv)" = "iteration,seconds,relative_l1_error,mean_radiance,estimated_error,round,image_estimated_error,image_relative_l1,image_mse,image_block4_relative_l1,image_worst_block16" ] || { fail "convergence CSV header"; ok=0; }
   for key in patches iterations directions resolution visibility seconds_total seconds_per_iteration mean_radiance \
              exact_radiance relative_l1_error memory_per_patch_bytes decisions first_shot sky; do
     grep -q "\"$key\"" h.json || { fail "stats lack $key"; ok=0; }
@@ -412,7 +412,8 @@ expect_bad "pathtrace with --gather" "--gather does not apply to --method pathtr
 "$bin" solve --builtin homogeneous-box --method pathtrace --spp 4 --seed 3 --width 8 --height 8 --reference ref8.exr \
   --stats cmp.json >cmp.txt 2>&1
 check $? "--reference failed: $(cat cmp.txt)"
-grep -q "against the reference: relative L1" cmp.txt && grep -q '"relative_l1"' cmp.json && grep -q '"mse"' cmp.json
+grep -q "against the reference: relative L1 .*, 4x4 blocks .*, worst 16x16 block" cmp.txt && grep -q '"relative_l1"' cmp.json &&
+  grep -q '"mse"' cmp.json && grep -q '"block4_relative_l1"' cmp.json && grep -q '"worst_block16"' cmp.json
 check $? "--reference: no error in the summary or stats: $(cat cmp.txt)"
 expect_bad "--reference of another size" "--reference ref8.exr: 8x8 pixels, the image is 16x16" \
   solve --builtin homogeneous-box --width 16 --height 16 --iterations 5 --reference ref8.exr
@@ -443,7 +444,7 @@ for sc in rb:0.12 sky:0.08; do
   name=${sc%%:*} limit=${sc##*:}
   "$bin" solve $name.json --method pathtrace --spp 256 -o $name-ref.exr -q 2>/dev/null &&
     "$bin" solve $name.json --iterations 200 --reference $name-ref.exr --stats $name-cmp.json -q 2>/dev/null
-  err=$(grep -A3 '"reference"' $name-cmp.json 2>/dev/null | grep -o '"relative_l1": [0-9.e-]*' | awk '{print $2}')
+  err=$(grep -A8 '"reference"' $name-cmp.json 2>/dev/null | grep -o '"relative_l1": [0-9.e-]*' | awk '{print $2}')
   awk -v e="${err:-1}" -v l="$limit" 'BEGIN { exit !(e < l) }'
   check $? "$name: final gather against the path tracer: relative L1 ${err:-none}, expected below $limit"
 done

@@ -33,7 +33,7 @@ std::vector<double> block_means(const render::Image& img, int b) {
 
 // The largest relative difference of block means, over blocks brighter than `floor`
 // times the image mean.
-double worst_block(const render::Image& a, const render::Image& ref, int b) {
+double worst_bright_block(const render::Image& a, const render::Image& ref, int b) {
     const auto ma = block_means(a, b), mr = block_means(ref, b);
     double mean = 0.0;
     for (double m : mr) mean += m / mr.size();
@@ -115,7 +115,7 @@ TEST_CASE("final gather against the path tracer: diffuse and glossy Cornell boxe
     po.spp = 2048;
     const auto reference = render::path_trace(scene, caster, render::PinholeCamera(scene.camera), po, {}).image;
     const auto image = gather(scene, caster, 16);
-    const double err = worst_block(image, reference, 8);
+    const double err = worst_bright_block(image, reference, 8);
     const double l1 = render::relative_l1(image, reference);
     double mean = 0.0, mean_ref = 0.0;
     for (std::size_t i = 0; i < image.rgb.size(); ++i) {
@@ -134,7 +134,7 @@ TEST_CASE("final gather against the path tracer: diffuse and glossy Cornell boxe
         // Without the lobe's rays the glossy reflection of the walls is lost: the worst
         // block is off by 0.26 (seeds 1-4), against at most 0.07 with them.
         const auto flat = gather(scene, caster, 0);
-        const double err_without = worst_block(flat, reference, 8);
+        const double err_without = worst_bright_block(flat, reference, 8);
         INFO("without glossy rays: relative L1 " << render::relative_l1(flat, reference) << ", worst block "
                                                  << err_without);
         CHECK(err_without > 2.5 * err);
