@@ -80,6 +80,14 @@ struct GatherOptions {
     // Gather rays that hit closer than twice the size of the patch they meet go on
     // one more bounce instead of reading the field there (the contact bias).
     bool near_hits = true;
+    // The probability q with which a secondary ray that reads the field goes on instead
+    // and adds (path - field) / q: the field as a control variate, so the image
+    // converges to the scene's true light whatever the field's bias (0: the field is
+    // read as the answer, and its bias stays in the image). Past that vertex the path
+    // goes on by Russian roulette. Off by default: at 16 s it takes the contact bias out
+    // of the Cornell boxes but adds more noise than it removes bias in the rooms lit
+    // through a door or a window (docs/final-image.md section 10).
+    double correction = 0.0;
     int spp = 16;             // camera samples per pixel (the first is the guide)
     // With spp > 1: camera rays per pixel, besides the spp samples, for what the camera
     // sees unlit, emission and the sky (one ray each, no light computed); 0: the spp

@@ -6,6 +6,7 @@
 #include "scenes/brdf.h"
 #include "scenes/frame.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace raybundle::render {
@@ -19,6 +20,9 @@ namespace {
 // must be, in sizes (square roots of the area) of the patch it meets, to go on.
 constexpr int kBounces = 2;
 constexpr double kNear = 2.0;
+// With the correction on, paths end by chance (with probability 1 - q per vertex); this
+// cap only stops a pathological scene, at a bias of q^64.
+constexpr int kMostBounces = 64;
 
 // The mean over `count` directions of reading(u1, u2), the directions' points of the
 // unit square stratified (sampling/strata.h).
@@ -39,7 +43,8 @@ Rgb stratified_mean(int count, sampling::Rng& rng, Reading reading) {
 GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster,
                                  const solver::RadianceField& field, const GatherOptions& options)
     : scene_(scene), caster_(caster), patches_(scene.patch_list()), lighting_(scene, caster),
-      analytic_(options.direct == DirectLight::analytic), near_hits_(options.near_hits) {
+      analytic_(options.direct == DirectLight::analytic), near_hits_(options.near_hits),
+      correction_(options.correction) {
     corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
 }
 
@@ -80,15 +85,26 @@ Rgb GatherEstimator::glossy(std::size_t p, const Vec3& x, const Vec3& n, const V
 }
 
 Rgb GatherEstimator::field_along(const Vec3& from, const Vec3& w, sampling::Rng& rng, long& rays, int bounce) const {
-    const auto hit = caster_.intersect(from, w);
+    return arriving(caster_.intersect(from, w), from, w, rng, rays, bounce, correction_);
+}
+
+Rgb GatherEstimator::arriving(const scenes::RayHit& hit, const Vec3& from, const Vec3& w, sampling::Rng& rng,
+                              long& rays, int bounce, double go_on) const {
     if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
     if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
+    const Vec3 y = from + hit.t * w;
     if (bounce < kBounces && (scene_.material_of(hit.patch).glossy() ||
                               (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
-        return bounce_at(hit, from + hit.t * w, -w, rng, rays, bounce + 1);
+        return bounce_at(hit, y, -w, rng, rays, bounce + 1);
     const auto& c = corners_[hit.patch];
-    const Rgb L = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2];
-    return (L - scene_.material_of(hit.patch).emission).max(0.0);
+    const Rgb field = ((1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] -
+                       scene_.material_of(hit.patch).emission)
+                          .max(0.0);
+    // The field as a control variate: with probability go_on the path goes on and its
+    // difference from the field, divided by go_on, corrects the reading.
+    if (go_on > 0.0 && bounce < kMostBounces && rng.uniform() < go_on)
+        return field + (bounce_at(hit, y, -w, rng, rays, bounce + 1) - field) / go_on;
+    return field;
 }
 
 Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
@@ -115,7 +131,11 @@ Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const V
         if (cos_y > 0.0)
             L += f * scene_.material_of(next.patch).emission * lighting_.emitter_weight(next.patch, next.t, cos_y, s.pdf);
     }
-    return L + f * field_along(at.from, w, rng, rays, bounce);
+    // Past the first vertex the correction goes on as Russian roulette does: with the
+    // probability of the path's weight at this vertex (at most 0.95), so that the
+    // weight over the probability stays at most about 1 and the variance bounded.
+    const double go_on = correction_ > 0.0 ? std::min(0.95, f.maxCoeff()) : 0.0;
+    return L + f * arriving(next, at.from, w, rng, rays, bounce, go_on);
 }
 
 }  // namespace raybundle::render

@@ -55,6 +55,10 @@ private:
     // where the path goes on.
     scenes::Rgb field_along(const scenes::Vec3& from, const scenes::Vec3& w, sampling::Rng& rng, long& rays,
                             int bounce = 0) const;
+    // The same for a ray from `from` along w whose hit is known; where it reads the
+    // field, the path goes on with probability go_on and corrects the reading.
+    scenes::Rgb arriving(const scenes::RayHit& hit, const scenes::Vec3& from, const scenes::Vec3& w,
+                         sampling::Rng& rng, long& rays, int bounce, double go_on) const;
     // The radiance a surface met by a secondary ray sends back towards it, its
     // emission excluded: one light point and one BRDF direction (balance heuristic for
     // the light they meet) plus every point light; what the direction meets reflects
@@ -68,6 +72,7 @@ private:
     DirectLighting lighting_;
     bool analytic_;
     bool near_hits_;
+    double correction_;
     std::vector<std::array<scenes::Rgb, 3>> corners_;
 };
 

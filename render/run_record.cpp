@@ -102,6 +102,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
             {"direct_samples", o.direct_samples},
             {"direct", direct_light_name(o.direct)},
             {"glossy_rays", o.glossy_rays},
+            {"correction", o.correction},
             {"spp", o.spp},
             {"emission_samples", o.emission_samples},
             {"filter", filter_name(o.filter.filter)},

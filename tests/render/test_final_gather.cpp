@@ -501,3 +501,86 @@ TEST_CASE("final gather: no light leaks through a partition that stands on a ful
             CHECK(brightest > 0.01f);
     }
 }
+
+TEST_CASE("final gather: the field as a control variate converges to the truth from a wrong field",
+          "[render][gather][correction]") {
+    // The homogeneous box is 1 everywhere; a field of 0.7 everywhere stands for a field
+    // that is wrong (as a coarse one is in a contact shadow). Read as the answer, it
+    // makes the indirect light 0.2 instead of 0.5 (its emission, 0.5, left out); used as
+    // a control variate, the reading plus (path - field) / q is right on average for any
+    // q > 0, and the paths end by chance, not at a depth that would bias them.
+    auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    scene.camera.width = scene.camera.height = 16;
+    solver::RadianceField wrong;
+    wrong.radiance.assign(scene.patch_list().size(), Rgb::Constant(0.7));
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    auto mean_of = [](const render::Image& img) {
+        double s = 0.0;
+        for (float v : img.rgb) s += v;
+        return s / static_cast<double>(img.rgb.size());
+    };
+    render::GatherOptions o = guide_only_gather();
+    o.gather_rays = 256;
+    o.filter.filter = render::Filter::none;
+    o.correction = 0.0;
+    const auto read = render::final_gather(scene, caster, wrong, camera, o, {});
+    INFO("read as the answer: indirect " << mean_of(read.indirect) << ", image " << mean_of(read.image));
+    // 0.2 where rays read the field; hits nearer than two patch sizes go on (near_hits).
+    CHECK(mean_of(read.indirect) < 0.3);
+    CHECK(mean_of(read.image) < 0.9);
+    for (const double q : {0.25, 0.5, 1.0}) {
+        o.correction = q;
+        const auto r = render::final_gather(scene, caster, wrong, camera, o, {});
+        INFO("q = " << q << ": indirect " << mean_of(r.indirect) << ", image " << mean_of(r.image) << ", gather rays "
+                    << r.gather_rays << " (" << read.gather_rays << " without)");
+        CHECK(mean_of(r.indirect) == Approx(0.5).epsilon(0.02));
+        CHECK(mean_of(r.image) == Approx(1.0).epsilon(0.01));
+        // Paths go on about 1 / (1 - 0.5) vertices past the first, where they go on.
+        CHECK(r.gather_rays > read.gather_rays);
+        CHECK(r.gather_rays < read.gather_rays * (1.0 + 4.0 * q));
+    }
+}
+
+TEST_CASE("final gather: the correction takes out light a field leaks through a wall", "[render][gather][correction]") {
+    // As in the test above it: two rooms, the lamp in the far one, the patches running
+    // on under the partition (not cut at the contacts), so the field leaks the far room's
+    // light into the near one. The corrected gather sees the near room black on average.
+    const std::string text = R"({
+      "camera": {"eye": [0.5, 1.5, 2], "target": [4, 1.5, 2], "fov_y": 80, "width": 24, "height": 24},
+      "materials": {"w": {"albedo": [0.8, 0.8, 0.8]}, "p": {"albedo": [0.8, 0.8, 0.8], "two_sided": true},
+                    "lamp": {"albedo": [0, 0, 0], "emission": [20, 20, 20]}},
+      "objects": [
+        {"quad": [[0, 0, 0], [0, 0, 4], [8, 0, 4], [8, 0, 0]], "material": "w"},
+        {"quad": [[0, 3, 0], [8, 3, 0], [8, 3, 4], [0, 3, 4]], "material": "w"},
+        {"quad": [[0, 0, 0], [8, 0, 0], [8, 3, 0], [0, 3, 0]], "material": "w"},
+        {"quad": [[0, 0, 4], [0, 3, 4], [8, 3, 4], [8, 0, 4]], "material": "w"},
+        {"quad": [[0, 0, 0], [0, 3, 0], [0, 3, 4], [0, 0, 4]], "material": "w"},
+        {"quad": [[8, 0, 0], [8, 0, 4], [8, 3, 4], [8, 3, 0]], "material": "w"},
+        {"quad": [[4, 0, 0], [4, 0, 4], [4, 3, 4], [4, 3, 0]], "material": "p"},
+        {"quad": [[5.5, 2.99, 1.5], [6.5, 2.99, 1.5], [6.5, 2.99, 2.5], [5.5, 2.99, 2.5]], "material": "lamp"}],
+      "patch_size": 0.7, "cut_contacts": false})";
+    const auto scene = scenes::parse_scene(text, "rooms.json", ".");
+    const solver::Transport transport(scene, solver::ShotOptions{true});
+    solver::SolverOptions so;
+    so.steps = 400;
+    auto solver = solver::make_solver(transport, so, {});
+    solver->run();
+    const auto field = solver->field();
+    const scenes::RayCaster caster(scene);
+    render::GatherOptions o = guide_only_gather();
+    o.gather_rays = 64;
+    o.filter.filter = render::Filter::none;
+    o.correction = 0.0;
+    auto mean_of = [](const render::Image& img) {
+        double s = 0.0;
+        for (float v : img.rgb) s += v;
+        return s / static_cast<double>(img.rgb.size());
+    };
+    const double leaked = mean_of(render::final_gather(scene, caster, field, render::PinholeCamera(scene.camera), o, {}).image);
+    o.correction = 0.5;
+    const double corrected = mean_of(render::final_gather(scene, caster, field, render::PinholeCamera(scene.camera), o, {}).image);
+    INFO("near room's mean: " << leaked << " read from the field, " << corrected << " corrected");
+    CHECK(leaked > 0.005);
+    CHECK(std::abs(corrected) < leaked / 10.0);
+}
