@@ -198,7 +198,7 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     f.row("correction", yes, value("--correction", g.correction, "final gather: probability Q that a ray reading the solved field "
                                                                "goes on and corrects it (the field as a control variate: "
                                                                "converges to the true image; 0: the field as the answer)")
-                                 ->check(CLI::Range(0.0, 1.0)));
+                                 ->check(kFinite & CLI::Range(0.0, 1.0)));
     f.row("filter", yes, parsed("--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
                                 "final gather: guided | bilateral | atrous | none")
                              ->check(choices(render::kFilterNames)));

@@ -515,6 +515,26 @@ done
 for v in 0 -1 inf nan; do
   expect_bad "--time-budget $v" "--time-budget" solve --builtin homogeneous-box --time-budget "$v"
 done
+# A budget the scene's preparation takes whole: one round all the same, said in a
+# warning; the run counts from its start (the stats' seconds within 1.15 S + 0.5).
+"$bin" solve --builtin homogeneous-box --width 8 --height 8 --iterations 20 --gather 4 --time-budget 0.000001 \
+  -o tiny-budget.exr --stats tiny-budget.json -q 2>tiny-budget.txt
+check $? "--time-budget 1e-6 failed: $(cat tiny-budget.txt)"
+grep -q "preparing the scene took .* nothing is left for the image; one first round runs" tiny-budget.txt &&
+  [ -s tiny-budget.exr ] && [ "$(grep -c '"scale"' tiny-budget.json)" -eq 2 ]
+check $? "--time-budget 1e-6: no warning, no image or not one round: $(cat tiny-budget.txt)"
+t=$(json_number seconds_total budget.json)
+awk -v t="${t:-99}" 'BEGIN { exit !(t <= 1.15 * 1 + 0.5) }'
+check $? "--time-budget 1: the run took ${t:-none} s"
+# The field as a control variate: on, in the stats; a probability, else refused.
+"$bin" solve --builtin homogeneous-box --width 8 --height 8 --iterations 20 --gather 16 --correction 0.5 \
+  --stats corrected.json -q
+check $? "--correction 0.5 failed"
+grep -q '"correction": 0.5' corrected.json
+check $? "--correction 0.5: not in the stats' final_gather"
+for v in -0.1 1.5 nan abc; do
+  expect_bad "--correction $v" "--correction" solve --builtin homogeneous-box --correction "$v"
+done
 expect_bad "--csv-every with pathtrace" "--csv-every does not apply to --method pathtrace" \
   solve --builtin homogeneous-box --method pathtrace --csv-every 5
 
