@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -46,14 +45,7 @@ long half_of(long total, double scale, long least = 1) {
 // A target alone stops at this many times the options' budget.
 constexpr double kMostScale = 1024.0;
 
-// A time budget alone starts small, so that the first round fits a budget of a second
-// or two and times what the next ones can do. A target starts at a quarter: the probe
-// of a round that small would give the share of the steps from the passes' fixed
-// costs (two camera samples a pixel at any scale) more than from their noise.
-double first_scale(const RoundOptions& o) {
-    if (o.target_error > 0.0) return 0.25;
-    return o.time_budget > 0.0 ? 1.0 / 32.0 : 1.0;
-}
+double first_scale(const RoundOptions& o) { return o.target_error > 0.0 || o.time_budget > 0.0 ? 0.25 : 1.0; }
 
 void check(const RoundOptions& o) {
     if (!(o.target_error >= 0.0) || !std::isfinite(o.target_error))
@@ -128,10 +120,6 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
     Shape shape;
     double F = 0.0, G = 0.0, field_sum = 0.0;  // field_sum: sum_k r_k^2 / s_k
     double steps_total = 0.0;
-    // The seconds of the cheapest round so far, its probe left out: a pass costs some
-    // at any scale (a G-buffer, two camera samples a pixel, the filter), so a round
-    // smaller than the first costs no less than it.
-    double least_round = std::numeric_limits<double>::infinity();
     const auto start = Clock::now();
     for (double scale = first_scale(o);;) {
         ++round;
@@ -172,7 +160,6 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         out.seconds_render += std::chrono::duration<double>(t2 - t1).count();
         const double probe_seconds = since(t2);
         out.seconds_probe += probe_seconds;
-        least_round = std::min(least_round, std::chrono::duration<double>(t2 - t0).count());
         out.scale += scale;
         steps_total += steps;
         field_sum += scale * scale / steps;
@@ -243,7 +230,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             // The second round probes as the first did.
             const double left = o.time_budget - spent - (round == 1 ? probe_seconds : 0.0);
             const double fits = left / (t_s * shape.steps + t_g);
-            if (fits < out.scale / 8.0 || least_round > left) {
+            if (fits < out.scale / 8.0) {
                 out.stopped = target ? "the time budget, before the target" : "the time budget";
                 break;
             }
@@ -323,11 +310,7 @@ double estimated_relative_l1(const Image& a, const Image& b) {
     return total > 0.0 ? 0.5 * diff / total : 0.0;
 }
 
-long chain_steps(long steps, const RoundOptions& rounds) {
-    // The burn-in as with a first round of a quarter: at most a tenth of that, which is
-    // less than the steps of a first round of 1/32 (render/progressive.h).
-    return half_of(steps, rounds.target_error > 0.0 || rounds.time_budget > 0.0 ? 0.25 : 1.0);
-}
+long chain_steps(long steps, const RoundOptions& rounds) { return half_of(steps, first_scale(rounds)); }
 
 FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
                        FieldChain& a, FieldChain& b, const FieldImageOptions& o, const RoundOptions& rounds,

@@ -37,11 +37,10 @@
 //     model (below) calibrated to the estimate: the scale that reaches E with 5 % to
 //     spare, from an eighth to 8 times the scale so far; until the estimate is at
 //     most E, or 1024 times the options' budget is spent;
-//   - time_budget S (the seconds left of it once the scene is prepared, render/run.h):
-//     a first round of scale 1/32 (1/4 with a target too), then rounds sized by the
-//     seconds per unit of scale
-//     so far to fill S, up to 8 times the scale so far, until a round worth at least an
-//     eighth of the scale so far no longer fits; the first round always runs;
+//   - time_budget S (what is left of it once the scene is prepared, render/run.h):
+//     rounds sized by the seconds per unit of scale so far to fill S,
+//     until a round worth at least an eighth of the scale so far no longer fits; the
+//     first round always runs;
 //   - both: whichever stops first.
 // With a target or a time budget the first two rounds also measure how much of the
 // estimate is the field's noise (a probe: half A's samples again, on chain B's field)
