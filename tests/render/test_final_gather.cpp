@@ -42,6 +42,37 @@ solver::RadianceField solve(const scenes::Scene& scene, long steps, bool diffuse
     return it.field();
 }
 
+// The default solver's field after `steps` steps, with the diffuse shot.
+solver::RadianceField diffuse_shot_field(const scenes::Scene& scene, long steps) {
+    const solver::Transport transport(scene, solver::ShotOptions{true});
+    solver::SolverOptions so;
+    so.steps = steps;
+    auto solver = solver::make_solver(transport, so, {});
+    solver->run();
+    return solver->field();
+}
+
+// Two rooms under one floor, one ceiling and two long walls (single quads), a
+// two-sided partition between them, the lamp in the far room; `cut`: the patches cut
+// where the partition stands on the others (scenes/contacts.h), else left as modelled.
+scenes::Scene two_rooms(bool cut) {
+    const std::string text = R"({
+      "camera": {"eye": [0.5, 1.5, 2], "target": [4, 1.5, 2], "fov_y": 80, "width": 24, "height": 24},
+      "materials": {"w": {"albedo": [0.8, 0.8, 0.8]}, "p": {"albedo": [0.8, 0.8, 0.8], "two_sided": true},
+                    "lamp": {"albedo": [0, 0, 0], "emission": [20, 20, 20]}},
+      "objects": [
+        {"quad": [[0, 0, 0], [0, 0, 4], [8, 0, 4], [8, 0, 0]], "material": "w"},
+        {"quad": [[0, 3, 0], [8, 3, 0], [8, 3, 4], [0, 3, 4]], "material": "w"},
+        {"quad": [[0, 0, 0], [8, 0, 0], [8, 3, 0], [0, 3, 0]], "material": "w"},
+        {"quad": [[0, 0, 4], [0, 3, 4], [8, 3, 4], [8, 0, 4]], "material": "w"},
+        {"quad": [[0, 0, 0], [0, 3, 0], [0, 3, 4], [0, 0, 4]], "material": "w"},
+        {"quad": [[8, 0, 0], [8, 0, 4], [8, 3, 4], [8, 3, 0]], "material": "w"},
+        {"quad": [[4, 0, 0], [4, 0, 4], [4, 3, 4], [4, 3, 0]], "material": "p"},
+        {"quad": [[5.5, 2.99, 1.5], [6.5, 2.99, 1.5], [6.5, 2.99, 2.5], [5.5, 2.99, 2.5]], "material": "lamp"}],
+      "patch_size": 0.7, "cut_contacts": )" + std::string(cut ? "true" : "false") + "}";
+    return scenes::parse_scene(text, "rooms.json", ".");
+}
+
 // A team of threads standing in for MPI ranks (apps/ranks.h): share_rows() copies each
 // member's block into a common buffer, waits for all, and copies the whole back.
 class ThreadTeam {
@@ -463,31 +494,9 @@ TEST_CASE("final gather: no light leaks through a partition that stands on a ful
     // that run on under the partition carry the far room's light across: the near room
     // shows 0.03. With it, 2e-5 remains: bundle rays that slip through the seams where
     // the partition meets the other objects (separate meshes, not welded).
-    auto scene_with = [](bool cut) {
-        const std::string text = R"({
-          "camera": {"eye": [0.5, 1.5, 2], "target": [4, 1.5, 2], "fov_y": 80, "width": 24, "height": 24},
-          "materials": {"w": {"albedo": [0.8, 0.8, 0.8]}, "p": {"albedo": [0.8, 0.8, 0.8], "two_sided": true},
-                        "lamp": {"albedo": [0, 0, 0], "emission": [20, 20, 20]}},
-          "objects": [
-            {"quad": [[0, 0, 0], [0, 0, 4], [8, 0, 4], [8, 0, 0]], "material": "w"},
-            {"quad": [[0, 3, 0], [8, 3, 0], [8, 3, 4], [0, 3, 4]], "material": "w"},
-            {"quad": [[0, 0, 0], [8, 0, 0], [8, 3, 0], [0, 3, 0]], "material": "w"},
-            {"quad": [[0, 0, 4], [0, 3, 4], [8, 3, 4], [8, 0, 4]], "material": "w"},
-            {"quad": [[0, 0, 0], [0, 3, 0], [0, 3, 4], [0, 0, 4]], "material": "w"},
-            {"quad": [[8, 0, 0], [8, 0, 4], [8, 3, 4], [8, 3, 0]], "material": "w"},
-            {"quad": [[4, 0, 0], [4, 0, 4], [4, 3, 4], [4, 3, 0]], "material": "p"},
-            {"quad": [[5.5, 2.99, 1.5], [6.5, 2.99, 1.5], [6.5, 2.99, 2.5], [5.5, 2.99, 2.5]], "material": "lamp"}],
-          "patch_size": 0.7, "cut_contacts": )" + std::string(cut ? "true" : "false") + "}";
-        return scenes::parse_scene(text, "rooms.json", ".");
-    };
     for (const bool cut : {true, false}) {
-        const auto scene = scene_with(cut);
-        const solver::Transport transport(scene, solver::ShotOptions{true});
-        solver::SolverOptions so;
-        so.steps = 400;
-        auto solver = solver::make_solver(transport, so, {});
-        solver->run();
-        const auto field = solver->field();
+        const auto scene = two_rooms(cut);
+        const auto field = diffuse_shot_field(scene, 400);
         const scenes::RayCaster caster(scene);
         render::GatherOptions o = guide_only_gather();
         o.gather_rays = 16;
@@ -543,30 +552,11 @@ TEST_CASE("final gather: the field as a control variate converges to the truth f
 }
 
 TEST_CASE("final gather: the correction takes out light a field leaks through a wall", "[render][gather][correction]") {
-    // As in the test above it: two rooms, the lamp in the far one, the patches running
-    // on under the partition (not cut at the contacts), so the field leaks the far room's
-    // light into the near one. The corrected gather sees the near room black on average.
-    const std::string text = R"({
-      "camera": {"eye": [0.5, 1.5, 2], "target": [4, 1.5, 2], "fov_y": 80, "width": 24, "height": 24},
-      "materials": {"w": {"albedo": [0.8, 0.8, 0.8]}, "p": {"albedo": [0.8, 0.8, 0.8], "two_sided": true},
-                    "lamp": {"albedo": [0, 0, 0], "emission": [20, 20, 20]}},
-      "objects": [
-        {"quad": [[0, 0, 0], [0, 0, 4], [8, 0, 4], [8, 0, 0]], "material": "w"},
-        {"quad": [[0, 3, 0], [8, 3, 0], [8, 3, 4], [0, 3, 4]], "material": "w"},
-        {"quad": [[0, 0, 0], [8, 0, 0], [8, 3, 0], [0, 3, 0]], "material": "w"},
-        {"quad": [[0, 0, 4], [0, 3, 4], [8, 3, 4], [8, 0, 4]], "material": "w"},
-        {"quad": [[0, 0, 0], [0, 3, 0], [0, 3, 4], [0, 0, 4]], "material": "w"},
-        {"quad": [[8, 0, 0], [8, 0, 4], [8, 3, 4], [8, 3, 0]], "material": "w"},
-        {"quad": [[4, 0, 0], [4, 0, 4], [4, 3, 4], [4, 3, 0]], "material": "p"},
-        {"quad": [[5.5, 2.99, 1.5], [6.5, 2.99, 1.5], [6.5, 2.99, 2.5], [5.5, 2.99, 2.5]], "material": "lamp"}],
-      "patch_size": 0.7, "cut_contacts": false})";
-    const auto scene = scenes::parse_scene(text, "rooms.json", ".");
-    const solver::Transport transport(scene, solver::ShotOptions{true});
-    solver::SolverOptions so;
-    so.steps = 400;
-    auto solver = solver::make_solver(transport, so, {});
-    solver->run();
-    const auto field = solver->field();
+    // The two rooms with the patches running on under the partition (not cut at the
+    // contacts), so the field leaks the far room's light into the near one. The
+    // corrected gather sees the near room black on average.
+    const auto scene = two_rooms(false);
+    const auto field = diffuse_shot_field(scene, 400);
     const scenes::RayCaster caster(scene);
     render::GatherOptions o = guide_only_gather();
     o.gather_rays = 64;
