@@ -75,6 +75,7 @@ int solve(const Command& c, Ranks& ranks) {
     render::RunConfig config = c.config;
     config.run.progress = [&](const sampling::Progress& p) { bar(p); };
     if (ranks.spread()) config.run.team = &ranks;
+    const auto t_command = std::chrono::steady_clock::now();  // a time budget counts from here
     // The checkpoint to go on from: read first (a wrong file stops the run at once).
     try {
         if (ranks.spread()) render::require_spreadable(config, ranks.size());
@@ -97,7 +98,7 @@ int solve(const Command& c, Ranks& ranks) {
         hooks.stoppable = [] { render::set_stoppable(true); };
         hooks.stop_requested = [] { return render::stop_requested(); };
         hooks.temporaries = render::signal_tracker();
-        config.seconds_spent = seconds_scene;
+        config.seconds_spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_command).count();
         const render::RunResult result = render::run(scene, config, hooks);
         bar.clear();
         if (!ranks.leader()) return result.signal != 0 ? 128 + result.signal : 0;

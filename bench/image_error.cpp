@@ -56,8 +56,10 @@ int main(int argc, char** argv) {
                                      std::to_string(image.height) + ", " + argv[2] + " is " +
                                      std::to_string(reference.width) + "x" + std::to_string(reference.height));
         if (map) {
-            const int k = std::atoi(argv[4]);
-            if (k < 1) throw std::runtime_error(std::string("--map ") + argv[4] + ": not a block size >= 1");
+            char* end = nullptr;
+            const long k = std::strtol(argv[4], &end, 10);
+            if (end == argv[4] || *end != '\0' || k < 1 || k > 1 << 16)
+                throw std::runtime_error(std::string("--map ") + argv[4] + ": not a block size from 1 to 65536");
             for (int by = 0; by + k <= image.height; by += k) {
                 for (int bx = 0; bx + k <= image.width; bx += k) {
                     double a = 0.0, b = 0.0;

@@ -95,6 +95,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
     if (o.emission_samples < 0)
         throw scenes::OptionError("emission_samples", "must be >= 0, got " + std::to_string(o.emission_samples));
+    if (!(o.correction >= 0.0 && o.correction <= 1.0))
+        throw scenes::OptionError("correction", "must be in [0, 1], got " + std::to_string(o.correction));
     if (o.glossy_rays < 0)
         throw scenes::OptionError("glossy_rays", "must be >= 0, got " + std::to_string(o.glossy_rays));
     const int W = camera.width(), H = camera.height();

@@ -12,6 +12,13 @@
 // and one BRDF direction (balance heuristic), what the direction meets reflecting the
 // field.
 //
+// With GatherOptions::correction q > 0 the field is a control variate: where a ray
+// reads it, the path goes on with probability q (the first read of a gather or glossy
+// ray; later reads with the path weight's largest channel, at most 0.95: Russian
+// roulette) and adds (path - field) / probability. The mean is then the scene's light
+// whatever the field; single readings, and so single pixels of the indirect image, may
+// be negative.
+//
 // Thread-safe: every method is const; randomness comes from the caller's generator.
 #include "render/direct_light.h"
 #include "render/final_gather.h"

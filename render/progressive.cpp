@@ -227,9 +227,9 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             if (!timed) next = std::min(next, std::max(kMostScale - out.scale, out.scale / 8.0));
         }
         if (timed) {
-            // The second round probes as the first did.
-            const double left = o.time_budget - spent - (round == 1 ? probe_seconds : 0.0);
-            const double fits = left / (t_s * shape.steps + t_g);
+            // The second round probes as the first did, at its own scale.
+            const double t_p = round == 1 ? probe_seconds / scale : 0.0;
+            const double fits = (o.time_budget - spent) / (t_s * shape.steps + t_g + t_p);
             if (fits < out.scale / 8.0) {
                 out.stopped = target ? "the time budget, before the target" : "the time budget";
                 break;

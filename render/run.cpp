@@ -193,8 +193,8 @@ RoundOptions rounds_left(const RunConfig& c, double seconds_run, const RunHooks&
             char line[256];
             std::snprintf(line, sizeof line,
                           "--time-budget %g: preparing the scene took %.2f s of it, nothing is left for the image; "
-                          "one first round runs (the least this scene takes is %.2f s and that round)",
-                          o.time_budget, spent, spent);
+                          "one first round runs (the least this scene takes: that preparation and one round)",
+                          o.time_budget, spent);
             hooks.warn(line);
         }
         o.time_budget = 1e-9;  // not 0, which means no budget: the first round alone
@@ -497,7 +497,8 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
         throw RunInterrupted(e.what(), team ? pauses.signal() : asked, pauses.checkpointed());
     }
     FieldImage& made = *made_or_none;
-    warn_if_over(c, scene, made.rounds, c.seconds_spent + since(t_start), hooks);
+    if (rounds.time_budget > 1e-9)  // else rounds_left has said why already
+        warn_if_over(c, scene, made.rounds, c.seconds_spent + since(t_start), hooks);
     require_finite(made.field, scene);
     require_finite(made.image, "the image");
     // Every member's work in the report.

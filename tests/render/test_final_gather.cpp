@@ -6,6 +6,7 @@
 #include "render/gbuffer.h"
 #include "render/shade.h"
 #include "scenes/builtin.h"
+#include "scenes/errors.h"
 #include "scenes/loader.h"
 #include "scenes/subdivide.h"
 #include "solver/first_shot.h"
@@ -548,6 +549,11 @@ TEST_CASE("final gather: the field as a control variate converges to the truth f
         // Paths go on about 1 / (1 - 0.5) vertices past the first, where they go on.
         CHECK(r.gather_rays > read.gather_rays);
         CHECK(r.gather_rays < read.gather_rays * (1.0 + 4.0 * q));
+    }
+    // Not a probability: refused, not silently off (NaN, negative) or biased (above 1).
+    for (const double q : {-0.1, 1.5, std::nan("")}) {
+        o.correction = q;
+        CHECK_THROWS_AS(render::final_gather(scene, caster, wrong, camera, o, {}), scenes::OptionError);
     }
 }
 

@@ -214,9 +214,9 @@ TEST_CASE("rounds: bad options are refused by name", "[render][progressive]") {
 TEST_CASE("rounds: the steps' share follows where the noise is", "[render][progressive]") {
     // The probe of the first rounds splits the estimate into the field's part and the
     // samples': few steps and many samples give the solve more of the later rounds;
-    // many steps and few samples give it less. The field read as the answer: corrected
-    // (GatherOptions::correction), its noise enters each gather ray with a weight of
-    // mean zero, and little of the estimate is the field's.
+    // many steps and few samples give it less. The field is read as the answer
+    // (correction 0): with GatherOptions::correction its noise would enter each gather
+    // ray with a weight of mean zero, and little of the estimate would be the field's.
     solver::SolverOptions so;
     render::RoundOptions ro;
     ro.target_error = 0.002;
