@@ -60,16 +60,10 @@ int main(int argc, char** argv) {
             const long k = std::strtol(argv[4], &end, 10);
             if (end == argv[4] || *end != '\0' || k < 1 || k > 1 << 16)
                 throw std::runtime_error(std::string("--map ") + argv[4] + ": not a block size from 1 to 65536");
-            for (int by = 0; by + k <= image.height; by += k) {
-                for (int bx = 0; bx + k <= image.width; bx += k) {
-                    double a = 0.0, b = 0.0;
-                    for (int y = by; y < by + k; ++y)
-                        for (int x = bx; x < bx + k; ++x)
-                            for (int c = 0; c < 3; ++c) a += image.at(x, y)[c], b += reference.at(x, y)[c];
-                    std::printf(" %+6.1f", b > 0.0 ? 100.0 * (a - b) / b : 0.0);
-                }
-                std::printf("\n");
-            }
+            const auto errors = render::block_errors(image, reference, static_cast<int>(k));
+            const std::size_t per_row = static_cast<std::size_t>(image.width / k);
+            for (std::size_t i = 0; i < errors.size(); ++i)
+                std::printf(" %+6.1f%s", 100.0 * errors[i], (i + 1) % per_row == 0 ? "\n" : "");
             return 0;
         }
         const double mean = image.rgb.empty() ? 0.0

@@ -66,14 +66,19 @@ double block_relative_l1(const Image& a, const Image& reference, int k) {
     return ref > 0 ? err / ref : err;
 }
 
-double worst_block(const Image& a, const Image& reference, int k) {
-    double worst = 0.0;
+std::vector<double> block_errors(const Image& a, const Image& reference, int k) {
+    std::vector<double> errors;
     for_blocks(a, reference, k, [&](const std::array<double, 3>& sa, const std::array<double, 3>& sb) {
         const double ref = sb[0] + sb[1] + sb[2];
-        if (ref == 0.0) return;
-        const double rel = (sa[0] + sa[1] + sa[2] - ref) / ref;
-        if (std::abs(rel) > std::abs(worst)) worst = rel;
+        errors.push_back(ref != 0.0 ? (sa[0] + sa[1] + sa[2] - ref) / ref : 0.0);
     });
+    return errors;
+}
+
+double worst_block(const Image& a, const Image& reference, int k) {
+    double worst = 0.0;
+    for (const double e : block_errors(a, reference, k))
+        if (std::abs(e) > std::abs(worst)) worst = e;
     return worst;
 }
 

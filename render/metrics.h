@@ -6,6 +6,8 @@
 // (light leaking into a contact shadow), which is what a viewer sees at a distance.
 #include "render/image.h"
 
+#include <vector>
+
 namespace raybundle::render {
 
 // Sum |a - b| / sum |b| over all pixels and channels.
@@ -16,9 +18,11 @@ double mse(const Image& a, const Image& reference);
 // channels of |sum_block a - sum_block b| over sum |sum_block b|. Blocks cut by the
 // image's right or bottom edge are left out; an image smaller than one block gives 0.
 double block_relative_l1(const Image& a, const Image& reference, int k);
-// The signed relative error, over its pixels and channels together, of the k x k block
-// whose error is largest in magnitude: +0.05 is a block 5 % too bright. Blocks as above,
-// and those whose reference sums to 0 are left out.
+// The signed relative error of every whole k x k block, over its pixels and channels
+// together (+0.05: 5 % too bright; 0 where the reference sums to 0), row by row from
+// the top: (width / k) blocks a row, (height / k) rows.
+std::vector<double> block_errors(const Image& a, const Image& reference, int k);
+// The one of them largest in magnitude (0 if there is no whole block).
 double worst_block(const Image& a, const Image& reference, int k);
 
 // The yardsticks the command line and the bench report: the above with blocks of 4

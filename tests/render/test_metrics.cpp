@@ -35,6 +35,13 @@ TEST_CASE("block errors: grain averages out, bias stays", "[render][metrics]") {
     CHECK(render::relative_l1(bias, reference) == Approx(0.05));
     CHECK(render::block_relative_l1(bias, reference, 4) == Approx(0.05));
     CHECK(render::worst_block(bias, reference, 4) == Approx(0.2));
+    // Block by block, a row at a time from the top: the bright one is the third.
+    const auto errors = render::block_errors(bias, reference, 4);
+    REQUIRE(errors.size() == 4);
+    CHECK(errors[0] == 0.0);
+    CHECK(errors[1] == 0.0);
+    CHECK(errors[2] == Approx(0.2));
+    CHECK(errors[3] == 0.0);
     // The 8x8 block holds it all, diluted four times.
     CHECK(render::worst_block(bias, reference, 8) == Approx(0.05));
     // The sign says which way: too dark is negative.
