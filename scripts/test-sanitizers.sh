@@ -17,8 +17,11 @@
 # to keep CI within 30 minutes on 2 cores. So is "rounds: the steps' share follows where
 # the noise is": it measures what rounds fit in a 3 s time budget, and under the
 # sanitizers' slowdown too few fit for its probe (field share 0.57 where it asserts
-# < 0.5, on the 2-core development machine); the normal build asserts it. Extra arguments go to ctest (e.g.
-# -R cli).
+# < 0.5, on the 2-core development machine); the normal build asserts it. So is the
+# glossy half of "final gather against the path tracer" (2048 path-traced samples per
+# pixel of glossy paths, and two final gathers: 8 minutes under the sanitizers, near the
+# per-test limit; its diffuse half runs here, and the glossy example box goes through the
+# glossy gather in cli-outputs). Extra arguments go to ctest (e.g. -R cli).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=${RAYBUNDLE_JOBS:-2}
@@ -30,4 +33,4 @@ cmake --build build-sanitize -j "$jobs"
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0"
-ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$|^qmc$|^commit$|^glb$|^rounds: the steps. share" "$@"
+ctest --test-dir build-sanitize --output-on-failure -j "$jobs" -E "^no drift|^high albedo by default|^partition$|^qmc$|^commit$|^glb$|^rounds: the steps. share|^final gather against the path tracer: the glossy" "$@"
