@@ -50,6 +50,18 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
     // Rays from each patch's centroid into its front hemisphere (a fixed 4 x 4 grid of
     // cosine-weighted directions): a front that meets no surface sees nothing but sky.
     const double offset = 1e-6 * scene.bounds_radius();
+    // A front within the contact distance of a surface that faces it lies on that
+    // surface (scenes/contacts.h's 1e-3 of the bounding radius).
+    const double near = 1e-3 * scene.bounds_radius();
+    std::vector<scenes::RayHit> hits;
+    const auto covered = [&](std::size_t i) {
+        const auto& p = patches[i];
+        caster.all_hits(p.centroid + near * p.normal, -p.normal, hits, 0.0, 2.0 * near);
+        return std::any_of(hits.begin(), hits.end(), [&](const scenes::RayHit& h) {
+            const auto& other = patches[static_cast<std::size_t>(h.patch)];
+            return h.patch != static_cast<int>(i) && other.normal.dot(p.normal) < 0.0;
+        });
+    };
     for (std::size_t i = 0; i < patches.size(); ++i) {
         const auto& p = patches[i];
         const auto& m = scene.materials[p.material];
@@ -74,7 +86,11 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             meets = caster.intersect(p.centroid + offset * p.normal,
                                      sampling::cosine_hemisphere((k % 4 + 0.5) / 4, (k / 4 + 0.5) / 4, p.normal, u, v))
                         .valid();
-        if (!meets) {
+        if (meets) continue;
+        if (covered(i)) {
+            ++s.covered;
+            object.covered_area += p.area;
+        } else {
             ++s.unseen;
             object.unseen_area += p.area;
         }
@@ -144,11 +160,15 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     else
         print("unseen      %zu patches whose front side sees no surface and no camera%s\n", s.unseen,
                     s.unseen > 0 ? " (inverted winding?)" : "");
+    if (s.covered > 0)
+        print("covered     %zu patches lie face to face on another surface (a box's bottom on a floor): hidden,"
+              " not inverted\n", s.covered);
     print("objects     %zu\n", s.objects.size());
     for (const auto& o : s.objects) {
         print("  %-24s %8zu patches  area %.4g", o.name.c_str(), o.patches, o.area);
         if (o.back_pixels > 0) print("  back seen in %ld pixels", o.back_pixels);
         if (o.unseen_area > 0.0) print("  front unseen: %.0f %%", percent(o.unseen_area, o.area));
+        if (o.covered_area > 0.0) print("  front covered: %.0f %%", percent(o.covered_area, o.area));
         out += "\n";
     }
     if (s.overlaps.pairs > 0)

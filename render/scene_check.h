@@ -8,6 +8,9 @@
 //  - the front side of most of its area sees nothing: rays into its front hemisphere
 //    all leave the scene (and there is no sky to see there), and the camera does not
 //    see that front either (a floor or a wall facing out of the room).
+// A front that lies face to face on another surface (a box's bottom on the floor, within
+// the contact distance of scenes/contacts.h) is hidden, not inverted: it is counted as
+// covered, not as unseen.
 #include "scenes/diagnostics.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
@@ -26,10 +29,11 @@ struct SceneSummary {
     std::size_t facing_camera = 0;   // patches whose front faces the eye
     std::size_t seen_by_camera = 0;  // patches whose front some camera ray meets first
     std::size_t unseen = 0;          // patches whose front sees nothing (see above)
+    std::size_t covered = 0;         // patches whose front lies on another surface
     struct Object {
         std::string name;
         std::size_t patches = 0;
-        double area = 0.0, unseen_area = 0.0;
+        double area = 0.0, unseen_area = 0.0, covered_area = 0.0;
         long front_pixels = 0, back_pixels = 0;  // camera rays meeting its front or back first
         bool two_sided = false;
     };

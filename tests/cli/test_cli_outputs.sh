@@ -124,6 +124,24 @@ scene "$quad, {\"quad\": [[0,0,5], [1,0,5], [1,1,5], [0,1,5]], \"material\": \"w
 "$bin" check away.json >chk.txt 2>&1
 grep -q "warning     panel: the front side of 100 % of its area faces nothing" chk.txt && ! grep -q "objects\[0\].*warning" chk.txt
 check $? "check of a panel facing nothing: $(cat chk.txt)"
+# A block's bottom lying on the floor faces it from within the contact distance: hidden,
+# not inverted (covered, no warning). Lifted 0.1 above the floor, the same bottom sees
+# the floor: neither covered nor unseen.
+bottom_at() {  # bottom_at Y: a floor, a wall of the block, and its bottom at height Y
+  printf '{"camera": {"eye": [0.5, 1.5, 3], "target": [0.5, 0.3, 0.5]}, %s, "objects": [' "$materials"
+  printf '{"quad": [[-1,0,-1], [-1,0,2], [2,0,2], [2,0,-1]], "material": "w", "name": "floor"}, '
+  printf '{"quad": [[0,%s,0], [1,%s,0], [1,%s,1], [0,%s,1]], "material": "w", "name": "bottom"}, ' "$1" "$1" "$1" "$1"
+  printf '{"quad": [[0,0,1], [1,0,1], [1,1,1], [0,1,1]], "material": "w", "name": "wall"}]}\n'
+}
+bottom_at 0 > on-floor.json
+bottom_at 0.1 > above-floor.json
+"$bin" check on-floor.json >chk.txt 2>&1
+grep -qE "^covered +[1-9][0-9]* patches lie face to face on another surface" chk.txt && grep -q "bottom .*front covered: 100 %" chk.txt &&
+  ! grep -q "^warning" chk.txt
+check $? "check of a block's bottom on a floor: $(cat chk.txt)"
+"$bin" check above-floor.json >chk.txt 2>&1
+! grep -q "^covered" chk.txt && ! grep -q "^warning" chk.txt && grep -q "^unseen      0 patches" chk.txt
+check $? "check of a bottom 0.1 above a floor: $(cat chk.txt)"
 # A closed mesh turned inside out: the camera sees its back side.
 printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 2 3 4 1\nf 8 7 6 5\nf 5 6 2 1\nf 3 7 8 4\nf 4 8 5 1\nf 6 7 3 2\n' > inside-out.obj
 printf '{"camera": {"eye": [2.5, 2, 3.5], "target": [0.5, 0.5, 0.5]}, %s, "objects": [{"mesh": "inside-out.obj", "material": "w", "name": "cube"}]}\n' "$materials" > inside-out.json
