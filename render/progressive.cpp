@@ -123,9 +123,28 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
     const auto start = Clock::now();
     for (double scale = first_scale(o);;) {
         ++round;
-        const double steps = scale * shape.steps;
+        double steps = scale * shape.steps;
         const auto t0 = Clock::now();
-        const Advanced advanced = advance(steps, inner);
+        Advanced advanced = Advanced::all;
+        if (timed && round == 1) {
+            // A time budget's first round: a quarter of its steps (more than the burn-in,
+            // which is at most a tenth of them), timed, then what fits in an eighth of
+            // the budget, up to the rest. Steps that are slow (a dense mesh) give fewer
+            // steps, not a first round that overruns the budget.
+            const double part = steps / 4.0;
+            advanced = advance(part, inner);
+            const double took = since(t0);
+            double more = steps - part;
+            if (advanced == Advanced::all && took > 0.0)
+                more = std::clamp((o.time_budget / 8.0 - took) / took * part, 0.0, more);
+            if (advanced == Advanced::all && more >= part / 64.0)
+                advanced = advance(more, inner);
+            else
+                more = 0.0;
+            steps = part + more;
+        } else {
+            advanced = advance(steps, inner);
+        }
         const auto t1 = Clock::now();
         if (advanced == Advanced::nothing_new) {
             if (round == 1) throw Interrupted("interrupted before any step was averaged (the burn-in): no image");

@@ -40,7 +40,8 @@
 //   - time_budget S (what is left of it once the scene is prepared, render/run.h):
 //     rounds sized by the seconds per unit of scale so far to fill S,
 //     until a round worth at least an eighth of the scale so far no longer fits; the
-//     first round always runs;
+//     first round always runs, its steps cut to what fits in an eighth of S once a
+//     quarter of them is timed;
 //   - both: whichever stops first.
 // With a target or a time budget the first two rounds also measure how much of the
 // estimate is the field's noise (a probe: half A's samples again, on chain B's field)

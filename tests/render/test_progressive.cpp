@@ -188,6 +188,9 @@ TEST_CASE("time budget: rounds until it is spent, at least one", "[render][progr
     auto m = homogeneous(so, io, ro, 4);
     CHECK(m.image.rounds.rounds.size() == 1);
     CHECK(m.image.rounds.stopped == "the time budget");
+    // Its steps cut to the quarter that is timed (the scale's 1/4 of a round of 1/4):
+    // slow steps do not make a first round that overruns the budget.
+    CHECK(m.image.rounds.rounds[0].steps == Approx(0.0625));
     // A budget of 4 such rounds (a multiple of the time measured here, not seconds: a
     // sanitizer build is several times slower).
     ro.time_budget = std::max(0.5, 4.0 * m.image.rounds.rounds.back().seconds);
