@@ -34,6 +34,7 @@ SCENES=(
   "cornell-box|--builtin cornell-box -D camera.width=256 -D camera.height=256"
   "doorway|scenes/examples/doorway.json -D camera.width=256 -D camera.height=256"
   "window|scenes/examples/window.json -D camera.width=256 -D camera.height=256"
+  "contact|scenes/examples/contact.json -D camera.width=256 -D camera.height=256"
 )
 # raybundle's budgets, cheapest first: `raybundle solve SCENE BUDGET --threads N`. Time
 # budgets: the run sizes its rounds and shares the time between the solve and the
