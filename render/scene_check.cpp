@@ -47,6 +47,21 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         }
     }
 
+    // A patch no pixel centre met (small, or the image coarse) is seen all the same
+    // where its centroid lies in the image, on its front side, and nothing stands
+    // between it and the eye.
+    const PinholeCamera pinhole(scene.camera);
+    const auto in_view = [&](std::size_t i) {
+        const auto& p = patches[i];
+        const scenes::Vec3 to_eye = scene.camera.eye - p.centroid;
+        double x = 0.0, y = 0.0;
+        if (!(p.normal.dot(to_eye) > 0.0) || !pinhole.project(p.centroid, x, y)) return false;
+        if (x < 0.0 || y < 0.0 || x > pinhole.width() || y > pinhole.height()) return false;
+        const double distance = to_eye.norm();
+        const scenes::RayHit hit = caster.intersect(scene.camera.eye, -to_eye / distance);
+        return hit.valid() && (hit.patch == static_cast<int>(i) || hit.t > distance * (1.0 - 1e-9));
+    };
+
     // Rays from each patch's centroid into its front hemisphere (a fixed 4 x 4 grid of
     // cosine-weighted directions): a front that meets no surface sees nothing but sky.
     const double offset = 1e-6 * scene.bounds_radius();
@@ -79,6 +94,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             continue;
         }
         if (scene.sky) continue;  // open sky is something to see
+        if (in_view(i)) continue;
         scenes::Vec3 u, v;
         scenes::orthonormal_basis(p.normal, u, v);
         bool meets = false;
@@ -138,6 +154,7 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
 
     print("scene       %s\n", scene.name.c_str());
     print("patches     %zu after refinement (%zu vertices), area %.6g\n", s.patches, s.vertices, s.area);
+    if (!scene.refinement.empty()) print("            %s\n", scene.refinement.c_str());
     if (scene.dropped_degenerate > 0) print("            %zu zero-area triangles dropped\n", scene.dropped_degenerate);
     print("contacts    %s\n", contacts_line(scene).c_str());
     print("bounds      %s .. %s\n", vec3(s.lo).c_str(), vec3(s.hi).c_str());

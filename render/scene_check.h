@@ -7,7 +7,9 @@
 //    (a closed mesh turned inside out: the camera looks at the backs of its far side);
 //  - the front side of most of its area sees nothing: rays into its front hemisphere
 //    all leave the scene (and there is no sky to see there), and the camera does not
-//    see that front either (a floor or a wall facing out of the room).
+//    see that front either (a floor or a wall facing out of the room): no pixel centre
+//    meets it, and its centroid is out of the image, behind it or hidden from the eye
+//    (so that a finely refined quad in view is seen, pixel centres or not).
 // A front that lies face to face on another surface (a box's bottom on the floor, within
 // the contact distance of scenes/contacts.h) is hidden, not inverted: it is counted as
 // covered, not as unseen.

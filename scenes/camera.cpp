@@ -18,4 +18,14 @@ Vec3 PinholeCamera::direction(double x, double y) const {
     return (forward_ + sx * right_ + sy * up_).normalized();
 }
 
+bool PinholeCamera::project(const Vec3& p, double& x, double& y) const {
+    const Vec3 d = p - eye_;
+    const double depth = d.dot(forward_);
+    if (!(depth > 0.0)) return false;
+    const double aspect = static_cast<double>(width_) / height_;
+    x = 0.5 * width_ * (1.0 + d.dot(right_) / (depth * tan_half_ * aspect));
+    y = 0.5 * height_ * (1.0 - d.dot(up_) / (depth * tan_half_));
+    return true;
+}
+
 }  // namespace raybundle::scenes

@@ -14,6 +14,9 @@ public:
     // Unit direction through image point (x, y) in pixels; (0,0) is the top-left
     // corner, (x + 0.5, y + 0.5) the centre of pixel (x, y).
     Vec3 direction(double x, double y) const;
+    // The image point (x, y) in pixels that `p` projects to, the inverse of
+    // direction(); false for a point not in front of the eye.
+    bool project(const Vec3& p, double& x, double& y) const;
 
 private:
     Vec3 eye_, forward_, right_, up_;
