@@ -56,6 +56,7 @@ json solve_record(const scenes::Scene& scene, const RunConfig& c, const solver::
               " sky: map pixels that no patch covers upstream carry the sky radiance";
     json decisions = transport.decisions();
     decisions["sky"] = sky;
+    if (!scene.refinement.empty()) decisions["patch_size"] = scene.refinement;
     decisions["contacts"] = contacts_line(scene);
     decisions["threads"] = "visibility: " + std::to_string(v.threads) +
                            (v.threads < c.run.threads ? " (this backend runs one at a time)" : "") +

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <sstream>
 
 namespace raybundle::scenes {
 namespace {
@@ -355,11 +356,15 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
     const double size = patch_size.value_or(default_size);
+    std::ostringstream line;
+    line << "patch size " << size << (size == default_size ? " (the built-in scene's default)" : " (given)");
     if (name == "fractal-terrain") {
         if (!(size > 0.0) || !std::isfinite(size) || 2.0 * std::pow(16000.0 * std::sqrt(2.0) / size, 2) > 2e7)
             throw SceneError(name, "patch_size", "must be a positive number giving at most 20 million patches, got " +
                                                      std::to_string(size));
-        return fractal_terrain(size);
+        s = fractal_terrain(size);
+        s.refinement = line.str();
+        return s;
     }
     if (name == "homogeneous-box") {
         s = homogeneous_box();
@@ -373,6 +378,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
     s.finalize();
     check_refinement(s, size, name);
     subdivide(s, size);
+    s.refinement = line.str();
     cut_at_contacts(s, threads);
     return s;
 }

@@ -393,6 +393,39 @@ std::string dir_of(const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+// The scene's "patch_size": a number refines to it; "auto" (or no entry) to 1/25 of the
+// scene's largest extent, so that a room modelled with one quad a wall is not solved
+// as a dozen patches; "none" keeps the patches as modelled. Records the decision.
+void refine(Scene& scene, const Node& root, const std::string& shown, const LoadLimits& limits) {
+    double size = 0.0;
+    if (root.has("patch_size") && root.raw("patch_size").is_string()) {
+        const std::string word = root.string("patch_size");
+        if (word == "none") {
+            scene.refinement = "none: the patches as modelled (\"patch_size\": \"none\")";
+            return;
+        }
+        if (word != "auto") root.fail("patch_size", "expected a number, \"auto\" or \"none\", got \"" + cut(word, 40) + "\"");
+    }
+    if (root.has("patch_size") && !root.raw("patch_size").is_string()) {
+        size = root.number("patch_size");
+        scene.refinement = "patch size " + format_number(size) + " (the scene's)";
+    } else {
+        const auto& pos = scene.vertex_positions();
+        Vec3 lo = pos.front(), hi = lo;
+        for (const auto& v : pos) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+        const double extent = (hi - lo).maxCoeff();
+        size = extent / 25.0;
+        scene.refinement = "patch size " + format_number(size) + " (automatic: 1/25 of the scene's largest extent, " +
+                           format_number(extent) + "; \"patch_size\" sets it, \"none\" keeps the patches as modelled)";
+    }
+    check_refinement(scene, size, shown, limits.max_patches);
+    subdivide(scene, size);
+}
+
+}  // namespace
+
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
                   const Overrides& overrides, const LoadLimits& limits) {
     json doc;
@@ -561,11 +594,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize();
-    if (root.has("patch_size")) {
-        const double ps = root.number("patch_size");
-        check_refinement(scene, ps, shown, limits.max_patches);
-        subdivide(scene, ps);
-    }
+    refine(scene, root, shown, limits);
     if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene, limits.threads);
     return scene;
 }
@@ -582,8 +611,7 @@ std::string extension_of(const std::string& path) {
 }
 
 // A model file alone as a scene: the document parse_scene would read, with the file's
-// camera (glTF) or one that frames it from +z, and a patch size of 1/25 of its largest
-// extent.
+// camera (glTF) or one that frames it from +z, and the automatic patch size.
 Scene load_model(const std::string& path, const Overrides& overrides, int threads) {
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
@@ -597,7 +625,7 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
                    {"target", {centre.x(), centre.y(), centre.z()}},
                    {"fov_y", fov}};
     if (data.camera) camera = camera_json(*data.camera);
-    const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}, {"patch_size", size / 25.0}};
+    const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}};
     LoadLimits limits;
     limits.threads = threads;
     Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides, limits);

@@ -107,6 +107,10 @@ public:
     // Patches cut along the lines where other surfaces touch them (scenes/contacts.h):
     // the lines, the edges split, and the contact edges marked.
     std::size_t contact_lines = 0, contact_splits = 0, contact_edges = 0;
+    // How the patches were refined, one line for the run's record: the patch size and
+    // where it came from (the scene's, a built-in's default, the automatic 1/25 of the
+    // scene's largest extent, or none: the patches as modelled).
+    std::string refinement;
 
     // The objects the patches came from (a mesh file, a quad, a built-in part), for
     // messages; every patch knows its object.

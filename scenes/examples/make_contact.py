@@ -3,7 +3,8 @@
 rooms, full of contacts. An icosphere of 20,480 triangles resting on the floor at one
 vertex, two boxes standing on the floor and touching each other along a face (each box
 closed, its bottom lying on the floor), the tall one 0.2 from a wall; a light panel just
-under the ceiling. No patch_size: the scene as a modeller hands it over.
+under the ceiling. No patch_size: the scene as a modeller hands it over (the loader's
+automatic size refines it).
 
 Usage: python3 scenes/examples/make_contact.py   (rewrites the files beside it)
 """

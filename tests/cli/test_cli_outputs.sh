@@ -126,9 +126,10 @@ grep -q "warning     panel: the front side of 100 % of its area faces nothing" c
 check $? "check of a panel facing nothing: $(cat chk.txt)"
 # A block's bottom lying on the floor faces it from within the contact distance: hidden,
 # not inverted (covered, no warning). Lifted 0.1 above the floor, the same bottom sees
-# the floor: neither covered nor unseen.
+# the floor: neither covered nor unseen. (The patches as modelled: refined, the far
+# parts of this open floor would see nothing, and count as unseen.)
 bottom_at() {  # bottom_at Y: a floor, a wall of the block, and its bottom at height Y
-  printf '{"camera": {"eye": [0.5, 1.5, 3], "target": [0.5, 0.3, 0.5]}, %s, "objects": [' "$materials"
+  printf '{"camera": {"eye": [0.5, 1.5, 3], "target": [0.5, 0.3, 0.5]}, "patch_size": "none", %s, "objects": [' "$materials"
   printf '{"quad": [[-1,0,-1], [-1,0,2], [2,0,2], [2,0,-1]], "material": "w", "name": "floor"}, '
   printf '{"quad": [[0,%s,0], [1,%s,0], [1,%s,1], [0,%s,1]], "material": "w", "name": "bottom"}, ' "$1" "$1" "$1" "$1"
   printf '{"quad": [[0,0,1], [1,0,1], [1,1,1], [0,1,1]], "material": "w", "name": "wall"}]}\n'

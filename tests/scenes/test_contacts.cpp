@@ -58,7 +58,7 @@ const char* kRooms = R"({
   ]%s
 })";
 
-scenes::Scene rooms(const std::string& extra = "") {
+scenes::Scene rooms(const std::string& extra = ", \"patch_size\": \"none\"") {
     char text[2048];
     std::snprintf(text, sizeof text, kRooms, extra.c_str());
     return scenes::parse_scene(text, "rooms.json", ".");
@@ -68,9 +68,9 @@ scenes::Scene rooms(const std::string& extra = "") {
 
 TEST_CASE("contacts: a partition on a floor, against a wall and a ceiling cuts them along its edges",
           "[scenes][contacts]") {
-    for (const std::string extra : {"", ", \"patch_size\": 0.7"}) {
+    for (const std::string extra : {", \"patch_size\": \"none\"", ", \"patch_size\": 0.7"}) {
         const auto scene = rooms(extra);
-        INFO("patch size: " << (extra.empty() ? "none" : extra));
+        INFO(extra);
         CHECK(scene.contact_edges > 0);  // refined, the floor may already have edges at x = 4: marked, not cut
         // The partition's edges on the floor, the ceiling and the wall run along patch
         // edges, through no patch.
@@ -96,7 +96,7 @@ TEST_CASE("contacts: a partition on a floor, against a wall and a ceiling cuts t
         }
     }
     // Without the cut, a floor patch runs on under the partition.
-    const auto kept = rooms(", \"cut_contacts\": false");
+    const auto kept = rooms(", \"cut_contacts\": false, \"patch_size\": \"none\"");
     CHECK(kept.contact_lines == 0);
     CHECK(crossed(kept, "floor", {4, 0, 0}, {4, 0, 1.5}) > 0);
 }

@@ -27,9 +27,11 @@ const char* kCamera = R"("camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up":
 const char* kMaterials = R"("materials": {"white": {"albedo": [0.5, 0.5, 0.5]}, "lamp": {"albedo": [0.1, 0.1, 0.1], "emission": [2, 2, 2]}})";
 const char* kQuad = R"({"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "white"})";
 
+// The patches as modelled unless `extra` gives a patch size.
 std::string scene_text(const std::string& camera, const std::string& materials, const std::string& objects,
                        const std::string& extra = "") {
-    return "{" + camera + ", " + materials + ", \"objects\": [" + objects + "]" + extra + "}";
+    const std::string size = extra.find("\"patch_size\"") == std::string::npos ? ", \"patch_size\": \"none\"" : "";
+    return "{" + camera + ", " + materials + ", \"objects\": [" + objects + "]" + extra + size + "}";
 }
 
 Scene parse(const std::string& text, const std::string& dir = ".") { return parse_scene(text, "s.json", dir); }
@@ -45,6 +47,43 @@ TEST_CASE("a valid scene loads with its camera, materials and patches", "[scenes
     CHECK(s.patch_count() > 2);
     CHECK(s.total_area() == Approx(1.0).epsilon(1e-12));
     for (const auto& p : s.patch_list()) CHECK(p.normal.z() == Approx(1.0));  // counter-clockwise front
+}
+
+TEST_CASE("without a patch size a scene is refined to 1/25 of its largest extent, and \"none\" keeps it as modelled",
+          "[scenes]") {
+    // A 4 x 1 floor and a unit quad above it: the largest extent is 4, so no edge is
+    // left longer than 0.16.
+    const std::string objects = R"({"quad": [[0,0,0], [4,0,0], [4,1,0], [0,1,0]], "material": "white"},
+                                   {"quad": [[0,0,1], [1,0,1], [1,1,1], [0,1,1]], "material": "lamp"})";
+    auto longest_edge = [](const Scene& s) {
+        double longest = 0.0;
+        const auto& pos = s.vertex_positions();
+        for (const auto& p : s.patch_list())
+            for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[p.v[k]] - pos[p.v[(k + 1) % 3]]).norm());
+        return longest;
+    };
+    const std::string doc = "{" + std::string(kCamera) + ", " + kMaterials + R"(, "objects": [)" + objects + "]}";
+    const Scene automatic = parse(doc);
+    CHECK(longest_edge(automatic) <= 0.16 + 1e-12);
+    CHECK(longest_edge(automatic) > 0.08);  // no finer than it needs
+    CHECK(automatic.total_area() == Approx(5.0).epsilon(1e-12));
+    CHECK_THAT(automatic.refinement, Contains("patch size 0.16") && Contains("automatic") && Contains("extent, 4"));
+    const Scene named = parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": "auto")"));
+    CHECK(named.patch_count() == automatic.patch_count());
+    const Scene modelled = parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": "none")"));
+    CHECK(modelled.patch_count() == 4);
+    CHECK_THAT(modelled.refinement, Contains("none"));
+    const Scene given = parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": 0.5)"));
+    CHECK(longest_edge(given) <= 0.5 + 1e-12);
+    CHECK(given.patch_count() < automatic.patch_count());
+    CHECK_THAT(given.refinement, Contains("patch size 0.5 (the scene's)"));
+    CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": "fine")")),
+                      Contains("s.json") && Contains("patch_size") && Contains(R"(expected a number, "auto" or "none", got "fine")"));
+    CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": true)")),
+                      Contains("patch_size: expected a number, got"));
+    // The built-in scenes say theirs.
+    CHECK_THAT(load_builtin("homogeneous-box").refinement, Contains("patch size 0.2 (the built-in scene's default)"));
+    CHECK_THAT(load_builtin("homogeneous-box", {{"patch_size", "0.5"}}).refinement, Contains("patch size 0.5 (given)"));
 }
 
 TEST_CASE("point lights and the sky load", "[scenes]") {
@@ -243,7 +282,7 @@ TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twic
         dir.write("annulus.obj", obj);
         const std::string at = std::to_string(offset);
         const std::string head = R"({"camera": {"eye": [)" + at + R"(, 0, 3], "target": [)" + at +
-                                 R"(, 0, 0]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)";
+                                 R"(, 0, 0]}, "patch_size": "none", "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)";
         const std::string mesh = R"({"mesh": "annulus.obj", "material": "w"})";
         INFO("offset " << offset);
         const Scene once = parse_scene(head + mesh + "]}", "s.json", dir.path.string());

@@ -383,7 +383,7 @@ TEST_CASE("polygons: convex fanned, concave cut into ears, bent or crossing ones
 
 TEST_CASE("scene quads: degenerate, bent or crossing quads are refused, concave ones cut right", "[scenes][errors]") {
     auto quad = [](const std::string& points) {
-        return std::string(R"({"camera": {"eye": [0, 0, 5], "target": [0, 0, 0]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, )") +
+        return std::string(R"({"camera": {"eye": [0, 0, 5], "target": [0, 0, 0]}, "patch_size": "none", "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, )") +
                R"("objects": [{"quad": )" + points + R"(, "material": "w"}]})";
     };
     auto fails_with = [&](const std::string& points, const std::string& needle) {

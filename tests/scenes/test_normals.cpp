@@ -28,12 +28,14 @@ using raybundle::test::TempDir;
 
 namespace {
 
-// A scene of the given objects (JSON), with `extra` root keys.
+// A scene of the given objects (JSON), with `extra` root keys: the patches as modelled
+// unless they give a patch size.
 std::string scene_text(const std::string& objects, const std::string& extra = "") {
+    const std::string size = extra.find("\"patch_size\"") == std::string::npos ? ", \"patch_size\": \"none\"" : "";
     return R"({"camera": {"eye": [0, 0, 5], "target": [0, 0, 0]},
                "materials": {"white": {"albedo": [0.5, 0.5, 0.5]}, "both": {"albedo": [0.5, 0.5, 0.5], "two_sided": true}},
                "objects": [)" +
-           objects + "]" + extra + "}";
+           objects + "]" + extra + size + "}";
 }
 
 Scene load(const TempDir& dir, const std::string& objects, const std::string& extra = "") {

@@ -32,7 +32,7 @@ const char* kMtl = "# a comment\nnewmtl red\nKd 0.6 0.1 0.1\nKa 0 0 0\nd 1\n"
                    "newmtl lamp\nKd 0 0 0\nKe 5 4 3\n";
 
 std::string scene_with(const std::string& objects, const std::string& materials = "") {
-    return std::string(R"({"camera": {"eye": [1, 3, 4], "target": [1, 0, 0.5]}, )") +
+    return std::string(R"({"camera": {"eye": [1, 3, 4], "target": [1, 0, 0.5]}, "patch_size": "none", )") +
            (materials.empty() ? "" : R"("materials": {)" + materials + "}, ") + R"("objects": [)" + objects + "]}";
 }
 

@@ -154,7 +154,7 @@ TEST_CASE("interpenetrating patches: exact per-pixel order where centre sorting 
     // (Not cut along the crossing line: scenes/contacts.h would make the backends'
     // work easy.)
     const std::string text = R"({
-      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]}, "cut_contacts": false,
+      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]}, "cut_contacts": false, "patch_size": "none",
       "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}},
       "objects": [
         {"quad": [[0,0,-1], [1,0,-1], [1,1,-1], [0,1,-1]], "material": "m"},
@@ -224,7 +224,7 @@ TEST_CASE("every backend but the z-buffer: a two-sided panel does not leak", "[v
     // starting points, so that their depths round differently), a receiver above.
     // Nothing may pass from below to above, nor between the panel's two sides.
     const std::string text = R"({
-      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]},
+      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]}, "patch_size": "none",
       "materials": {"lower": {"albedo": [0.5, 0.5, 0.5]}, "down": {"albedo": [0.5, 0.5, 0.5]},
                     "up": {"albedo": [0.5, 0.5, 0.5]}, "upper": {"albedo": [0.5, 0.5, 0.5]}},
       "objects": [

@@ -264,7 +264,7 @@ TEST_CASE("the exact painter gives the global z-buffer's matrix, pixel for pixel
         }
         scenes.emplace_back("random triangles",
                             scenes::parse_scene(R"({"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]},
-              "cut_contacts": false, "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}",
+              "cut_contacts": false, "patch_size": "none", "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}",
                                                 "soup.json", "."));
     }
     std::size_t inserted = 0, listed = 0;

@@ -147,7 +147,7 @@ TEST_CASE("a two-sided panel of coincident opposite triangles does not leak ligh
     // file, so an index tie-break would let it shine through the receiver. Above: a
     // receiver facing down.
     const std::string text = R"({
-      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]},
+      "camera": {"eye": [0.5, 0.5, 5], "target": [0.5, 0.5, 0]}, "patch_size": "none",
       "materials": {"lower": {"albedo": [0.5, 0.5, 0.5]}, "down": {"albedo": [0.5, 0.5, 0.5]},
                     "up": {"albedo": [0.5, 0.5, 0.5]}, "upper": {"albedo": [0.5, 0.5, 0.5]}},
       "objects": [
