@@ -419,6 +419,15 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
         size = extent / 25.0;
         scene.refinement = "patch size " + format_number(size) + " (automatic: 1/25 of the scene's largest extent, " +
                            format_number(extent) + "; \"patch_size\" sets it, \"none\" keeps the patches as modelled)";
+        try {
+            check_refinement(scene, size, shown, limits.max_patches);
+        } catch (const SceneError& e) {
+            const std::string what = e.what(), key = "patch_size: ";
+            const auto at = what.find(key);
+            throw SceneError(shown, "patch_size", "the automatic size (1/25 of the largest extent) " +
+                                                      what.substr(at == std::string::npos ? 0 : at + key.size()) +
+                                                      ": set \"patch_size\" to a larger number or \"none\"");
+        }
     }
     check_refinement(scene, size, shown, limits.max_patches);
     subdivide(scene, size);

@@ -81,6 +81,12 @@ TEST_CASE("without a patch size a scene is refined to 1/25 of its largest extent
                       Contains("s.json") && Contains("patch_size") && Contains(R"(expected a number, "auto" or "none", got "fine")"));
     CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": true)")),
                       Contains("patch_size: expected a number, got"));
+    // Where the automatic size would pass the patch limit, the error says so.
+    LoadLimits few;
+    few.max_patches = 500;
+    CHECK_THROWS_WITH(parse_scene(doc, "s.json", ".", {}, few),
+                      Contains("s.json: patch_size: the automatic size (1/25 of the largest extent) 0.16 would make about") &&
+                          Contains("(limit 500): set \"patch_size\" to a larger number or \"none\""));
     // The built-in scenes say theirs.
     CHECK_THAT(load_builtin("homogeneous-box").refinement, Contains("patch size 0.2 (the built-in scene's default)"));
     CHECK_THAT(load_builtin("homogeneous-box", {{"patch_size", "0.5"}}).refinement, Contains("patch size 0.5 (given)"));
