@@ -1,5 +1,6 @@
 #include "solver/first_shot.h"
 
+#include "scenes/frame.h"
 #include "scenes/threads.h"
 #include "solver/form_factor.h"
 
@@ -8,7 +9,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <mutex>
+#include <utility>
+#include <vector>
 
 namespace raybundle::solver {
 
@@ -49,7 +53,102 @@ int clip_front(const std::array<Vec3, 3>& tri, const Vec3& x, const Vec3& n, std
     return count;
 }
 
+// Many emitters (a light panel refined with the scene): coplanar emissive patches of one
+// object and material form a group, whose shadow rays are shared (below).
+constexpr std::size_t kGroupAbove = 64;  // emitters; at most this many, each is its own group
+constexpr int kPenumbraRays = 256;        // a group's shadow rays from a point its first rays disagree on
+
+struct EmitterGroup {
+    std::vector<std::uint32_t> members;
+    Vec3 centre = Vec3::Zero();  // of the members' vertices' bounding sphere
+    double radius = 0.0;
+    // The members' running sum of area, and the edges that only one member has, in
+    // its order (the outline: a form factor's edge sum over the members' edges is
+    // the sum over these, the inner edges cancelling).
+    std::vector<double> area;
+    std::vector<std::array<Vec3, 2>> outline;
+};
+
+std::vector<EmitterGroup> group_emitters(const scenes::Scene& scene, const std::vector<std::uint32_t>& emitters) {
+    const auto& patches = scene.patch_list();
+    const auto& pos = scene.vertex_positions();
+    std::vector<EmitterGroup> groups;
+    if (emitters.size() <= kGroupAbove) {
+        for (const std::uint32_t j : emitters) groups.push_back({{j}, Vec3::Zero(), 0.0, {}, {}});
+    } else {
+        const double tol = 1e-9 * scene.bounds_radius();
+        for (const std::uint32_t j : emitters) {
+            const auto& q = patches[j];
+            EmitterGroup* into = nullptr;
+            for (auto& g : groups) {
+                const auto& first = patches[g.members.front()];
+                if (first.material == q.material && first.object == q.object && first.normal.dot(q.normal) > 1.0 - 1e-9 &&
+                    std::abs(first.normal.dot(q.centroid - first.centroid)) <= tol) {
+                    into = &g;
+                    break;
+                }
+            }
+            if (into) into->members.push_back(j);
+            else groups.push_back({{j}, Vec3::Zero(), 0.0, {}, {}});
+        }
+    }
+    for (auto& g : groups) {
+        // Members in Morton order of their centroids in the group's plane, so that a
+        // stretch of the running area is a compact piece of the group.
+        if (g.members.size() > 1) {
+            Vec3 u, v;
+            scenes::orthonormal_basis(patches[g.members.front()].normal, u, v);
+            double ulo = 1e300, uhi = -1e300, vlo = 1e300, vhi = -1e300;
+            for (const std::uint32_t j : g.members) {
+                const Vec3& c = patches[j].centroid;
+                ulo = std::min(ulo, u.dot(c)), uhi = std::max(uhi, u.dot(c));
+                vlo = std::min(vlo, v.dot(c)), vhi = std::max(vhi, v.dot(c));
+            }
+            const double span = std::max({uhi - ulo, vhi - vlo, 1e-300});
+            auto code = [&](std::uint32_t j) {
+                const Vec3& c = patches[j].centroid;
+                const auto qu = static_cast<std::uint32_t>(65535.0 * (u.dot(c) - ulo) / span);
+                const auto qv = static_cast<std::uint32_t>(65535.0 * (v.dot(c) - vlo) / span);
+                std::uint64_t m = 0;
+                for (int bit = 0; bit < 16; ++bit)
+                    m |= (static_cast<std::uint64_t>((qu >> bit) & 1u) << (2 * bit)) |
+                         (static_cast<std::uint64_t>((qv >> bit) & 1u) << (2 * bit + 1));
+                return m;
+            };
+            std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+            for (const std::uint32_t j : g.members) order.emplace_back(code(j), j);
+            std::sort(order.begin(), order.end());
+            for (std::size_t k = 0; k < order.size(); ++k) g.members[k] = order[k].second;
+        }
+        Vec3 lo = pos[patches[g.members.front()].v[0]], hi = lo;
+        std::map<std::pair<int, int>, int> edges;  // directed edge -> how often, less the reverse's
+        double area = 0.0;
+        for (const std::uint32_t j : g.members) {
+            const auto& v = patches[j].v;
+            for (int k = 0; k < 3; ++k) {
+                lo = lo.cwiseMin(pos[v[k]]), hi = hi.cwiseMax(pos[v[k]]);
+                const int from = v[k], to = v[(k + 1) % 3];
+                if (auto back = edges.find({to, from}); back != edges.end() && back->second > 0) --back->second;
+                else ++edges[{from, to}];
+            }
+            g.area.push_back(area += patches[j].area);
+        }
+        for (const auto& [edge, count] : edges)
+            for (int k = 0; k < count; ++k) g.outline.push_back({pos[edge.first], pos[edge.second]});
+        g.centre = 0.5 * (lo + hi);
+        g.radius = 0.5 * (hi - lo).norm();
+    }
+    return groups;
+}
+
 }  // namespace
+
+std::size_t emitter_groups(const scenes::Scene& scene) {
+    std::vector<std::uint32_t> emitters;
+    for (std::size_t j = 0; j < scene.patch_count(); ++j)
+        if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
+    return group_emitters(scene, emitters).size();
+}
 
 std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays_out,
                               const sampling::RunOptions& run) {
@@ -59,6 +158,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     std::vector<std::uint32_t> emitters;
     for (std::size_t j = 0; j < n; ++j)
         if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
+    const std::vector<EmitterGroup> groups = group_emitters(scene, emitters);
     std::vector<Rgb> irradiance(n, Rgb::Zero());
     const double offset = 1e-6 * scene.bounds_radius();
     // Receivers are independent: bands of them on the run's threads; every sum is made
@@ -73,6 +173,86 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     std::mutex progress_lock;
     long done = 0;
     const auto start = std::chrono::steady_clock::now();
+    // A group of emitters (group_emitters), at each receiver point: its unoccluded form
+    // factor by Lambert's edge sum over its outline where all of it lies in front of
+    // the point's plane (else member by member, clipped, as for one emitter), times the
+    // visible share of K shadow rays to members drawn by area (stratified, fixed:
+    // (k + 1/2) / K along the running area), each ray weighed by the point-to-point
+    // kernel cos cos / r^2 at its end; K = (4 r / d)^2 in 4..64 for a group of radius r
+    // at distance d. Exact where the group is wholly seen or wholly hidden; a quadrature
+    // of K points across a shadow's edge.
+    auto shared_rays = [&](const EmitterGroup& group, std::size_t i, long& rays) -> Rgb {
+        const auto& p = patches[i];
+        const auto& normal = patches[group.members.front()].normal;
+        const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
+        const double edge_i = longest_edge(a, b, c);
+        const double tiny = 1e-9 * scene.bounds_radius();
+        const double near = std::max((group.centre - p.centroid).norm() - group.radius, 0.25 * group.radius + tiny);
+        const int Ni = std::clamp(static_cast<int>(std::ceil(4.0 * edge_i / near)), 1, 16);
+        const double ratio = 4.0 * group.radius / near;
+        const int K = std::clamp(static_cast<int>(std::ceil(ratio * ratio)), 16, 64);
+        const double total_area = group.area.back();
+        double sum = 0.0;
+        subtriangle_centroids(Ni, [&](double u, double v) {
+            const Vec3 x = a + u * (b - a) + v * (c - a);
+            if (normal.dot(x - group.outline.front()[0]) <= 0.0) return;  // behind the emitters
+            bool in_front = true;
+            for (const auto& e : group.outline) in_front = in_front && p.normal.dot(e[0] - x) > 0.0;
+            double F = 0.0;
+            if (in_front) {
+                for (const auto& e : group.outline) {
+                    const Vec3 r0 = (e[0] - x).normalized(), r1 = (e[1] - x).normalized();
+                    const Vec3 cross = r0.cross(r1);
+                    const double len = cross.norm();
+                    if (len >= 1e-15) F += std::atan2(len, r0.dot(r1)) * p.normal.dot(cross / len);
+                }
+                F = std::abs(F) / (2.0 * M_PI);
+            } else {
+                for (const std::uint32_t j : group.members) {
+                    if (j == i) continue;
+                    const auto& q = patches[j];
+                    std::array<Vec3, 4> poly;
+                    const int corners = clip_front({pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]}, x, p.normal, poly);
+                    if (corners < 3) continue;
+                    F += point_to_triangle(x, p.normal, {poly[0], poly[1], poly[2]});
+                    if (corners == 4) F += point_to_triangle(x, p.normal, {poly[0], poly[2], poly[3]});
+                }
+            }
+            if (F <= 0.0) return;
+            const Vec3 from = x + offset * p.normal;
+            double seen = 0.0, weight = 0.0;
+            auto cast = [&](int count) {
+                seen = weight = 0.0;
+                std::size_t k = 0;
+                for (int s = 0; s < count; ++s) {
+                    const double at = (s + 0.5) / count * total_area;
+                    while (k + 1 < group.members.size() && group.area[k] < at) ++k;
+                    if (group.members[k] == i) continue;
+                    const Vec3 d = patches[group.members[k]].centroid - from;
+                    const double r2 = d.squaredNorm();
+                    const double w = p.normal.dot(d) * -normal.dot(d) / (r2 * r2);
+                    if (!(w > 0.0)) continue;
+                    const double r = std::sqrt(r2);
+                    ++rays;
+                    weight += w;
+                    if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) seen += w;
+                }
+            };
+            cast(K);
+            if (seen > 0.0 && seen < weight) cast(kPenumbraRays);  // a shadow's edge: more rays
+            // No ray with a weight (every drawn point behind the plane): the line to
+            // the group's centre decides, as for a sliver of one emitter.
+            if (weight <= 0.0) {
+                const Vec3 d = group.centre - from;
+                const double r = d.norm();
+                ++rays;
+                if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
+                return;
+            }
+            sum += M_PI * F * seen / weight;
+        });
+        return scene.material_of(group.members.front()).emission * (sum / (static_cast<double>(Ni) * Ni));
+    };
     parallel_bands(mine, run.threads, [&](int k0, int k1) {
         long rays = 0;
         std::vector<Vec3> targets;
@@ -87,7 +267,12 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
             const auto& p = patches[i];
             const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
             const double edge_i = longest_edge(a, b, c);
-            for (const std::uint32_t j : emitters) {
+            for (const auto& group : groups) {
+                if (group.members.size() > 1) {
+                    irradiance[i] += shared_rays(group, i, rays);
+                    continue;
+                }
+                const std::uint32_t j = group.members.front();
                 if (j == i) continue;
                 const auto& q = patches[j];
                 const std::array<Vec3, 3> tri = {pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]};

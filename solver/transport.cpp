@@ -67,6 +67,7 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
         const auto t0 = std::chrono::steady_clock::now();
         direct = solver::diffuse_shot(scene, caster, shot_stats_.diffuse_rays, run);
         for (std::size_t j = 0; j < n_; ++j) shot_stats_.emitters += scene.material_of(j).emissive();
+        shot_stats_.emitter_groups = emitter_groups(scene);
         shot_stats_.diffuse_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
     init(scene.point_lights.empty() ? nullptr : &shot, diffuse_shot_ ? &direct : nullptr);
@@ -77,7 +78,12 @@ nlohmann::json Transport::decisions() const {
     return {{"first_shot", s.lights == 0 ? std::string("skipped: no point lights")
                                          : std::to_string(s.lights) + " point light(s), " + std::to_string(s.shadow_rays) +
                                                " shadow rays, then they leave the iteration"},
-            {"diffuse_shot", diffuse_shot_ ? std::to_string(s.emitters) + " emissive patches, " +
+            {"diffuse_shot", diffuse_shot_ ? std::to_string(s.emitters) + " emissive patches" +
+                                                 (s.emitter_groups < s.emitters
+                                                      ? " in " + std::to_string(s.emitter_groups) +
+                                                            " group(s) sharing their shadow rays"
+                                                      : std::string()) +
+                                                 ", " +
                                                  std::to_string(s.diffuse_rays) +
                                                  " shadow rays: direct light computed once, the emission moves no more"
                                            : std::string("off")}};

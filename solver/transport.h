@@ -50,6 +50,7 @@ public:
         long shadow_rays = 0;
         double seconds = 0.0;
         std::size_t emitters = 0;  // diffuse shot
+        std::size_t emitter_groups = 0;  // the groups sharing their shadow rays (solver/first_shot.h)
         long diffuse_rays = 0;
         double diffuse_seconds = 0.0;
     };
