@@ -411,6 +411,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
     if (root.has("patch_size") && !root.raw("patch_size").is_string()) {
         size = root.number("patch_size");
         scene.refinement = "patch size " + format_number(size) + " (the scene's)";
+        check_refinement(scene, size, shown, limits.max_patches);
     } else {
         const auto& pos = scene.vertex_positions();
         Vec3 lo = pos.front(), hi = lo;
@@ -429,7 +430,6 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
                                                       ": set \"patch_size\" to a larger number or \"none\"");
         }
     }
-    check_refinement(scene, size, shown, limits.max_patches);
     subdivide(scene, size);
 }
 
