@@ -200,12 +200,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
             for (const auto& e : group.outline) in_front = in_front && p.normal.dot(e[0] - x) > 0.0;
             double F = 0.0;
             if (in_front) {
-                for (const auto& e : group.outline) {
-                    const Vec3 r0 = (e[0] - x).normalized(), r1 = (e[1] - x).normalized();
-                    const Vec3 cross = r0.cross(r1);
-                    const double len = cross.norm();
-                    if (len >= 1e-15) F += std::atan2(len, r0.dot(r1)) * p.normal.dot(cross / len);
-                }
+                for (const auto& e : group.outline) F += lambert_edge(x, p.normal, e[0], e[1]);
                 F = std::abs(F) / (2.0 * M_PI);
             } else {
                 for (const std::uint32_t j : group.members) {
