@@ -76,26 +76,27 @@ std::vector<EmitterGroup> group_emitters(const scenes::Scene& scene, const std::
     if (emitters.size() <= kGroupAbove) {
         for (const std::uint32_t j : emitters) groups.push_back({{j}, Vec3::Zero(), 0.0, {}, {}});
     } else {
-        const double tol = 1e-9 * scene.bounds_radius();
+        // Bins of (object, material, plane), the plane's normal and offset rounded to
+        // 1e-9 (of the bounds' radius): one look-up per emitter, so that a dense
+        // emissive mesh of many planes costs no more than a refined panel. Coplanar
+        // patches on either side of a rounding step make two groups: exact all the same.
+        const double step = 1e-9 * scene.bounds_radius();
+        std::map<std::array<long long, 6>, std::size_t> bins;
         for (const std::uint32_t j : emitters) {
             const auto& q = patches[j];
-            EmitterGroup* into = nullptr;
-            for (auto& g : groups) {
-                const auto& first = patches[g.members.front()];
-                if (first.material == q.material && first.object == q.object && first.normal.dot(q.normal) > 1.0 - 1e-9 &&
-                    std::abs(first.normal.dot(q.centroid - first.centroid)) <= tol) {
-                    into = &g;
-                    break;
-                }
-            }
-            if (into) into->members.push_back(j);
-            else groups.push_back({{j}, Vec3::Zero(), 0.0, {}, {}});
+            const std::array<long long, 6> key = {q.object, q.material, std::llround(q.normal.x() * 1e9),
+                                                  std::llround(q.normal.y() * 1e9), std::llround(q.normal.z() * 1e9),
+                                                  std::llround(q.normal.dot(q.centroid) / step)};
+            const auto [at, added] = bins.emplace(key, groups.size());
+            if (added) groups.push_back({{j}, Vec3::Zero(), 0.0, {}, {}});
+            else groups[at->second].members.push_back(j);
         }
     }
     for (auto& g : groups) {
+        if (g.members.size() == 1) continue;  // the shot of one emitter needs none of this
         // Members in Morton order of their centroids in the group's plane, so that a
         // stretch of the running area is a compact piece of the group.
-        if (g.members.size() > 1) {
+        {
             Vec3 u, v;
             scenes::orthonormal_basis(patches[g.members.front()].normal, u, v);
             double ulo = 1e300, uhi = -1e300, vlo = 1e300, vhi = -1e300;
@@ -143,15 +144,8 @@ std::vector<EmitterGroup> group_emitters(const scenes::Scene& scene, const std::
 
 }  // namespace
 
-std::size_t emitter_groups(const scenes::Scene& scene) {
-    std::vector<std::uint32_t> emitters;
-    for (std::size_t j = 0; j < scene.patch_count(); ++j)
-        if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
-    return group_emitters(scene, emitters).size();
-}
-
 std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays_out,
-                              const sampling::RunOptions& run) {
+                              const sampling::RunOptions& run, std::size_t* groups_out) {
     const std::size_t n = scene.patch_count();
     const auto& patches = scene.patch_list();
     const auto& pos = scene.vertex_positions();
@@ -159,6 +153,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     for (std::size_t j = 0; j < n; ++j)
         if (scene.material_of(j).emissive()) emitters.push_back(static_cast<std::uint32_t>(j));
     const std::vector<EmitterGroup> groups = group_emitters(scene, emitters);
+    if (groups_out) *groups_out = groups.size();
     std::vector<Rgb> irradiance(n, Rgb::Zero());
     const double offset = 1e-6 * scene.bounds_radius();
     // Receivers are independent: bands of them on the run's threads; every sum is made
@@ -178,7 +173,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     // the point's plane (else member by member, clipped, as for one emitter), times the
     // visible share of K shadow rays to members drawn by area (stratified, fixed:
     // (k + 1/2) / K along the running area), each ray weighed by the point-to-point
-    // kernel cos cos / r^2 at its end; K = (4 r / d)^2 in 4..64 for a group of radius r
+    // kernel cos cos / r^2 at its end; K = (4 r / d)^2 in 16..64 for a group of radius r
     // at distance d. Exact where the group is wholly seen or wholly hidden; a quadrature
     // of K points across a shadow's edge.
     auto shared_rays = [&](const EmitterGroup& group, std::size_t i, long& rays) -> Rgb {

@@ -56,11 +56,9 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
 // point-to-point kernel, and 256 where the first K disagree (a shadow's edge). On the
 // Cornell box at patch size 10 (121,324 patches, 1,024 emitters) that is 82 million
 // shadow rays -> 3.9 million (docs/benchmarks.md).
+// `groups`, when given, receives how many groups it made (each emitter alone where
+// there are 64 or fewer).
 std::vector<scenes::Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, long& rays,
-                                      const sampling::RunOptions& run = {});
-
-// How many groups the diffuse shot makes of the scene's emitters (each emitter alone
-// where there are 64 or fewer).
-std::size_t emitter_groups(const scenes::Scene& scene);
+                                      const sampling::RunOptions& run = {}, std::size_t* groups = nullptr);
 
 }  // namespace raybundle::solver

@@ -65,9 +65,8 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
     std::vector<Rgb> direct;
     if (diffuse_shot_) {
         const auto t0 = std::chrono::steady_clock::now();
-        direct = solver::diffuse_shot(scene, caster, shot_stats_.diffuse_rays, run);
+        direct = solver::diffuse_shot(scene, caster, shot_stats_.diffuse_rays, run, &shot_stats_.emitter_groups);
         for (std::size_t j = 0; j < n_; ++j) shot_stats_.emitters += scene.material_of(j).emissive();
-        shot_stats_.emitter_groups = emitter_groups(scene);
         shot_stats_.diffuse_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
     init(scene.point_lights.empty() ? nullptr : &shot, diffuse_shot_ ? &direct : nullptr);

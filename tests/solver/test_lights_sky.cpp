@@ -272,7 +272,9 @@ TEST_CASE("diffuse shot: a light of many patches shares its shadow rays and keep
     }
     {
         const scenes::RayCaster caster(fine);
-        b = solver::diffuse_shot(fine, caster, rays_fine);
+        std::size_t groups = 0;
+        b = solver::diffuse_shot(fine, caster, rays_fine, {}, &groups);
+        CHECK(groups == 1);  // the lamp's 288 patches share their rays
         sampling::RunOptions three;
         three.threads = 3;
         c = solver::diffuse_shot(fine, caster, rays_three, three);
