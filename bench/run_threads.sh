@@ -21,14 +21,16 @@
 #
 # Writes OUT (default docs/bench-threads.csv: one row per workload, threads and phase)
 # and prints the table. Usage: bench/run_threads.sh [N] [OUT]; WORKLOADS="default walks"
-# to run some of them. Build first (scripts/build.sh); python3 only.
+# to run some of them; THREADS="1 2 4 8 16" to run those counts instead of 1..N (1 and N
+# are added when missing); RAYBUNDLE=path for another binary (a build for another
+# machine). Build first (scripts/build.sh); python3 only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-raybundle=$PWD/build/apps/raybundle
+raybundle=${RAYBUNDLE:-$PWD/build/apps/raybundle}
 [ -x "$raybundle" ] || { echo "run_threads: $raybundle missing (build first: scripts/build.sh)" >&2; exit 1; }
 max=${1:-$(nproc)}
 out=${2:-docs/bench-threads.csv}
-export RAYBUNDLE=$raybundle MAX_THREADS=$max OUT=$out REPEATS=${REPEATS:-3} WORKLOADS=${WORKLOADS:-default walks 100k}
+export RAYBUNDLE=$raybundle MAX_THREADS=$max OUT=$out REPEATS=${REPEATS:-3} WORKLOADS=${WORKLOADS:-default walks 100k} THREADS=${THREADS:-}
 exec python3 - <<'EOF'
 import json, os, subprocess, sys, tempfile, time
 
@@ -43,7 +45,10 @@ chosen = os.environ["WORKLOADS"].split()
 for w in chosen:
     if w not in workloads:
         sys.exit(f"run_threads: unknown workload '{w}' (known: {', '.join(workloads)})")
-threads = list(range(1, max_threads + 1))
+threads = sorted({1, max_threads, *map(int, os.environ["THREADS"].split())}) if os.environ["THREADS"] \
+    else list(range(1, max_threads + 1))
+if threads[0] < 1 or threads[-1] > max_threads:
+    sys.exit(f"run_threads: THREADS must lie in 1..{max_threads}")
 work = tempfile.mkdtemp(prefix="raybundle-threads.")
 
 

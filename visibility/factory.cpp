@@ -24,8 +24,8 @@ const std::vector<BackendInfo>& backend_infos() {
         {"global-zbuffer", true, true, true, true, "per-pixel fragment lists sorted by exact depth (004 5.1.5)"},
         {"raycast", true, true, true, true, "one Embree ray per pixel, all crossings in order"},
 #ifdef RAYBUNDLE_HAVE_OPENGL
-        {"zbuffer", false, true, false, false,
-         "OpenGL depth peeling (004 5.1.4); float depths: surfaces closer than ~1e-4 may swap, coincident ones merge"},
+        {"zbuffer", true, true, true, false,
+         "OpenGL depth peeling (004 5.1.4) on the GPU, layers ordered by exact depth and paired by compute shaders"},
 #endif
 #ifdef RAYBUNDLE_HAVE_CGAL
         {"arrangement", true, false, true, true, "CGAL planar arrangement: exact areas, no pixels (004 5.1.2)"},

@@ -67,6 +67,11 @@ public:
 
     const scenes::Vec3& center() const { return center_; }
     double radius() const { return radius_; }
+    // Every vertex's projected position in sub-pixel units (after project()).
+    const std::vector<double>& projected_x() const { return px_; }
+    const std::vector<double>& projected_y() const { return py_; }
+    const scenes::Vec3& u() const { return u_; }
+    const scenes::Vec3& v() const { return v_; }
 
 private:
     int resolution_;

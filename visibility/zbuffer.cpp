@@ -2,10 +2,17 @@
 
 #include "scenes/frame.h"
 #include "visibility/gl_context.h"
+#include "visibility/map_grid.h"
 #include "visibility/pixel_pairs.h"
 
 #include <GL/glcorearb.h>
 
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <initializer_list>
+#include <iterator>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,7 +30,6 @@ namespace {
     X(PFNGLFRAMEBUFFERTEXTURE2DPROC, FramebufferTexture2D)                                                    \
     X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, CheckFramebufferStatus)                                                \
     X(PFNGLDRAWBUFFERSPROC, DrawBuffers)                                                                      \
-    X(PFNGLREADBUFFERPROC, ReadBuffer)                                                                        \
     X(PFNGLGENTEXTURESPROC, GenTextures)                                                                      \
     X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                                                \
     X(PFNGLBINDTEXTUREPROC, BindTexture)                                                                      \
@@ -44,7 +50,6 @@ namespace {
     X(PFNGLDELETEPROGRAMPROC, DeleteProgram)                                                                  \
     X(PFNGLUSEPROGRAMPROC, UseProgram)                                                                        \
     X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                                                        \
-    X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                                                            \
     X(PFNGLUNIFORM1IPROC, Uniform1i)                                                                          \
     X(PFNGLGENBUFFERSPROC, GenBuffers)                                                                        \
     X(PFNGLDELETEBUFFERSPROC, DeleteBuffers)                                                                  \
@@ -61,10 +66,17 @@ namespace {
     X(PFNGLDEPTHFUNCPROC, DepthFunc)                                                                          \
     X(PFNGLCLEARBUFFERUIVPROC, ClearBufferuiv)                                                                \
     X(PFNGLCLEARBUFFERFVPROC, ClearBufferfv)                                                                  \
-    X(PFNGLDRAWARRAYSPROC, DrawArrays)                                                                        \
-    X(PFNGLPIXELSTOREIPROC, PixelStorei)                                                                      \
-    X(PFNGLREADPIXELSPROC, ReadPixels)                                                                        \
-    X(PFNGLFINISHPROC, Finish)                                                                                \
+    X(PFNGLDRAWELEMENTSPROC, DrawElements)                                                                    \
+    X(PFNGLSCISSORPROC, Scissor)                                                                              \
+    X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                                              \
+    X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                                                  \
+    X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                                                \
+    X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                                  \
+    X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                            \
+    X(PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData)                                                          \
+    X(PFNGLUNIFORM1UIPROC, Uniform1ui)                                                                        \
+    X(PFNGLUNIFORM1FPROC, Uniform1f)                                                                          \
+    X(PFNGLUNIFORM1DPROC, Uniform1d)                                                                          \
     X(PFNGLGENQUERIESPROC, GenQueries)                                                                        \
     X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                                  \
     X(PFNGLBEGINQUERYPROC, BeginQuery)                                                                        \
@@ -84,40 +96,262 @@ struct Gl {
     }
 };
 
+
+// Peeling: vertices come in the map's sub-pixel units (exact integers) and a depth for
+// the peeling order; with a power-of-two viewport the transform to window coordinates
+// is exact, so the rasteriser sees MapGrid's snapped positions.
 const char* kVertexShader = R"(#version 450 core
-layout(location = 0) in vec3 position;
-uniform mat4 projection;
-invariant gl_Position;  // the same fragment depth in every peeling pass
-void main() { gl_Position = projection * vec4(position, 1.0); }
+layout(location = 0) in vec3 position;  // x, y in 1/256 pixel; z in [-1, 1]
+uniform float scale;                    // 2 / (256 viewport): a power of two
+invariant gl_Position;                  // the same fragment depth in every pass
+void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 1.0, position.z, 1.0); }
 )";
 
+// Pass k keeps the least (depth, id) after the previous layer's at this pixel; the
+// depth test (GL_LESS: the first drawn of equal depths stays) takes the least of those.
 const char* kFragmentShader = R"(#version 450 core
 layout(location = 0) out uint id;
 layout(binding = 0) uniform sampler2D previous_depth;
+layout(binding = 1) uniform usampler2D previous_id;
 uniform int peel;
 void main() {
-    if (peel != 0 && gl_FragCoord.z <= texelFetch(previous_depth, ivec2(gl_FragCoord.xy), 0).r) discard;
-    id = uint(gl_PrimitiveID) + 1u;
+    uint me = uint(gl_PrimitiveID) + 1u;
+    if (peel != 0) {
+        ivec2 p = ivec2(gl_FragCoord.xy);
+        float z = texelFetch(previous_depth, p, 0).r;
+        if (gl_FragCoord.z < z || (gl_FragCoord.z == z && me <= texelFetch(previous_id, p, 0).r)) discard;
+    }
+    id = me;
 }
 )";
+
+// One layer's ids (patch + 1, 0 for none) into the buffer of layers.
+const char* kCopyShader = R"(#version 450 core
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(binding = 0) uniform usampler2D ids;
+layout(std430, binding = 0) writeonly buffer Layers { uint layer_id[]; };
+uniform uint width;
+uniform uint layer;
+void main() {
+    uvec2 q = gl_GlobalInvocationID.xy;
+    if (q.x >= width || q.y >= width) return;
+    layer_id[layer * width * width + q.y * width + q.x] = texelFetch(ids, ivec2(q), 0).r;
+}
+)";
+
+// Per pixel: its surfaces in exact order (as GlobalZBufferBackend::transfer and
+// pixel_pairs.h's order_ties and pairs_along), each (receiver, source) pair counted in
+// an open-addressing hash table whose slot holds key_r = receiver + 1 and key_s =
+// source + 1. A slot is claimed word by word: key_r first, then key_s by the first
+// thread with the same receiver to get there; a thread that finds either word taken by
+// another value probes on. Every claimed slot is listed once in `used`.
+constexpr int kMaxLayers = 64;
+const char* kPairShader = R"(#version 450 core
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Layers { uint layer_id[]; };
+layout(std430, binding = 1) readonly buffer Patches { dvec4 patch_depth[]; };  // t0, tx, ty, kind
+layout(std430, binding = 2) coherent buffer KeyR { uint key_r[]; };
+layout(std430, binding = 3) coherent buffer KeyS { uint key_s[]; };
+layout(std430, binding = 4) coherent buffer SlotCount { uint slot_count[]; };
+layout(std430, binding = 5) coherent buffer Counters { uint used_count; uint overflow; };
+layout(std430, binding = 6) writeonly buffer Used { uint used[]; };
+uniform uint width;
+uniform uint layers;
+uniform uint mask;     // table size - 1 (a power of two)
+uniform uint patches;  // the sky's receiver index is patches, its source patches + 1
+uniform int sky;
+uniform double tie;
+const int kMaxLayers = 64;
+
+void add(uint r, uint s) {
+    uint h = (r * 0x9E3779B1u) ^ ((s + 0x7F4A7C15u) * 0x85EBCA77u);
+    h ^= h >> 16;
+    h *= 0x7FEB352Du;
+    h ^= h >> 15;
+    uint slot = h & mask;
+    for (uint probe = 0u; probe <= mask; ++probe) {
+        uint kr = atomicCompSwap(key_r[slot], 0u, r + 1u);
+        if (kr == 0u || kr == r + 1u) {
+            uint ks = atomicCompSwap(key_s[slot], 0u, s + 1u);
+            if (ks == 0u) {
+                uint j = atomicAdd(used_count, 1u);
+                if (j <= mask) used[j] = slot;
+            }
+            if (ks == 0u || ks == s + 1u) {
+                atomicAdd(slot_count[slot], 1u);
+                return;
+            }
+        }
+        slot = (slot + 1u) & mask;
+    }
+    atomicOr(overflow, 1u);
+}
+
+// order_ties' order within a run of equal depths: receivers first; sources by
+// ascending index, receivers by descending index.
+bool tie_before(uint a, bool sa, uint b, bool sb) {
+    if (sa != sb) return sb;
+    return sa ? a < b : a > b;
+}
+
+void main() {
+    uint cells = width * width;
+    uint p = gl_GlobalInvocationID.x;
+    if (p >= cells) return;
+    double x = double(p % width), y = double(p / width);
+    uint id[kMaxLayers];
+    double depth[kMaxLayers];
+    bool source[kMaxLayers];
+    int m = 0;
+    // Insertion by exact depth (receivers first at equal depths), as the global z-buffer.
+    for (uint k = 0u; k < layers; ++k) {
+        uint f = layer_id[k * cells + p];
+        if (f == 0u) break;
+        dvec4 c = patch_depth[f - 1u];
+        if (c.w == 0.0lf) continue;  // edge-on: no projected area, blocks nothing
+        precise double d = c.x + c.y * x + c.z * y;
+        bool s = c.w > 0.0lf;
+        int j = m;
+        while (j > 0 && (d < depth[j - 1] || (d == depth[j - 1] && !s && source[j - 1]))) {
+            id[j] = id[j - 1];
+            depth[j] = depth[j - 1];
+            source[j] = source[j - 1];
+            --j;
+        }
+        id[j] = f - 1u;
+        depth[j] = d;
+        source[j] = s;
+        ++m;
+    }
+    // Runs of depths within `tie` of the previous one, ordered as every backend orders ties.
+    for (int a = 0; a < m;) {
+        int b = a + 1;
+        while (b < m && depth[b] - depth[b - 1] <= tie) ++b;
+        for (int i = a + 1; i < b; ++i) {
+            uint fi = id[i];
+            double di = depth[i];
+            bool si = source[i];
+            int j = i;
+            while (j > a && tie_before(fi, si, id[j - 1], source[j - 1])) {
+                id[j] = id[j - 1];
+                depth[j] = depth[j - 1];
+                source[j] = source[j - 1];
+                --j;
+            }
+            id[j] = fi;
+            depth[j] = di;
+            source[j] = si;
+        }
+        a = b;
+    }
+    for (int i = 0; i + 1 < m; ++i)
+        if (source[i] && !source[i + 1]) add(id[i + 1], id[i]);
+    if (sky != 0 && m > 0) {
+        if (!source[0]) add(id[0], patches);
+        if (source[m - 1]) add(patches + 1u, id[m - 1]);
+    }
+}
+)";
+
+// The used slots' (receiver, source, count) into `entries`, each slot cleared behind.
+const char* kCompactShader = R"(#version 450 core
+layout(local_size_x = 64) in;
+layout(std430, binding = 2) buffer KeyR { uint key_r[]; };
+layout(std430, binding = 3) buffer KeyS { uint key_s[]; };
+layout(std430, binding = 4) buffer SlotCount { uint slot_count[]; };
+layout(std430, binding = 6) readonly buffer Used { uint used[]; };
+layout(std430, binding = 7) writeonly buffer Entries { uint entry[]; };
+uniform uint count;
+void main() {
+    uint j = gl_GlobalInvocationID.x;
+    if (j >= count) return;
+    uint slot = used[j];
+    entry[3u * j] = key_r[slot] - 1u;
+    entry[3u * j + 1u] = key_s[slot] - 1u;
+    entry[3u * j + 2u] = slot_count[slot];
+    key_r[slot] = 0u;
+    key_s[slot] = 0u;
+    slot_count[slot] = 0u;
+}
+)";
+
+// Sorts (key, count) records by key, least significant 11 bits first, skipping the
+// digits that all keys share.
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& counts,
+                std::vector<std::uint64_t>& key_tmp, std::vector<std::uint32_t>& count_tmp) {
+    const std::size_t n = keys.size();
+    if (n < 2) return;
+    std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
+    for (std::uint64_t k : keys) {
+        all_or |= k;
+        all_and &= k;
+    }
+    key_tmp.resize(n);
+    count_tmp.resize(n);
+    constexpr int kBits = 11;
+    std::vector<std::size_t> offset(std::size_t{1} << kBits);
+    for (int shift = 0; shift < 64; shift += kBits) {
+        const std::uint64_t digit_mask = ((std::uint64_t{1} << kBits) - 1) << shift;
+        if (((all_or ^ all_and) & digit_mask) == 0) continue;  // the same digit everywhere
+        std::fill(offset.begin(), offset.end(), 0);
+        for (std::uint64_t k : keys) ++offset[(k >> shift) & ((1u << kBits) - 1)];
+        std::size_t sum = 0;
+        for (std::size_t& o : offset) {
+            const std::size_t c = o;
+            o = sum;
+            sum += c;
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::size_t at = offset[(keys[i] >> shift) & ((1u << kBits) - 1)]++;
+            key_tmp[at] = keys[i];
+            count_tmp[at] = counts[i];
+        }
+        keys.swap(key_tmp);
+        counts.swap(count_tmp);
+    }
+}
+
+std::uint32_t next_power_of_two(std::uint32_t x) {
+    std::uint32_t p = 1;
+    while (p < x) p <<= 1;
+    return p;
+}
 
 }  // namespace
 
 struct ZBufferBackend::Impl {
     std::unique_ptr<GlContext> context;
     std::unique_ptr<Gl> gl;
-    int resolution = 0;
-    bool jitter = true;
-    Vec3 center;
-    double radius = 0.0;
+    MapGrid grid;
+    bool sky = false;
     std::vector<Vec3> normals;
-    GLuint program = 0, vao = 0, vbo = 0, framebuffer = 0, ids = 0, query = 0;
-    GLuint depth[2] = {0, 0};
-    GLint projection_location = -1, peel_location = -1;
-    GLsizei vertex_count = 0;
-    std::vector<std::uint32_t> layer, next_layer;
-    std::vector<std::uint64_t> pairs;
+    std::vector<double> plane;  // n . (first vertex)
+    std::vector<Vec3> positions;
+    GLuint peel_program = 0, copy_program = 0, pair_program = 0, compact_program = 0;
+    GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0;
+    GLuint ids[2] = {0, 0}, depth[2] = {0, 0};
+    GLuint layer_buffer = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0, used = 0,
+           entry_buffer = 0;
+    std::vector<GLuint> queries;
+    GLint scale_location = -1, peel_location = -1;
+    GLint copy_width = -1, copy_layer = -1;
+    GLint pair_width = -1, pair_layers = -1, pair_mask = -1, pair_patches = -1, pair_sky = -1, pair_tie = -1;
+    GLint compact_count = -1;
+    GLsizei index_count = 0;
+    int layer_capacity = 0;         // layers the layer buffer holds
+    std::uint32_t table_size = 0;   // slots of the hash table (a power of two)
+    int guess = 4;                  // layers to draw before the first wait
+    std::vector<float> vertices;    // x, y, z per vertex, per direction
+    std::vector<double> records;    // t0, tx, ty, kind per patch, per direction
+    std::vector<std::uint32_t> entry_words;
+    std::vector<std::uint64_t> keys, key_tmp;
+    std::vector<std::uint32_t> counts, count_tmp;
     long directions = 0, layers = 0;  // drawn so far: the cost grows with the layers
+
+    Impl(const scenes::Scene& scene, const BackendOptions& options)
+        : grid(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+          sky(options.sky),
+          positions(scene.vertex_positions()) {}
 
     GLuint compile(GLenum type, const char* source) {
         const GLuint s = gl->CreateShader(type);
@@ -128,9 +362,69 @@ struct ZBufferBackend::Impl {
         if (!ok) {
             char log[2048];
             gl->GetShaderInfoLog(s, sizeof log, nullptr, log);
+            gl->DeleteShader(s);
             throw std::runtime_error(std::string("zbuffer: shader does not compile: ") + log);
         }
         return s;
+    }
+
+    GLuint link(std::initializer_list<GLuint> shaders) {
+        const GLuint program = gl->CreateProgram();
+        for (GLuint s : shaders) gl->AttachShader(program, s);
+        gl->LinkProgram(program);
+        for (GLuint s : shaders) gl->DeleteShader(s);
+        GLint linked = 0;
+        gl->GetProgramiv(program, GL_LINK_STATUS, &linked);
+        if (!linked) {
+            char log[2048];
+            gl->GetProgramInfoLog(program, sizeof log, nullptr, log);
+            gl->DeleteProgram(program);
+            throw std::runtime_error(std::string("zbuffer: shader program does not link: ") + log);
+        }
+        return program;
+    }
+
+    GLuint buffer(GLsizeiptr bytes, const void* data, GLenum usage) {
+        GLuint b = 0;
+        gl->GenBuffers(1, &b);
+        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, b);
+        gl->BufferData(GL_SHADER_STORAGE_BUFFER, bytes, data, usage);
+        return b;
+    }
+
+    // A hash table of `size` empty slots (and a list of used slots as long).
+    void make_table(std::uint32_t size) {
+        const GLuint old[] = {key_r, key_s, slot_count, used, entry_buffer};
+        gl->DeleteBuffers(5, old);
+        table_size = size;
+        const std::vector<std::uint32_t> zeros(size, 0);
+        const GLsizeiptr bytes = static_cast<GLsizeiptr>(size) * 4;
+        key_r = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
+        key_s = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
+        slot_count = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
+        used = buffer(bytes, nullptr, GL_DYNAMIC_COPY);
+        entry_buffer = buffer(3 * bytes, nullptr, GL_STREAM_READ);
+        const std::uint32_t none[2] = {0, 0};
+        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, counters);
+        gl->BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof none, none);
+    }
+
+    // Room for `n` layers in the layer buffer, keeping the first `keep`.
+    void reserve_layers(int n, int keep) {
+        if (n <= layer_capacity) return;
+        const int capacity = std::max(n, 2 * layer_capacity);
+        const GLsizeiptr layer_bytes = static_cast<GLsizeiptr>(grid.width()) * grid.width() * 4;
+        const GLuint grown = buffer(capacity * layer_bytes, nullptr, GL_DYNAMIC_COPY);
+        if (layer_buffer != 0) {
+            if (keep > 0) {
+                gl->BindBuffer(GL_COPY_READ_BUFFER, layer_buffer);
+                gl->BindBuffer(GL_COPY_WRITE_BUFFER, grown);
+                gl->CopyBufferSubData(GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0, keep * layer_bytes);
+            }
+            gl->DeleteBuffers(1, &layer_buffer);
+        }
+        layer_buffer = grown;
+        layer_capacity = capacity;
     }
 
     void check(const char* where) {
@@ -140,76 +434,97 @@ struct ZBufferBackend::Impl {
 };
 
 ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : impl_(std::make_unique<Impl>()) {
+    : impl_(std::make_unique<Impl>(scene, options)) {
     Impl& s = *impl_;
     s.context = make_gl_context();
     s.gl = std::make_unique<Gl>(*s.context);
     const Gl& gl = *s.gl;
-    s.resolution = options.resolution > 0 ? options.resolution : default_resolution(scene);
-    s.jitter = options.jitter;
-    s.center = scene.bounds_center();
-    s.radius = scene.bounds_radius();
 
-    // Triangle soup relative to the scene's centre: primitive i is patch i.
-    std::vector<float> vertices;
+    std::vector<std::uint32_t> indices;
     for (const auto& p : scene.patch_list()) {
         s.normals.push_back(p.normal);
-        for (int k : p.v) {
-            const Vec3 d = scene.vertex_positions()[k] - s.center;
-            vertices.insert(vertices.end(), {static_cast<float>(d.x()), static_cast<float>(d.y()), static_cast<float>(d.z())});
-        }
+        s.plane.push_back(p.normal.dot(s.positions[p.v[0]]));
+        for (int k : p.v) indices.push_back(static_cast<std::uint32_t>(k));
     }
-    s.vertex_count = static_cast<GLsizei>(vertices.size() / 3);
+    if (s.normals.size() + 2 >= std::numeric_limits<std::uint32_t>::max())
+        throw std::runtime_error("zbuffer: too many patches for 32-bit ids");
+    s.index_count = static_cast<GLsizei>(indices.size());
 
-    const GLuint vs = s.compile(GL_VERTEX_SHADER, kVertexShader), fs = s.compile(GL_FRAGMENT_SHADER, kFragmentShader);
-    s.program = gl.CreateProgram();
-    gl.AttachShader(s.program, vs);
-    gl.AttachShader(s.program, fs);
-    gl.LinkProgram(s.program);
-    gl.DeleteShader(vs);
-    gl.DeleteShader(fs);
-    GLint linked = 0;
-    gl.GetProgramiv(s.program, GL_LINK_STATUS, &linked);
-    if (!linked) throw std::runtime_error("zbuffer: shader program does not link");
-    s.projection_location = gl.GetUniformLocation(s.program, "projection");
-    s.peel_location = gl.GetUniformLocation(s.program, "peel");
+    s.peel_program = s.link({s.compile(GL_VERTEX_SHADER, kVertexShader), s.compile(GL_FRAGMENT_SHADER, kFragmentShader)});
+    s.copy_program = s.link({s.compile(GL_COMPUTE_SHADER, kCopyShader)});
+    s.pair_program = s.link({s.compile(GL_COMPUTE_SHADER, kPairShader)});
+    s.compact_program = s.link({s.compile(GL_COMPUTE_SHADER, kCompactShader)});
+    s.scale_location = gl.GetUniformLocation(s.peel_program, "scale");
+    s.peel_location = gl.GetUniformLocation(s.peel_program, "peel");
+    s.copy_width = gl.GetUniformLocation(s.copy_program, "width");
+    s.copy_layer = gl.GetUniformLocation(s.copy_program, "layer");
+    s.pair_width = gl.GetUniformLocation(s.pair_program, "width");
+    s.pair_layers = gl.GetUniformLocation(s.pair_program, "layers");
+    s.pair_mask = gl.GetUniformLocation(s.pair_program, "mask");
+    s.pair_patches = gl.GetUniformLocation(s.pair_program, "patches");
+    s.pair_sky = gl.GetUniformLocation(s.pair_program, "sky");
+    s.pair_tie = gl.GetUniformLocation(s.pair_program, "tie");
+    s.compact_count = gl.GetUniformLocation(s.compact_program, "count");
 
+    // Vertices (rewritten per direction) and the patches' triangles: primitive i is patch i.
+    s.vertices.resize(3 * s.positions.size());
     gl.GenVertexArrays(1, &s.vao);
     gl.BindVertexArray(s.vao);
-    gl.GenBuffers(1, &s.vbo);
-    gl.BindBuffer(GL_ARRAY_BUFFER, s.vbo);
-    gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data(),
-                  GL_STATIC_DRAW);
+    gl.GenBuffers(1, &s.vertex_buffer);
+    gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
+    gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)), nullptr, GL_STREAM_DRAW);
     gl.EnableVertexAttribArray(0);
     gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    gl.GenBuffers(1, &s.index_buffer);
+    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, s.index_buffer);
+    gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)),
+                  indices.data(), GL_STATIC_DRAW);
 
-    // Framebuffer: patch ids (R32UI) and two depth textures used in turn.
-    const GLsizei W = s.resolution + 1;
-    gl.GenTextures(1, &s.ids);
-    gl.BindTexture(GL_TEXTURE_2D, s.ids);
-    gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_R32UI, W, W);
+    // Framebuffer: patch ids (R32UI) and 32-bit depths, two of each used in turn.
+    const GLsizei W = s.grid.width();
+    gl.GenTextures(2, s.ids);
     gl.GenTextures(2, s.depth);
-    for (GLuint d : s.depth) {
-        gl.BindTexture(GL_TEXTURE_2D, d);
+    for (int k = 0; k < 2; ++k) {
+        gl.BindTexture(GL_TEXTURE_2D, s.ids[k]);
+        gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_R32UI, W, W);
+        gl.BindTexture(GL_TEXTURE_2D, s.depth[k]);
         gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_DEPTH_COMPONENT32F, W, W);
-        gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
         gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_NONE);
+        for (GLuint t : {s.ids[k], s.depth[k]}) {
+            gl.BindTexture(GL_TEXTURE_2D, t);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        }
     }
     gl.GenFramebuffers(1, &s.framebuffer);
     gl.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
-    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.ids, 0);
+    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.ids[0], 0);
     gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, s.depth[0], 0);
     const GLenum buffers[] = {GL_COLOR_ATTACHMENT0};
     gl.DrawBuffers(1, buffers);
     if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
         throw std::runtime_error("zbuffer: the R32UI + 32-bit depth framebuffer is not supported");
-    gl.GenQueries(1, &s.query);
-    gl.Viewport(0, 0, W, W);
+
+    // A viewport of a power of two pixels (at least the map) makes the transform of the
+    // sub-pixel positions exact; the scissor keeps the map.
+    const GLsizei viewport = static_cast<GLsizei>(next_power_of_two(static_cast<std::uint32_t>(W)));
+    gl.Viewport(0, 0, viewport, viewport);
+    gl.Enable(GL_SCISSOR_TEST);
+    gl.Scissor(0, 0, W, W);
     gl.Enable(GL_DEPTH_TEST);
     gl.DepthFunc(GL_LESS);
     gl.Disable(GL_CULL_FACE);
-    gl.UseProgram(s.program);
+    gl.UseProgram(s.peel_program);
+    gl.Uniform1f(s.scale_location, static_cast<float>(2.0 / (kSubpixel * viewport)));
+
+    // Buffers of the compute passes: per-patch depth coefficients, the counters, the
+    // layers (grown as needed) and the hash table (grown when half full).
+    s.records.resize(4 * s.normals.size());
+    s.patch_buffer = s.buffer(static_cast<GLsizeiptr>(std::max<std::size_t>(s.records.size(), 4) * sizeof(double)), nullptr,
+                              GL_STREAM_DRAW);
+    s.counters = s.buffer(2 * sizeof(std::uint32_t), nullptr, GL_DYNAMIC_COPY);
+    s.reserve_layers(8, 0);
+    s.make_table(1u << 12);
     s.check("setup");
 }
 
@@ -223,16 +538,18 @@ ZBufferBackend::~ZBufferBackend() {
     } catch (...) {
         return;  // destroying the context frees them anyway
     }
-    gl.DeleteQueries(1, &s.query);
+    if (!s.queries.empty()) gl.DeleteQueries(static_cast<GLsizei>(s.queries.size()), s.queries.data());
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(2, s.depth);
-    gl.DeleteTextures(1, &s.ids);
-    gl.DeleteBuffers(1, &s.vbo);
+    gl.DeleteTextures(2, s.ids);
+    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.patch_buffer, s.key_r,
+                              s.key_s,         s.slot_count,   s.counters,     s.used,         s.entry_buffer};
+    gl.DeleteBuffers(static_cast<GLsizei>(std::size(buffers)), buffers);
     gl.DeleteVertexArrays(1, &s.vao);
-    gl.DeleteProgram(s.program);
+    for (GLuint p : {s.peel_program, s.copy_program, s.pair_program, s.compact_program}) gl.DeleteProgram(p);
 }
 
-int ZBufferBackend::resolution() const { return impl_->resolution; }
+int ZBufferBackend::resolution() const { return impl_->grid.resolution(); }
 
 std::string ZBufferBackend::details() const {
     impl_->context->make_current();
@@ -252,62 +569,154 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     s.context->make_current();
     out.direction = w;
     out.entries.clear();
-    const int W = s.resolution + 1;
-    const double pixel = 2.0 * s.radius / s.resolution;
-    const double jx = s.jitter ? jitter.x() : 0.5, jy = s.jitter ? jitter.y() : 0.5;
+    MapGrid& grid = s.grid;
+    grid.project(w, jitter);
+    const int W = grid.width();
+    const std::size_t n = s.normals.size();
 
-    // Orthographic projection along w onto the painter's grid: pixel coordinate
-    // (u . d + R) / pixel + jitter, mapped to [-1, 1] over W pixels; depth w . d over
-    // the bounding sphere.
-    Vec3 u, v;
-    scenes::orthonormal_basis(w, u, v);
-    const double sx = 2.0 / (pixel * W), ox = (2.0 * (s.radius / pixel + jx)) / W - 1.0;
-    const double sy = 2.0 / (pixel * W), oy = (2.0 * (s.radius / pixel + jy)) / W - 1.0;
-    const double sz = 1.0 / (1.001 * s.radius);
-    const float m[16] = {static_cast<float>(sx * u.x()), static_cast<float>(sx * u.y()), static_cast<float>(sx * u.z()), static_cast<float>(ox),
-                         static_cast<float>(sy * v.x()), static_cast<float>(sy * v.y()), static_cast<float>(sy * v.z()), static_cast<float>(oy),
-                         static_cast<float>(sz * w.x()), static_cast<float>(sz * w.y()), static_cast<float>(sz * w.z()), 0.0f,
-                         0.0f, 0.0f, 0.0f, 1.0f};
-    gl.UniformMatrix4fv(s.projection_location, 1, GL_TRUE, m);
+    // Vertices: the grid's snapped positions and a depth along w for the peeling.
+    const Vec3 center = grid.center();
+    const double depth_scale = 1.0 / (1.001 * grid.radius());
+    const auto& X = grid.projected_x();
+    const auto& Y = grid.projected_y();
+    for (std::size_t k = 0; k < s.positions.size(); ++k) {
+        s.vertices[3 * k] = static_cast<float>(X[k]);
+        s.vertices[3 * k + 1] = static_cast<float>(Y[k]);
+        s.vertices[3 * k + 2] = static_cast<float>(w.dot(s.positions[k] - center) * depth_scale);
+    }
+    gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
+    gl.BufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)), s.vertices.data());
 
-    const std::size_t cells = static_cast<std::size_t>(W) * W;
-    s.layer.assign(cells, 0);
-    s.next_layer.resize(cells);
-    s.pairs.clear();
+    // Each patch's depth at pixel (x, y): t0 + tx x + ty y, as the global z-buffer's.
+    const Vec3 origin = grid.pixel_point(0, 0);
+    const Vec3 du = grid.pixel_point(1, 0) - origin, dv = grid.pixel_point(0, 1) - origin;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double nw = s.normals[i].dot(w);
+        double* r = &s.records[4 * i];
+        if (nw == 0.0) {
+            r[0] = r[1] = r[2] = r[3] = 0.0;
+            continue;
+        }
+        r[0] = (s.plane[i] - s.normals[i].dot(origin)) / nw;
+        r[1] = -s.normals[i].dot(du) / nw;
+        r[2] = -s.normals[i].dot(dv) / nw;
+        r[3] = nw > 0.0 ? 1.0 : -1.0;
+    }
+    gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.patch_buffer);
+    gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.records.size() * sizeof(double)),
+                     s.records.data());
+
+    // Peel in batches: draw, copy the ids into layer k, and wait only at a batch's end
+    // for whether its last layer was empty.
     const GLuint zero[4] = {0, 0, 0, 0};
     const GLfloat far[1] = {1.0f};
-    gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
-    gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
-    const std::size_t max_layers = s.normals.size() + 1;
-    for (std::size_t k = 0; k < max_layers; ++k) {
-        // Layer k into depth[k % 2], testing against layer k - 1 in depth[(k + 1) % 2].
-        gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, s.depth[k % 2], 0);
-        gl.ActiveTexture(GL_TEXTURE0);
-        gl.BindTexture(GL_TEXTURE_2D, s.depth[(k + 1) % 2]);
-        gl.Uniform1i(s.peel_location, k > 0 ? 1 : 0);
-        gl.ClearBufferuiv(GL_COLOR, 0, zero);
-        gl.ClearBufferfv(GL_DEPTH, 0, far);
-        gl.BeginQuery(GL_ANY_SAMPLES_PASSED, s.query);
-        gl.DrawArrays(GL_TRIANGLES, 0, s.vertex_count);
-        gl.EndQuery(GL_ANY_SAMPLES_PASSED);
-        gl.Finish();  // OSMesa fills buffers only after glFinish()
+    const GLuint groups = static_cast<GLuint>((W + 7) / 8);
+    int drawn = 0, filled = -1;  // layers drawn; the first empty one, once known
+    for (int batch = std::max(2, s.guess); filled < 0; batch = 2) {
+        if (drawn + batch > kMaxLayers + 1) batch = kMaxLayers + 1 - drawn;
+        if (batch <= 0)
+            throw std::runtime_error("zbuffer: more than " + std::to_string(kMaxLayers) +
+                                     " surfaces behind one another along one pixel's ray; use exact-painter");
+        s.reserve_layers(drawn + batch, drawn);
+        while (s.queries.size() < static_cast<std::size_t>(drawn + batch)) {
+            GLuint q = 0;
+            gl.GenQueries(1, &q);
+            s.queries.push_back(q);
+        }
+        for (int k = drawn; k < drawn + batch; ++k) {
+            gl.UseProgram(s.peel_program);
+            gl.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
+            gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.ids[k % 2], 0);
+            gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, s.depth[k % 2], 0);
+            gl.ActiveTexture(GL_TEXTURE0);
+            gl.BindTexture(GL_TEXTURE_2D, s.depth[(k + 1) % 2]);
+            gl.ActiveTexture(GL_TEXTURE1);
+            gl.BindTexture(GL_TEXTURE_2D, s.ids[(k + 1) % 2]);
+            gl.Uniform1i(s.peel_location, k > 0 ? 1 : 0);
+            gl.ClearBufferuiv(GL_COLOR, 0, zero);
+            gl.ClearBufferfv(GL_DEPTH, 0, far);
+            gl.BeginQuery(GL_ANY_SAMPLES_PASSED, s.queries[k]);
+            gl.DrawElements(GL_TRIANGLES, s.index_count, GL_UNSIGNED_INT, nullptr);
+            gl.EndQuery(GL_ANY_SAMPLES_PASSED);
+
+            gl.UseProgram(s.copy_program);
+            gl.ActiveTexture(GL_TEXTURE0);
+            gl.BindTexture(GL_TEXTURE_2D, s.ids[k % 2]);
+            gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.layer_buffer);
+            gl.Uniform1ui(s.copy_width, static_cast<GLuint>(W));
+            gl.Uniform1ui(s.copy_layer, static_cast<GLuint>(k));
+            gl.DispatchCompute(groups, groups, 1);
+        }
+        drawn += batch;
         GLuint any = 0;
-        gl.GetQueryObjectuiv(s.query, GL_QUERY_RESULT, &any);
-        ++s.layers;
-        if (!any) break;
-        gl.ReadPixels(0, 0, W, W, GL_RED_INTEGER, GL_UNSIGNED_INT, s.next_layer.data());
-        // A source in layer k - 1 right before a receiver in layer k.
-        if (k > 0)
-            for (std::size_t p = 0; p < cells; ++p) {
-                const std::uint32_t a = s.layer[p], b = s.next_layer[p];
-                if (a == 0 || b == 0) continue;
-                if (s.normals[a - 1].dot(w) > 0.0 && s.normals[b - 1].dot(w) < 0.0) s.pairs.push_back(pixel_pair(b - 1, a - 1));
-            }
-        s.layer.swap(s.next_layer);
+        gl.GetQueryObjectuiv(s.queries[drawn - 1], GL_QUERY_RESULT, &any);  // waits for the batch
+        if (any) continue;
+        for (int k = 0; k < drawn && filled < 0; ++k) {
+            gl.GetQueryObjectuiv(s.queries[k], GL_QUERY_RESULT, &any);
+            if (!any) filled = k;
+        }
     }
+    s.layers += drawn;
     ++s.directions;
+    s.guess = filled + 1;  // this direction's layers and the empty one that ends them
+
+    // Pairs counted in the hash table; a table more than half full is grown and the
+    // pass run again (the layers stay).
+    std::uint32_t counters[2] = {0, 0};
+    for (;;) {
+        gl.UseProgram(s.pair_program);
+        gl.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        const GLuint bound[] = {s.layer_buffer, s.patch_buffer, s.key_r, s.key_s, s.slot_count, s.counters, s.used};
+        for (GLuint b = 0; b < 7; ++b) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
+        gl.Uniform1ui(s.pair_width, static_cast<GLuint>(W));
+        gl.Uniform1ui(s.pair_layers, static_cast<GLuint>(filled));
+        gl.Uniform1ui(s.pair_mask, s.table_size - 1);
+        gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(n));
+        gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
+        gl.Uniform1d(s.pair_tie, 1e-9 * grid.radius());
+        const std::size_t cells = static_cast<std::size_t>(W) * W;
+        gl.DispatchCompute(static_cast<GLuint>((cells + 63) / 64), 1, 1);
+        gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.counters);
+        gl.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof counters, counters);
+        if (!counters[1] && counters[0] <= s.table_size / 2) break;
+        s.make_table(next_power_of_two(std::max<std::uint32_t>(4 * counters[0], 4 * s.table_size)));
+    }
+
+    // The used slots' entries back over the bus, the table cleared for the next direction.
+    const std::uint32_t m = counters[0];
+    if (m > 0) {
+        gl.UseProgram(s.compact_program);
+        const GLuint bound[] = {s.key_r, s.key_s, s.slot_count};
+        for (GLuint b = 0; b < 3; ++b) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 2 + b, bound[b]);
+        gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, s.used);
+        gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, s.entry_buffer);
+        gl.Uniform1ui(s.compact_count, m);
+        gl.DispatchCompute((m + 63) / 64, 1, 1);
+        gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+        s.entry_words.resize(3 * static_cast<std::size_t>(m));
+        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.entry_buffer);
+        gl.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.entry_words.size() * 4),
+                            s.entry_words.data());
+        const std::uint32_t none[2] = {0, 0};
+        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.counters);
+        gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof none, none);
+    }
     s.check("transfer");
-    entries_from_pairs(s.pairs, pixel * pixel, out.entries);
+
+    // One entry per (receiver, source), in that order whatever the GPU's scheduling.
+    s.keys.resize(m);
+    s.counts.resize(m);
+    for (std::uint32_t j = 0; j < m; ++j) {
+        s.keys[j] = pixel_pair(s.entry_words[3 * j], s.entry_words[3 * j + 1]);
+        s.counts[j] = s.entry_words[3 * j + 2];
+    }
+    radix_sort(s.keys, s.counts, s.key_tmp, s.count_tmp);
+    const double area = grid.pixel_area();
+    out.entries.reserve(m);
+    for (std::uint32_t j = 0; j < m; ++j)
+        out.entries.push_back({static_cast<std::uint32_t>(s.keys[j] >> 32), static_cast<std::uint32_t>(s.keys[j]),
+                               static_cast<double>(s.counts[j]) * area});
 }
 
 }  // namespace raybundle::visibility

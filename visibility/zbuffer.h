@@ -1,30 +1,32 @@
 #pragma once
 // Hardware z-buffer visibility through OpenGL 4.5 (004 section 5.1.4's idea, done by
-// depth peeling).
+// depth peeling), exact: the same matrix as the global z-buffer, drawn by the GPU.
 //
 // Parameters (BackendOptions): resolution (int, pixels per side of the same jittered
-// grid the painter's uses; default: default_resolution(scene)), jitter (bool, default
-// true).
+// grid as the other discrete backends; default: default_resolution(scene)), jitter
+// (bool, default true), sky (bool).
 //
-// The patches are drawn with an orthographic projection along w into an R32UI
-// framebuffer that stores patch id + 1 (exact integers) and a 32-bit float depth
-// buffer. Depth peeling extracts the depth layers one pass at a time: pass k keeps, per
-// pixel, the nearest fragment behind layer k - 1. Consecutive layers are consecutive
-// surfaces along each pixel's ray, so a source in layer k followed by a receiver in
-// layer k + 1 adds one pixel's area to A(receiver, source). Peeling stops at the first
-// empty layer (an occlusion query).
-//
-// Why depth peeling rather than the paper's emitter/receiver peeling: each pass is one
-// plain z-buffer draw of the whole scene with one extra depth comparison, the number
-// of passes is the scene's depth complexity along w (4-8 for a furnished room), and the
-// order is exact per pixel, so interpenetrating patches come out right, as with the
-// global z-buffer. Emitter/receiver peeling needs a visibility test per patch and more
-// passes when patches overlap cyclically.
+// Per direction:
+//   1. The vertices are projected on the CPU by MapGrid (the grid every discrete backend
+//      uses: positions snapped to 1/256 pixel, which a GPU's rasteriser keeps exactly).
+//   2. Depth peeling finds every patch over every pixel centre: pass k keeps, per pixel,
+//      the least (float depth, patch id) after layer k - 1's, so coincident surfaces
+//      (a two-sided panel, touching blocks) come out one layer each instead of merging.
+//      A compute pass copies each layer's patch ids into a buffer of layers.
+//   3. A compute pass per pixel re-orders its layers by the patches' exact depths at
+//      the pixel centre, in double precision from the same plane coefficients as the
+//      global z-buffer, ties ordered as by every backend (pixel_pairs.h), and pairs each
+//      source with the receiver behind it (and the sky, when asked for). The float
+//      depths only drive the peeling; the order is the exact one.
+//   4. The pairs are counted on the GPU in a hash table (two 32-bit keys claimed by
+//      compare-and-swap, a count added atomically); only the distinct pairs, their
+//      count and the table's used slots come back over the bus: thousands of entries,
+//      not megapixels. The CPU sorts them by (receiver, source): the same entries in
+//      the same order for any GPU scheduling.
+// Layers are drawn in batches sized by the previous direction's depth complexity, with
+// one wait for the GPU per batch, one for the pair count and one for the entries.
 //
 // The OpenGL context comes from gl_context.h (OSMesa by default, EGL on a GPU).
-// Limitation: coincident surfaces (a two-sided panel made of two opposite triangles at
-// the same place) peel as one layer, so the pair behind the panel is lost; the global
-// z-buffer handles them.
 #include "visibility/backend.h"
 
 #include <memory>

@@ -237,16 +237,14 @@ TEST_CASE("contact scenes: every exact backend solves the radiance ray casting d
     }
 }
 
-TEST_CASE("the exact painter gives the global z-buffer's matrix, pixel for pixel", "[visibility][exact]") {
-    // Both order each pixel's surfaces by exact depth; they share the map's grid and
-    // scan conversion, so their matrices agree but for depths that tie within 2e-9 of
-    // the scene's radius (a few pixels where surfaces cross, at most).
+// Scenes on which exact per-pixel backends must agree pixel for pixel: the Cornell box
+// refined, the homogeneous box, the contact scenes, and a soup of random triangles
+// crossing each other everywhere (not cut at the crossings): deep misorders.
+static std::vector<std::pair<std::string, scenes::Scene>> pixel_exact_scenes() {
     std::vector<std::pair<std::string, scenes::Scene>> scenes;
     scenes.emplace_back("cornell-box", scenes::make_builtin("cornell-box", 100.0));
     scenes.emplace_back("homogeneous-box", scenes::make_builtin("homogeneous-box", 0.25));
     for (auto& s : contact_scenes()) scenes.push_back(std::move(s));
-    // A soup of random triangles crossing each other everywhere (not cut at the
-    // crossings): deep misorders, so the marked-pixel path runs too.
     {
         sampling::Rng rng(99);
         std::string objects;
@@ -267,6 +265,14 @@ TEST_CASE("the exact painter gives the global z-buffer's matrix, pixel for pixel
               "cut_contacts": false, "patch_size": "none", "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}",
                                                 "soup.json", "."));
     }
+    return scenes;
+}
+
+TEST_CASE("the exact painter gives the global z-buffer's matrix, pixel for pixel", "[visibility][exact]") {
+    // Both order each pixel's surfaces by exact depth; they share the map's grid and
+    // scan conversion, so their matrices agree but for depths that tie within 2e-9 of
+    // the scene's radius (a few pixels where surfaces cross, at most).
+    auto scenes = pixel_exact_scenes();
     std::size_t inserted = 0, listed = 0;
     for (const bool sky : {false, true})
         for (auto& [what, scene] : scenes) {
@@ -311,6 +317,89 @@ TEST_CASE("the exact painter gives the global z-buffer's matrix, pixel for pixel
     // Both repairs ran: insertion between occupant and predecessor, and marked pixels.
     CHECK(inserted > 1000);
     CHECK(listed > 100);
+}
+
+TEST_CASE("the GPU z-buffer gives the global z-buffer's matrix, pixel for pixel", "[visibility][exact][zbuffer]") {
+    // The z-buffer peels every surface over each pixel centre and orders them by the
+    // global z-buffer's own double-precision depths and tie rule: the same pairs. Only
+    // which of two triangles owns a pixel centre lying exactly on their shared edge is
+    // the rasteriser's rule rather than raster.h's, so a few pixels may move between
+    // neighbours; the matrices must agree to 0.2 % of their pixels.
+    if (!built("zbuffer")) {
+        WARN("this build has no zbuffer backend: nothing to compare");
+        return;
+    }
+    auto scenes = pixel_exact_scenes();
+    for (const bool sky : {false, true})
+        for (auto& [what, scene] : scenes) {
+            visibility::BackendOptions opt;
+            opt.resolution = 200;
+            opt.sky = sky;
+            auto reference = visibility::make_backend("global-zbuffer", scene, opt);
+            auto zbuffer = visibility::make_backend("zbuffer", scene, opt);
+            sampling::RandomDirections dirs(5);
+            sampling::Rng jitter(6);
+            const double pixel_area = std::pow(2.0 * scene.bounds_radius() / opt.resolution, 2);
+            for (int d = 0; d < 4; ++d) {
+                const Vec3 w = dirs.next();
+                const Eigen::Vector2d j(jitter.uniform(), jitter.uniform());
+                visibility::GeometryMatrix expected, got;
+                reference->transfer(w, j, expected);
+                zbuffer->transfer(w, j, got);
+                std::map<Key, double> want, have;
+                double total = 0.0;
+                for (const auto& e : expected.entries) {
+                    want[{e.receiver, e.source}] += e.area;
+                    total += e.area / pixel_area;
+                }
+                bool ordered = true;
+                for (std::size_t k = 0; k < got.entries.size(); ++k) {
+                    const auto& e = got.entries[k];
+                    if (k > 0) {
+                        const auto& p = got.entries[k - 1];
+                        ordered = ordered && (p.receiver < e.receiver || (p.receiver == e.receiver && p.source < e.source));
+                    }
+                    have[{e.receiver, e.source}] += e.area;
+                }
+                double differing = 0.0;  // pixels
+                for (auto [k, v] : want) differing += std::abs(v - (have.count(k) ? have[k] : 0.0)) / pixel_area;
+                for (auto [k, v] : have)
+                    if (!want.count(k)) differing += v / pixel_area;
+                INFO(what << (sky ? " with sky" : "") << ", direction " << d << ": " << differing << " of " << total
+                          << " pixel pairs differ");
+                CHECK(ordered);  // one entry per pair, by receiver then source
+                CHECK(differing <= 4.0 + 0.002 * total);
+            }
+        }
+}
+
+TEST_CASE("the GPU z-buffer: the same seed gives the same matrix, whatever the hash table's history", "[visibility][zbuffer]") {
+    // The GPU counts pairs in a hash table whose slots depend on its threads' timing;
+    // the entries come back sorted. A backend that has drawn other directions first (its
+    // table grown from 4,096 slots, its layer guess changed) gives what a fresh one
+    // gives, bit for bit.
+    if (!built("zbuffer")) {
+        WARN("this build has no zbuffer backend: nothing to compare");
+        return;
+    }
+    const auto scene = scenes::make_builtin("cornell-box", 100.0);
+    visibility::BackendOptions opt;
+    opt.resolution = 300;
+    auto first = visibility::make_backend("zbuffer", scene, opt);
+    auto second = visibility::make_backend("zbuffer", scene, opt);
+    sampling::RandomDirections dirs(3);
+    visibility::GeometryMatrix a, b;
+    for (int d = 0; d < 5; ++d) first->transfer(dirs.next(), {0.3, 0.7}, a);  // history for `first`
+    const Vec3 w = dirs.next();
+    first->transfer(w, {0.25, 0.5}, a);
+    second->transfer(w, {0.25, 0.5}, b);
+    REQUIRE(a.entries.size() == b.entries.size());
+    REQUIRE(!a.entries.empty());
+    for (std::size_t k = 0; k < a.entries.size(); ++k) {
+        CHECK(a.entries[k].receiver == b.entries[k].receiver);
+        CHECK(a.entries[k].source == b.entries[k].source);
+        CHECK(a.entries[k].area == b.entries[k].area);
+    }
 }
 
 TEST_CASE("coplanar overlapping patches facing the same way are found", "[visibility][exact][scenes]") {
