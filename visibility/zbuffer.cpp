@@ -196,9 +196,10 @@ bool tie_before(uint a, bool sa, uint b, bool sb) {
 
 void main() {
     uint cells = width * width;
-    uint p = gl_GlobalInvocationID.x;
-    if (p >= cells) return;
-    double x = double(p % width), y = double(p / width);
+    uvec2 q = gl_GlobalInvocationID.xy;  // one row of groups per map row: under 65,536 each way
+    if (q.x >= width || q.y >= width) return;
+    uint p = q.y * width + q.x;
+    double x = double(q.x), y = double(q.y);
     uint id[kMaxLayers];
     double depth[kMaxLayers];
     bool source[kMaxLayers];
@@ -263,7 +264,7 @@ layout(std430, binding = 6) readonly buffer Used { uint used[]; };
 layout(std430, binding = 7) writeonly buffer Entries { uint entry[]; };
 uniform uint count;
 void main() {
-    uint j = gl_GlobalInvocationID.x;
+    uint j = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
     if (j >= count) return;
     uint slot = used[j];
     entry[3u * j] = key_r[slot] - 1u;
@@ -674,8 +675,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
         gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(n));
         gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
         gl.Uniform1d(s.pair_tie, 1e-9 * grid.radius());
-        const std::size_t cells = static_cast<std::size_t>(W) * W;
-        gl.DispatchCompute(static_cast<GLuint>((cells + 63) / 64), 1, 1);
+        gl.DispatchCompute(static_cast<GLuint>((W + 63) / 64), static_cast<GLuint>(W), 1);
         gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
         gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.counters);
         gl.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof counters, counters);
@@ -692,7 +692,8 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
         gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, s.used);
         gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, s.entry_buffer);
         gl.Uniform1ui(s.compact_count, m);
-        gl.DispatchCompute((m + 63) / 64, 1, 1);
+        const GLuint groups_needed = (m + 63) / 64, across = std::min<GLuint>(groups_needed, 65535);
+        gl.DispatchCompute(across, (groups_needed + across - 1) / across, 1);
         gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
         s.entry_words.resize(3 * static_cast<std::size_t>(m));
         gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.entry_buffer);

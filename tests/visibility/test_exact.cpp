@@ -373,6 +373,37 @@ TEST_CASE("the GPU z-buffer gives the global z-buffer's matrix, pixel for pixel"
         }
 }
 
+TEST_CASE("the GPU z-buffer at the largest map (2048 pixels a side) agrees with the global z-buffer", "[visibility][zbuffer]") {
+    // Over 4 million pixels: more compute groups than one dispatch dimension takes.
+    if (!built("zbuffer")) {
+        WARN("this build has no zbuffer backend: nothing to compare");
+        return;
+    }
+    const auto scene = scenes::make_builtin("homogeneous-box", 0.5);
+    visibility::BackendOptions opt;
+    opt.resolution = 2048;
+    auto reference = visibility::make_backend("global-zbuffer", scene, opt);
+    auto zbuffer = visibility::make_backend("zbuffer", scene, opt);
+    const Vec3 w = Vec3(0.3, -0.5, 0.81).normalized();
+    visibility::GeometryMatrix expected, got;
+    reference->transfer(w, {0.4, 0.6}, expected);
+    zbuffer->transfer(w, {0.4, 0.6}, got);
+    const double pixel_area = std::pow(2.0 * scene.bounds_radius() / opt.resolution, 2);
+    std::map<Key, double> want, have;
+    double total = 0.0, differing = 0.0;
+    for (const auto& e : expected.entries) {
+        want[{e.receiver, e.source}] += e.area;
+        total += e.area / pixel_area;
+    }
+    for (const auto& e : got.entries) have[{e.receiver, e.source}] += e.area;
+    for (auto [k, v] : want) differing += std::abs(v - (have.count(k) ? have[k] : 0.0)) / pixel_area;
+    for (auto [k, v] : have)
+        if (!want.count(k)) differing += v / pixel_area;
+    INFO(differing << " of " << total << " pixel pairs differ");
+    CHECK(total > 1e6);
+    CHECK(differing <= 4.0 + 0.002 * total);
+}
+
 TEST_CASE("the GPU z-buffer: the same seed gives the same matrix, whatever the hash table's history", "[visibility][zbuffer]") {
     // The GPU counts pairs in a hash table whose slots depend on its threads' timing;
     // the entries come back sorted. A backend that has drawn other directions first (its
