@@ -72,16 +72,17 @@ namespace {
     X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                                                  \
     X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                                                \
     X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                                  \
-    X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                            \
     X(PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData)                                                          \
     X(PFNGLUNIFORM1UIPROC, Uniform1ui)                                                                        \
     X(PFNGLUNIFORM1FPROC, Uniform1f)                                                                          \
     X(PFNGLUNIFORM1DPROC, Uniform1d)                                                                          \
-    X(PFNGLGENQUERIESPROC, GenQueries)                                                                        \
-    X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                                  \
-    X(PFNGLBEGINQUERYPROC, BeginQuery)                                                                        \
-    X(PFNGLENDQUERYPROC, EndQuery)                                                                            \
-    X(PFNGLGETQUERYOBJECTUIVPROC, GetQueryObjectuiv)
+    X(PFNGLDISPATCHCOMPUTEINDIRECTPROC, DispatchComputeIndirect)                                              \
+    X(PFNGLBUFFERSTORAGEPROC, BufferStorage)                                                                  \
+    X(PFNGLMAPBUFFERRANGEPROC, MapBufferRange)                                                                \
+    X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                                                                      \
+    X(PFNGLFENCESYNCPROC, FenceSync)                                                                          \
+    X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                                                                \
+    X(PFNGLDELETESYNCPROC, DeleteSync)
 
 struct Gl {
 #define RAYBUNDLE_GL_DECLARE(type, name) type name = nullptr;
@@ -139,36 +140,51 @@ void main() {
 }
 )";
 
+// The counters the passes share on the GPU (binding 5), and what comes back to the CPU
+// (binding 7: a buffer mapped once, persistently).
+#define RAYBUNDLE_ZBUFFER_BUFFERS                                                                          \
+    "layout(std430, binding = 2) coherent buffer KeyR { uint key_r[]; };\n"                                 \
+    "layout(std430, binding = 3) coherent buffer KeyS { uint key_s[]; };\n"                                 \
+    "layout(std430, binding = 4) coherent buffer SlotCount { uint slot_count[]; };\n"                       \
+    "layout(std430, binding = 5) coherent buffer Counters { uint used_count; uint overflow; uint max_layers; " \
+    "uint compact_count; };\n"                                                                              \
+    "layout(std430, binding = 6) coherent buffer Used { uint used[]; };\n"
+
 // Per pixel: its surfaces in exact order (as GlobalZBufferBackend::transfer and
-// pixel_pairs.h's order_ties and pairs_along), each (receiver, source) pair counted in
-// an open-addressing hash table whose slot holds key_r = receiver + 1 and key_s =
+// pixel_pairs.h's order_ties and pairs_along), each (receiver, source) pair counted.
+// Neighbouring pixels mostly give the same pairs, so a 16 x 16 tile first counts its
+// pairs in a table in shared memory and then adds each distinct pair's count once to
+// the global open-addressing table, whose slot holds key_r = receiver + 1 and key_s =
 // source + 1. A slot is claimed word by word: key_r first, then key_s by the first
 // thread with the same receiver to get there; a thread that finds either word taken by
-// another value probes on. Every claimed slot is listed once in `used`.
+// another value probes on. Every claimed global slot is listed once in `used`.
 constexpr int kMaxLayers = 64;
-const char* kPairShader = R"(#version 450 core
-layout(local_size_x = 64) in;
+const char* kPairShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
+layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Layers { uint layer_id[]; };
 layout(std430, binding = 1) readonly buffer Patches { dvec4 patch_depth[]; };  // t0, tx, ty, kind
-layout(std430, binding = 2) coherent buffer KeyR { uint key_r[]; };
-layout(std430, binding = 3) coherent buffer KeyS { uint key_s[]; };
-layout(std430, binding = 4) coherent buffer SlotCount { uint slot_count[]; };
-layout(std430, binding = 5) coherent buffer Counters { uint used_count; uint overflow; };
-layout(std430, binding = 6) writeonly buffer Used { uint used[]; };
 uniform uint width;
 uniform uint layers;
-uniform uint mask;     // table size - 1 (a power of two)
+uniform uint mask;     // global table size - 1 (a power of two)
 uniform uint patches;  // the sky's receiver index is patches, its source patches + 1
 uniform int sky;
 uniform double tie;
 const int kMaxLayers = 64;
+const uint kLocal = 1024u;  // the tile's table (a power of two)
+shared uint local_r[kLocal];
+shared uint local_s[kLocal];
+shared uint local_c[kLocal];
+shared uint tile_layers;
 
-void add(uint r, uint s) {
+uint hash(uint r, uint s) {
     uint h = (r * 0x9E3779B1u) ^ ((s + 0x7F4A7C15u) * 0x85EBCA77u);
     h ^= h >> 16;
     h *= 0x7FEB352Du;
-    h ^= h >> 15;
-    uint slot = h & mask;
+    return h ^ (h >> 15);
+}
+
+void add_global(uint r, uint s, uint c) {
+    uint slot = hash(r, s) & mask;
     for (uint probe = 0u; probe <= mask; ++probe) {
         uint kr = atomicCompSwap(key_r[slot], 0u, r + 1u);
         if (kr == 0u || kr == r + 1u) {
@@ -178,13 +194,29 @@ void add(uint r, uint s) {
                 if (j <= mask) used[j] = slot;
             }
             if (ks == 0u || ks == s + 1u) {
-                atomicAdd(slot_count[slot], 1u);
+                atomicAdd(slot_count[slot], c);
                 return;
             }
         }
         slot = (slot + 1u) & mask;
     }
     atomicOr(overflow, 1u);
+}
+
+void add(uint r, uint s) {
+    uint slot = hash(r, s) & (kLocal - 1u);
+    for (uint probe = 0u; probe < 64u; ++probe) {
+        uint kr = atomicCompSwap(local_r[slot], 0u, r + 1u);
+        if (kr == 0u || kr == r + 1u) {
+            uint ks = atomicCompSwap(local_s[slot], 0u, s + 1u);
+            if (ks == 0u || ks == s + 1u) {
+                atomicAdd(local_c[slot], 1u);
+                return;
+            }
+        }
+        slot = (slot + 1u) & (kLocal - 1u);
+    }
+    add_global(r, s, 1u);  // the tile's table is crowded: straight to the global one
 }
 
 // order_ties' order within a run of equal depths: receivers first; sources by
@@ -195,77 +227,111 @@ bool tie_before(uint a, bool sa, uint b, bool sb) {
 }
 
 void main() {
-    uint cells = width * width;
-    uvec2 q = gl_GlobalInvocationID.xy;  // one row of groups per map row: under 65,536 each way
-    if (q.x >= width || q.y >= width) return;
-    uint p = q.y * width + q.x;
-    double x = double(q.x), y = double(q.y);
-    uint id[kMaxLayers];
-    double depth[kMaxLayers];
-    bool source[kMaxLayers];
-    int m = 0;
-    // Insertion by exact depth (receivers first at equal depths), as the global z-buffer.
-    for (uint k = 0u; k < layers; ++k) {
-        uint f = layer_id[k * cells + p];
-        if (f == 0u) break;
-        dvec4 c = patch_depth[f - 1u];
-        if (c.w == 0.0lf) continue;  // edge-on: no projected area, blocks nothing
-        precise double d = c.x + c.y * x + c.z * y;
-        bool s = c.w > 0.0lf;
-        int j = m;
-        while (j > 0 && (d < depth[j - 1] || (d == depth[j - 1] && !s && source[j - 1]))) {
-            id[j] = id[j - 1];
-            depth[j] = depth[j - 1];
-            source[j] = source[j - 1];
-            --j;
-        }
-        id[j] = f - 1u;
-        depth[j] = d;
-        source[j] = s;
-        ++m;
+    uint t = gl_LocalInvocationIndex;
+    for (uint i = t; i < kLocal; i += 256u) {
+        local_r[i] = 0u;
+        local_s[i] = 0u;
+        local_c[i] = 0u;
     }
-    // Runs of depths within `tie` of the previous one, ordered as every backend orders ties.
-    for (int a = 0; a < m;) {
-        int b = a + 1;
-        while (b < m && depth[b] - depth[b - 1] <= tie) ++b;
-        for (int i = a + 1; i < b; ++i) {
-            uint fi = id[i];
-            double di = depth[i];
-            bool si = source[i];
-            int j = i;
-            while (j > a && tie_before(fi, si, id[j - 1], source[j - 1])) {
+    if (t == 0u) tile_layers = 0u;
+    barrier();
+
+    uint cells = width * width;
+    uvec2 q = gl_GlobalInvocationID.xy;
+    if (q.x < width && q.y < width) {
+        uint p = q.y * width + q.x;
+        double x = double(q.x), y = double(q.y);
+        uint id[kMaxLayers];
+        double depth[kMaxLayers];
+        bool source[kMaxLayers];
+        int m = 0;
+        uint k = 0u;
+        // Insertion by exact depth (receivers first at equal depths), as the global z-buffer.
+        for (; k < layers; ++k) {
+            uint f = layer_id[k * cells + p];
+            if (f == 0u) break;
+            dvec4 c = patch_depth[f - 1u];
+            if (c.w == 0.0lf) continue;  // edge-on: no projected area, blocks nothing
+            precise double d = c.x + c.y * x + c.z * y;
+            bool s = c.w > 0.0lf;
+            int j = m;
+            while (j > 0 && (d < depth[j - 1] || (d == depth[j - 1] && !s && source[j - 1]))) {
                 id[j] = id[j - 1];
                 depth[j] = depth[j - 1];
                 source[j] = source[j - 1];
                 --j;
             }
-            id[j] = fi;
-            depth[j] = di;
-            source[j] = si;
+            id[j] = f - 1u;
+            depth[j] = d;
+            source[j] = s;
+            ++m;
         }
-        a = b;
+        atomicMax(tile_layers, k);
+        // Runs of depths within `tie` of the previous one, ordered as every backend orders ties.
+        for (int a = 0; a < m;) {
+            int b = a + 1;
+            while (b < m && depth[b] - depth[b - 1] <= tie) ++b;
+            for (int i = a + 1; i < b; ++i) {
+                uint fi = id[i];
+                double di = depth[i];
+                bool si = source[i];
+                int j = i;
+                while (j > a && tie_before(fi, si, id[j - 1], source[j - 1])) {
+                    id[j] = id[j - 1];
+                    depth[j] = depth[j - 1];
+                    source[j] = source[j - 1];
+                    --j;
+                }
+                id[j] = fi;
+                depth[j] = di;
+                source[j] = si;
+            }
+            a = b;
+        }
+        for (int i = 0; i + 1 < m; ++i)
+            if (source[i] && !source[i + 1]) add(id[i + 1], id[i]);
+        if (sky != 0 && m > 0) {
+            if (!source[0]) add(id[0], patches);
+            if (source[m - 1]) add(patches + 1u, id[m - 1]);
+        }
     }
-    for (int i = 0; i + 1 < m; ++i)
-        if (source[i] && !source[i + 1]) add(id[i + 1], id[i]);
-    if (sky != 0 && m > 0) {
-        if (!source[0]) add(id[0], patches);
-        if (source[m - 1]) add(patches + 1u, id[m - 1]);
-    }
+    barrier();
+    for (uint i = t; i < kLocal; i += 256u)
+        if (local_c[i] != 0u) add_global(local_r[i] - 1u, local_s[i] - 1u, local_c[i]);
+    if (t == 0u) atomicMax(max_layers, tile_layers);
 }
 )";
 
-// The used slots' (receiver, source, count) into `entries`, each slot cleared behind.
-const char* kCompactShader = R"(#version 450 core
+// One thread: the counters into the read-back buffer, the compaction's group counts,
+// and the counters reset for the next direction.
+const char* kArgsShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
+layout(local_size_x = 1) in;
+layout(std430, binding = 7) writeonly buffer Readback { uint back_count; uint back_overflow; uint back_layers; uint back_pad; };
+layout(std430, binding = 8) writeonly buffer Args { uint groups_x; uint groups_y; uint groups_z; };
+void main() {
+    uint m = used_count;
+    compact_count = m;
+    back_count = m;
+    back_overflow = overflow;
+    back_layers = max_layers;
+    used_count = 0u;
+    overflow = 0u;
+    max_layers = 0u;
+    uint groups = (m + 63u) / 64u, across = min(groups, 65535u);
+    groups_x = across;
+    groups_y = across == 0u ? 0u : (groups + across - 1u) / across;
+    groups_z = 1u;
+}
+)";
+
+// The used slots' (receiver, source, count) into the read-back buffer, each slot
+// cleared behind.
+const char* kCompactShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
 layout(local_size_x = 64) in;
-layout(std430, binding = 2) buffer KeyR { uint key_r[]; };
-layout(std430, binding = 3) buffer KeyS { uint key_s[]; };
-layout(std430, binding = 4) buffer SlotCount { uint slot_count[]; };
-layout(std430, binding = 6) readonly buffer Used { uint used[]; };
-layout(std430, binding = 7) writeonly buffer Entries { uint entry[]; };
-uniform uint count;
+layout(std430, binding = 7) writeonly buffer Readback { uint back_header[4]; uint entry[]; };
 void main() {
     uint j = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
-    if (j >= count) return;
+    if (j >= compact_count) return;
     uint slot = used[j];
     entry[3u * j] = key_r[slot] - 1u;
     entry[3u * j + 1u] = key_s[slot] - 1u;
@@ -328,23 +394,21 @@ struct ZBufferBackend::Impl {
     std::vector<Vec3> normals;
     std::vector<double> plane;  // n . (first vertex)
     std::vector<Vec3> positions;
-    GLuint peel_program = 0, copy_program = 0, pair_program = 0, compact_program = 0;
+    GLuint peel_program = 0, copy_program = 0, pair_program = 0, args_program = 0, compact_program = 0;
     GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0;
     GLuint ids[2] = {0, 0}, depth[2] = {0, 0};
     GLuint layer_buffer = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0, used = 0,
-           entry_buffer = 0;
-    std::vector<GLuint> queries;
+           readback = 0, args = 0;
+    const std::uint32_t* mapped = nullptr;  // the read-back buffer: 4 counters, then 3 words per entry
     GLint scale_location = -1, peel_location = -1;
     GLint copy_width = -1, copy_layer = -1;
     GLint pair_width = -1, pair_layers = -1, pair_mask = -1, pair_patches = -1, pair_sky = -1, pair_tie = -1;
-    GLint compact_count = -1;
     GLsizei index_count = 0;
     int layer_capacity = 0;         // layers the layer buffer holds
     std::uint32_t table_size = 0;   // slots of the hash table (a power of two)
-    int guess = 4;                  // layers to draw before the first wait
+    int guess = 4;                  // layers to draw for the next direction
     std::vector<float> vertices;    // x, y, z per vertex, per direction
     std::vector<double> records;    // t0, tx, ty, kind per patch, per direction
-    std::vector<std::uint32_t> entry_words;
     std::vector<std::uint64_t> keys, key_tmp;
     std::vector<std::uint32_t> counts, count_tmp;
     long directions = 0, layers = 0;  // drawn so far: the cost grows with the layers
@@ -393,9 +457,14 @@ struct ZBufferBackend::Impl {
         return b;
     }
 
-    // A hash table of `size` empty slots (and a list of used slots as long).
+    // A hash table of `size` empty slots, its list of used slots, and a read-back
+    // buffer with room for as many entries, mapped for good.
     void make_table(std::uint32_t size) {
-        const GLuint old[] = {key_r, key_s, slot_count, used, entry_buffer};
+        if (readback != 0) {
+            gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
+            gl->UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+        }
+        const GLuint old[] = {key_r, key_s, slot_count, used, readback};
         gl->DeleteBuffers(5, old);
         table_size = size;
         const std::vector<std::uint32_t> zeros(size, 0);
@@ -404,10 +473,12 @@ struct ZBufferBackend::Impl {
         key_s = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
         slot_count = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
         used = buffer(bytes, nullptr, GL_DYNAMIC_COPY);
-        entry_buffer = buffer(3 * bytes, nullptr, GL_STREAM_READ);
-        const std::uint32_t none[2] = {0, 0};
-        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, counters);
-        gl->BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof none, none);
+        gl->GenBuffers(1, &readback);
+        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
+        const GLbitfield flags = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+        gl->BufferStorage(GL_SHADER_STORAGE_BUFFER, 16 + 3 * bytes, nullptr, flags);
+        mapped = static_cast<const std::uint32_t*>(gl->MapBufferRange(GL_SHADER_STORAGE_BUFFER, 0, 16 + 3 * bytes, flags));
+        if (!mapped) throw std::runtime_error("zbuffer: cannot map the read-back buffer");
     }
 
     // Room for `n` layers in the layer buffer, keeping the first `keep`.
@@ -426,6 +497,75 @@ struct ZBufferBackend::Impl {
         }
         layer_buffer = grown;
         layer_capacity = capacity;
+    }
+
+    // Depth layers [from, to) into the layer buffer (layer from - 1 is still in the
+    // ping-pong textures).
+    void peel(int from, int to) {
+        reserve_layers(to, from);
+        const GLsizei W = grid.width();
+        const GLuint zero[4] = {0, 0, 0, 0};
+        const GLfloat far[1] = {1.0f};
+        const GLuint groups = static_cast<GLuint>((W + 7) / 8);
+        for (int k = from; k < to; ++k) {
+            gl->UseProgram(peel_program);
+            gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, ids[k % 2], 0);
+            gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, depth[k % 2], 0);
+            gl->ActiveTexture(GL_TEXTURE0);
+            gl->BindTexture(GL_TEXTURE_2D, depth[(k + 1) % 2]);
+            gl->ActiveTexture(GL_TEXTURE1);
+            gl->BindTexture(GL_TEXTURE_2D, ids[(k + 1) % 2]);
+            gl->Uniform1i(peel_location, k > 0 ? 1 : 0);
+            gl->ClearBufferuiv(GL_COLOR, 0, zero);
+            gl->ClearBufferfv(GL_DEPTH, 0, far);
+            gl->DrawElements(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr);
+
+            gl->UseProgram(copy_program);
+            gl->ActiveTexture(GL_TEXTURE0);
+            gl->BindTexture(GL_TEXTURE_2D, ids[k % 2]);
+            gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, layer_buffer);
+            gl->Uniform1ui(copy_layer, static_cast<GLuint>(k));
+            gl->DispatchCompute(groups, groups, 1);
+        }
+    }
+
+    struct Back {
+        std::uint32_t count, overflow, layers;
+    };
+
+    // Pairs of the first `filled` layers counted, compacted into the read-back buffer
+    // and the table cleared, all on the GPU; then one wait for it.
+    Back pair(int filled) {
+        const GLsizei W = grid.width();
+        gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        const GLuint bound[] = {layer_buffer, patch_buffer, key_r, key_s, slot_count, counters, used, readback, args};
+        for (GLuint b = 0; b < 9; ++b) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
+        gl->UseProgram(pair_program);
+        gl->Uniform1ui(pair_layers, static_cast<GLuint>(filled));
+        gl->Uniform1ui(pair_mask, table_size - 1);
+        const GLuint tiles = static_cast<GLuint>((W + 15) / 16);
+        gl->DispatchCompute(tiles, tiles, 1);
+        gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        gl->UseProgram(args_program);
+        gl->DispatchCompute(1, 1, 1);
+        gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+        gl->UseProgram(compact_program);
+        gl->BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args);
+        gl->DispatchComputeIndirect(0);
+        gl->MemoryBarrier(GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
+        GLsync fence = gl->FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+        GLbitfield flush = GL_SYNC_FLUSH_COMMANDS_BIT;
+        for (;;) {
+            const GLenum r = gl->ClientWaitSync(fence, flush, 1000000000);
+            if (r == GL_ALREADY_SIGNALED || r == GL_CONDITION_SATISFIED) break;
+            if (r == GL_WAIT_FAILED) {
+                gl->DeleteSync(fence);
+                throw std::runtime_error("zbuffer: waiting for the GPU failed");
+            }
+            flush = 0;
+        }
+        gl->DeleteSync(fence);
+        return {mapped[0], mapped[1], mapped[2]};
     }
 
     void check(const char* where) {
@@ -454,6 +594,7 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     s.peel_program = s.link({s.compile(GL_VERTEX_SHADER, kVertexShader), s.compile(GL_FRAGMENT_SHADER, kFragmentShader)});
     s.copy_program = s.link({s.compile(GL_COMPUTE_SHADER, kCopyShader)});
     s.pair_program = s.link({s.compile(GL_COMPUTE_SHADER, kPairShader)});
+    s.args_program = s.link({s.compile(GL_COMPUTE_SHADER, kArgsShader)});
     s.compact_program = s.link({s.compile(GL_COMPUTE_SHADER, kCompactShader)});
     s.scale_location = gl.GetUniformLocation(s.peel_program, "scale");
     s.peel_location = gl.GetUniformLocation(s.peel_program, "peel");
@@ -465,7 +606,6 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     s.pair_patches = gl.GetUniformLocation(s.pair_program, "patches");
     s.pair_sky = gl.GetUniformLocation(s.pair_program, "sky");
     s.pair_tie = gl.GetUniformLocation(s.pair_program, "tie");
-    s.compact_count = gl.GetUniformLocation(s.compact_program, "count");
 
     // Vertices (rewritten per direction) and the patches' triangles: primitive i is patch i.
     s.vertices.resize(3 * s.positions.size());
@@ -473,7 +613,8 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.BindVertexArray(s.vao);
     gl.GenBuffers(1, &s.vertex_buffer);
     gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
-    gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)), nullptr, GL_STREAM_DRAW);
+    gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.vertices.size(), 3) * sizeof(float)),
+                  nullptr, GL_STREAM_DRAW);
     gl.EnableVertexAttribArray(0);
     gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
     gl.GenBuffers(1, &s.index_buffer);
@@ -517,13 +658,23 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.Disable(GL_CULL_FACE);
     gl.UseProgram(s.peel_program);
     gl.Uniform1f(s.scale_location, static_cast<float>(2.0 / (kSubpixel * viewport)));
+    gl.UseProgram(s.copy_program);
+    gl.Uniform1ui(s.copy_width, static_cast<GLuint>(W));
+    gl.UseProgram(s.pair_program);
+    gl.Uniform1ui(s.pair_width, static_cast<GLuint>(W));
+    gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(s.normals.size()));
+    gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
+    gl.Uniform1d(s.pair_tie, 1e-9 * s.grid.radius());
 
     // Buffers of the compute passes: per-patch depth coefficients, the counters, the
-    // layers (grown as needed) and the hash table (grown when half full).
+    // compaction's group counts, the layers (grown as needed) and the hash table (grown
+    // when more than half full).
     s.records.resize(4 * s.normals.size());
     s.patch_buffer = s.buffer(static_cast<GLsizeiptr>(std::max<std::size_t>(s.records.size(), 4) * sizeof(double)), nullptr,
                               GL_STREAM_DRAW);
-    s.counters = s.buffer(2 * sizeof(std::uint32_t), nullptr, GL_DYNAMIC_COPY);
+    const std::uint32_t zeros[4] = {0, 0, 0, 0};
+    s.counters = s.buffer(sizeof zeros, zeros, GL_DYNAMIC_COPY);
+    s.args = s.buffer(3 * sizeof(std::uint32_t), zeros, GL_DYNAMIC_COPY);
     s.reserve_layers(8, 0);
     s.make_table(1u << 12);
     s.check("setup");
@@ -539,15 +690,19 @@ ZBufferBackend::~ZBufferBackend() {
     } catch (...) {
         return;  // destroying the context frees them anyway
     }
-    if (!s.queries.empty()) gl.DeleteQueries(static_cast<GLsizei>(s.queries.size()), s.queries.data());
+    if (s.readback != 0) {
+        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.readback);
+        gl.UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+    }
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(2, s.depth);
     gl.DeleteTextures(2, s.ids);
-    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.patch_buffer, s.key_r,
-                              s.key_s,         s.slot_count,   s.counters,     s.used,         s.entry_buffer};
+    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.patch_buffer, s.key_r,   s.key_s,
+                              s.slot_count,    s.counters,     s.used,         s.readback,     s.args};
     gl.DeleteBuffers(static_cast<GLsizei>(std::size(buffers)), buffers);
     gl.DeleteVertexArrays(1, &s.vao);
-    for (GLuint p : {s.peel_program, s.copy_program, s.pair_program, s.compact_program}) gl.DeleteProgram(p);
+    for (GLuint p : {s.peel_program, s.copy_program, s.pair_program, s.args_program, s.compact_program})
+        gl.DeleteProgram(p);
 }
 
 int ZBufferBackend::resolution() const { return impl_->grid.resolution(); }
@@ -572,7 +727,6 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     out.entries.clear();
     MapGrid& grid = s.grid;
     grid.project(w, jitter);
-    const int W = grid.width();
     const std::size_t n = s.normals.size();
 
     // Vertices: the grid's snapped positions and a depth along w for the peeling.
@@ -607,111 +761,41 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.records.size() * sizeof(double)),
                      s.records.data());
 
-    // Peel in batches: draw, copy the ids into layer k, and wait only at a batch's end
-    // for whether its last layer was empty.
-    const GLuint zero[4] = {0, 0, 0, 0};
-    const GLfloat far[1] = {1.0f};
-    const GLuint groups = static_cast<GLuint>((W + 7) / 8);
-    int drawn = 0, filled = -1;  // layers drawn; the first empty one, once known
-    for (int batch = std::max(2, s.guess); filled < 0; batch = 2) {
-        if (drawn + batch > kMaxLayers + 1) batch = kMaxLayers + 1 - drawn;
-        if (batch <= 0)
+    // As many layers as the last direction needed, and one more: one wait for the GPU
+    // when that was enough (no pixel has a surface in the last layer drawn).
+    int filled = std::min(s.guess, kMaxLayers + 1);
+    s.peel(0, filled);
+    Impl::Back back = s.pair(filled);
+    while (static_cast<int>(back.layers) == filled) {
+        if (filled > kMaxLayers)
             throw std::runtime_error("zbuffer: more than " + std::to_string(kMaxLayers) +
                                      " surfaces behind one another along one pixel's ray; use exact-painter");
-        s.reserve_layers(drawn + batch, drawn);
-        while (s.queries.size() < static_cast<std::size_t>(drawn + batch)) {
-            GLuint q = 0;
-            gl.GenQueries(1, &q);
-            s.queries.push_back(q);
-        }
-        for (int k = drawn; k < drawn + batch; ++k) {
-            gl.UseProgram(s.peel_program);
-            gl.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
-            gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.ids[k % 2], 0);
-            gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, s.depth[k % 2], 0);
-            gl.ActiveTexture(GL_TEXTURE0);
-            gl.BindTexture(GL_TEXTURE_2D, s.depth[(k + 1) % 2]);
-            gl.ActiveTexture(GL_TEXTURE1);
-            gl.BindTexture(GL_TEXTURE_2D, s.ids[(k + 1) % 2]);
-            gl.Uniform1i(s.peel_location, k > 0 ? 1 : 0);
-            gl.ClearBufferuiv(GL_COLOR, 0, zero);
-            gl.ClearBufferfv(GL_DEPTH, 0, far);
-            gl.BeginQuery(GL_ANY_SAMPLES_PASSED, s.queries[k]);
-            gl.DrawElements(GL_TRIANGLES, s.index_count, GL_UNSIGNED_INT, nullptr);
-            gl.EndQuery(GL_ANY_SAMPLES_PASSED);
-
-            gl.UseProgram(s.copy_program);
-            gl.ActiveTexture(GL_TEXTURE0);
-            gl.BindTexture(GL_TEXTURE_2D, s.ids[k % 2]);
-            gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.layer_buffer);
-            gl.Uniform1ui(s.copy_width, static_cast<GLuint>(W));
-            gl.Uniform1ui(s.copy_layer, static_cast<GLuint>(k));
-            gl.DispatchCompute(groups, groups, 1);
-        }
-        drawn += batch;
-        GLuint any = 0;
-        gl.GetQueryObjectuiv(s.queries[drawn - 1], GL_QUERY_RESULT, &any);  // waits for the batch
-        if (any) continue;
-        for (int k = 0; k < drawn && filled < 0; ++k) {
-            gl.GetQueryObjectuiv(s.queries[k], GL_QUERY_RESULT, &any);
-            if (!any) filled = k;
-        }
+        const int more = std::min(filled + std::max(2, filled / 2), kMaxLayers + 1);
+        s.peel(filled, more);
+        filled = more;
+        back = s.pair(filled);
     }
-    s.layers += drawn;
+    // A table that overflowed lost pairs: grown, and the pass run again (the layers stay).
+    while (back.overflow != 0) {
+        s.make_table(2 * s.table_size);
+        back = s.pair(filled);
+    }
+    s.layers += back.layers + 1;
     ++s.directions;
-    s.guess = filled + 1;  // this direction's layers and the empty one that ends them
-
-    // Pairs counted in the hash table; a table more than half full is grown and the
-    // pass run again (the layers stay).
-    std::uint32_t counters[2] = {0, 0};
-    for (;;) {
-        gl.UseProgram(s.pair_program);
-        gl.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        const GLuint bound[] = {s.layer_buffer, s.patch_buffer, s.key_r, s.key_s, s.slot_count, s.counters, s.used};
-        for (GLuint b = 0; b < 7; ++b) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
-        gl.Uniform1ui(s.pair_width, static_cast<GLuint>(W));
-        gl.Uniform1ui(s.pair_layers, static_cast<GLuint>(filled));
-        gl.Uniform1ui(s.pair_mask, s.table_size - 1);
-        gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(n));
-        gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
-        gl.Uniform1d(s.pair_tie, 1e-9 * grid.radius());
-        gl.DispatchCompute(static_cast<GLuint>((W + 63) / 64), static_cast<GLuint>(W), 1);
-        gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
-        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.counters);
-        gl.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof counters, counters);
-        if (!counters[1] && counters[0] <= s.table_size / 2) break;
-        s.make_table(next_power_of_two(std::max<std::uint32_t>(4 * counters[0], 4 * s.table_size)));
-    }
-
-    // The used slots' entries back over the bus, the table cleared for the next direction.
-    const std::uint32_t m = counters[0];
-    if (m > 0) {
-        gl.UseProgram(s.compact_program);
-        const GLuint bound[] = {s.key_r, s.key_s, s.slot_count};
-        for (GLuint b = 0; b < 3; ++b) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 2 + b, bound[b]);
-        gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, s.used);
-        gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, s.entry_buffer);
-        gl.Uniform1ui(s.compact_count, m);
-        const GLuint groups_needed = (m + 63) / 64, across = std::min<GLuint>(groups_needed, 65535);
-        gl.DispatchCompute(across, (groups_needed + across - 1) / across, 1);
-        gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
-        s.entry_words.resize(3 * static_cast<std::size_t>(m));
-        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.entry_buffer);
-        gl.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.entry_words.size() * 4),
-                            s.entry_words.data());
-        const std::uint32_t none[2] = {0, 0};
-        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.counters);
-        gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof none, none);
-    }
+    s.guess = static_cast<int>(back.layers) + 1;
     s.check("transfer");
 
     // One entry per (receiver, source), in that order whatever the GPU's scheduling.
+    const std::uint32_t m = back.count;
     s.keys.resize(m);
     s.counts.resize(m);
+    const std::uint32_t* e = s.mapped + 4;
     for (std::uint32_t j = 0; j < m; ++j) {
-        s.keys[j] = pixel_pair(s.entry_words[3 * j], s.entry_words[3 * j + 1]);
-        s.counts[j] = s.entry_words[3 * j + 2];
+        s.keys[j] = pixel_pair(e[3 * j], e[3 * j + 1]);
+        s.counts[j] = e[3 * j + 2];
     }
+    // A table more than half full is grown for the next direction.
+    if (m > s.table_size / 2) s.make_table(4 * s.table_size);
     radix_sort(s.keys, s.counts, s.key_tmp, s.count_tmp);
     const double area = grid.pixel_area();
     out.entries.reserve(m);
