@@ -8,6 +8,8 @@
 #include <GL/glcorearb.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdlib>
 #include <cstdint>
 #include <cstdio>
 #include <initializer_list>
@@ -82,7 +84,11 @@ namespace {
     X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                                                                      \
     X(PFNGLFENCESYNCPROC, FenceSync)                                                                          \
     X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                                                                \
-    X(PFNGLDELETESYNCPROC, DeleteSync)
+    X(PFNGLDELETESYNCPROC, DeleteSync)                                                                        \
+    X(PFNGLGENQUERIESPROC, GenQueries)                                                                        \
+    X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                                  \
+    X(PFNGLQUERYCOUNTERPROC, QueryCounter)                                                                    \
+    X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)
 
 struct Gl {
 #define RAYBUNDLE_GL_DECLARE(type, name) type name = nullptr;
@@ -98,45 +104,26 @@ struct Gl {
 };
 
 
-// Peeling: vertices come in the map's sub-pixel units (exact integers) and a depth for
-// the peeling order; with a power-of-two viewport the transform to window coordinates
-// is exact, so the rasteriser sees MapGrid's snapped positions.
+// Drawing: vertices come in the map's sub-pixel units (exact integers) and a depth for
+// the rasteriser; with a power-of-two viewport the transform to window coordinates is
+// exact, so the rasteriser sees MapGrid's snapped positions.
 const char* kVertexShader = R"(#version 450 core
 layout(location = 0) in vec3 position;  // x, y in 1/256 pixel; z in [-1, 1]
 uniform float scale;                    // 2 / (256 viewport): a power of two
-invariant gl_Position;                  // the same fragment depth in every pass
 void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 1.0, position.z, 1.0); }
 )";
 
-// Pass k keeps the least (depth, id) after the previous layer's at this pixel; the
-// depth test (GL_LESS: the first drawn of equal depths stays) takes the least of those.
+// Every fragment (no depth test) goes into its pixel's list: the k-th to arrive at pixel
+// p is layer k there. The order of arrival does not matter: the pairing pass sorts.
 const char* kFragmentShader = R"(#version 450 core
-layout(location = 0) out uint id;
-layout(binding = 0) uniform sampler2D previous_depth;
-layout(binding = 1) uniform usampler2D previous_id;
-uniform int peel;
-void main() {
-    uint me = uint(gl_PrimitiveID) + 1u;
-    if (peel != 0) {
-        ivec2 p = ivec2(gl_FragCoord.xy);
-        float z = texelFetch(previous_depth, p, 0).r;
-        if (gl_FragCoord.z < z || (gl_FragCoord.z == z && me <= texelFetch(previous_id, p, 0).r)) discard;
-    }
-    id = me;
-}
-)";
-
-// One layer's ids (patch + 1, 0 for none) into the buffer of layers.
-const char* kCopyShader = R"(#version 450 core
-layout(local_size_x = 8, local_size_y = 8) in;
-layout(binding = 0) uniform usampler2D ids;
 layout(std430, binding = 0) writeonly buffer Layers { uint layer_id[]; };
+layout(std430, binding = 9) coherent buffer Depth { uint depth_count[]; };
 uniform uint width;
-uniform uint layer;
+uniform uint capacity;  // layers the buffer holds
 void main() {
-    uvec2 q = gl_GlobalInvocationID.xy;
-    if (q.x >= width || q.y >= width) return;
-    layer_id[layer * width * width + q.y * width + q.x] = texelFetch(ids, ivec2(q), 0).r;
+    uint p = uint(gl_FragCoord.y) * width + uint(gl_FragCoord.x);
+    uint k = atomicAdd(depth_count[p], 1u);
+    if (k < capacity) layer_id[k * width * width + p] = uint(gl_PrimitiveID);
 }
 )";
 
@@ -163,8 +150,9 @@ const char* kPairShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Layers { uint layer_id[]; };
 layout(std430, binding = 1) readonly buffer Patches { dvec4 patch_depth[]; };  // t0, tx, ty, kind
+layout(std430, binding = 9) buffer Depth { uint depth_count[]; };
 uniform uint width;
-uniform uint layers;
+uniform uint layers;  // layers the buffer holds
 uniform uint mask;     // global table size - 1 (a power of two)
 uniform uint patches;  // the sky's receiver index is patches, its source patches + 1
 uniform int sky;
@@ -245,12 +233,13 @@ void main() {
         double depth[kMaxLayers];
         bool source[kMaxLayers];
         int m = 0;
-        uint k = 0u;
+        uint count = depth_count[p];
+        depth_count[p] = 0u;  // ready for the next direction
+        atomicMax(tile_layers, count);
         // Insertion by exact depth (receivers first at equal depths), as the global z-buffer.
-        for (; k < layers; ++k) {
+        for (uint k = 0u; k < min(count, layers); ++k) {
             uint f = layer_id[k * cells + p];
-            if (f == 0u) break;
-            dvec4 c = patch_depth[f - 1u];
+            dvec4 c = patch_depth[f];
             if (c.w == 0.0lf) continue;  // edge-on: no projected area, blocks nothing
             precise double d = c.x + c.y * x + c.z * y;
             bool s = c.w > 0.0lf;
@@ -261,12 +250,11 @@ void main() {
                 source[j] = source[j - 1];
                 --j;
             }
-            id[j] = f - 1u;
+            id[j] = f;
             depth[j] = d;
             source[j] = s;
             ++m;
         }
-        atomicMax(tile_layers, k);
         // Runs of depths within `tie` of the previous one, ordered as every backend orders ties.
         for (int a = 0; a < m;) {
             int b = a + 1;
@@ -394,24 +382,26 @@ struct ZBufferBackend::Impl {
     std::vector<Vec3> normals;
     std::vector<double> plane;  // n . (first vertex)
     std::vector<Vec3> positions;
-    GLuint peel_program = 0, copy_program = 0, pair_program = 0, args_program = 0, compact_program = 0;
-    GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0;
-    GLuint ids[2] = {0, 0}, depth[2] = {0, 0};
-    GLuint layer_buffer = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0, used = 0,
-           readback = 0, args = 0;
+    GLuint draw_program = 0, pair_program = 0, args_program = 0, compact_program = 0;
+    GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0, target = 0;
+    GLuint layer_buffer = 0, depth_count = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0,
+           used = 0, readback = 0, args = 0;
     const std::uint32_t* mapped = nullptr;  // the read-back buffer: 4 counters, then 3 words per entry
-    GLint scale_location = -1, peel_location = -1;
-    GLint copy_width = -1, copy_layer = -1;
+    GLint draw_capacity = -1;
     GLint pair_width = -1, pair_layers = -1, pair_mask = -1, pair_patches = -1, pair_sky = -1, pair_tie = -1;
     GLsizei index_count = 0;
-    int layer_capacity = 0;         // layers the layer buffer holds
+    int layer_capacity = 0;         // surfaces per pixel the layer buffer holds
     std::uint32_t table_size = 0;   // slots of the hash table (a power of two)
-    int guess = 4;                  // layers to draw for the next direction
     std::vector<float> vertices;    // x, y, z per vertex, per direction
     std::vector<double> records;    // t0, tx, ty, kind per patch, per direction
     std::vector<std::uint64_t> keys, key_tmp;
     std::vector<std::uint32_t> counts, count_tmp;
-    long directions = 0, layers = 0;  // drawn so far: the cost grows with the layers
+    long directions = 0, layers = 0;  // surfaces at each direction's deepest pixel, summed
+    // RAYBUNDLE_ZBUFFER_PROFILE=1: seconds spent per stage, CPU and GPU (timestamps), printed
+    // to stderr when the backend goes.
+    bool profile = false;
+    GLuint stamps[4] = {0, 0, 0, 0};
+    double cpu_prepare = 0, cpu_submit = 0, cpu_wait = 0, cpu_finish = 0, gpu_draw = 0, gpu_pair = 0, gpu_compact = 0;
 
     Impl(const scenes::Scene& scene, const BackendOptions& options)
         : grid(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
@@ -481,71 +471,44 @@ struct ZBufferBackend::Impl {
         if (!mapped) throw std::runtime_error("zbuffer: cannot map the read-back buffer");
     }
 
-    // Room for `n` layers in the layer buffer, keeping the first `keep`.
-    void reserve_layers(int n, int keep) {
+    // Room for `n` surfaces per pixel in the layer buffer.
+    void reserve_layers(int n) {
         if (n <= layer_capacity) return;
-        const int capacity = std::max(n, 2 * layer_capacity);
         const GLsizeiptr layer_bytes = static_cast<GLsizeiptr>(grid.width()) * grid.width() * 4;
-        const GLuint grown = buffer(capacity * layer_bytes, nullptr, GL_DYNAMIC_COPY);
-        if (layer_buffer != 0) {
-            if (keep > 0) {
-                gl->BindBuffer(GL_COPY_READ_BUFFER, layer_buffer);
-                gl->BindBuffer(GL_COPY_WRITE_BUFFER, grown);
-                gl->CopyBufferSubData(GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0, keep * layer_bytes);
-            }
-            gl->DeleteBuffers(1, &layer_buffer);
-        }
-        layer_buffer = grown;
-        layer_capacity = capacity;
+        gl->DeleteBuffers(1, &layer_buffer);
+        layer_capacity = n;
+        layer_buffer = buffer(layer_capacity * layer_bytes, nullptr, GL_DYNAMIC_COPY);
     }
 
-    // Depth layers [from, to) into the layer buffer (layer from - 1 is still in the
-    // ping-pong textures).
-    void peel(int from, int to) {
-        reserve_layers(to, from);
-        const GLsizei W = grid.width();
-        const GLuint zero[4] = {0, 0, 0, 0};
-        const GLfloat far[1] = {1.0f};
-        const GLuint groups = static_cast<GLuint>((W + 7) / 8);
-        for (int k = from; k < to; ++k) {
-            gl->UseProgram(peel_program);
-            gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, ids[k % 2], 0);
-            gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, depth[k % 2], 0);
-            gl->ActiveTexture(GL_TEXTURE0);
-            gl->BindTexture(GL_TEXTURE_2D, depth[(k + 1) % 2]);
-            gl->ActiveTexture(GL_TEXTURE1);
-            gl->BindTexture(GL_TEXTURE_2D, ids[(k + 1) % 2]);
-            gl->Uniform1i(peel_location, k > 0 ? 1 : 0);
-            gl->ClearBufferuiv(GL_COLOR, 0, zero);
-            gl->ClearBufferfv(GL_DEPTH, 0, far);
-            gl->DrawElements(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr);
-
-            gl->UseProgram(copy_program);
-            gl->ActiveTexture(GL_TEXTURE0);
-            gl->BindTexture(GL_TEXTURE_2D, ids[k % 2]);
-            gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, layer_buffer);
-            gl->Uniform1ui(copy_layer, static_cast<GLuint>(k));
-            gl->DispatchCompute(groups, groups, 1);
-        }
+    // Every fragment of every patch into its pixel's list.
+    void draw() {
+        if (profile) gl->QueryCounter(stamps[0], GL_TIMESTAMP);
+        gl->UseProgram(draw_program);
+        gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, layer_buffer);
+        gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, depth_count);
+        gl->Uniform1ui(draw_capacity, static_cast<GLuint>(layer_capacity));
+        gl->DrawElements(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr);
     }
 
     struct Back {
         std::uint32_t count, overflow, layers;
     };
 
-    // Pairs of the first `filled` layers counted, compacted into the read-back buffer
-    // and the table cleared, all on the GPU; then one wait for it.
-    Back pair(int filled) {
+    // The drawn surfaces paired and counted, compacted into the read-back buffer, the
+    // lists and the table cleared, all on the GPU; then one wait for it.
+    Back pair() {
         const GLsizei W = grid.width();
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        const GLuint bound[] = {layer_buffer, patch_buffer, key_r, key_s, slot_count, counters, used, readback, args};
-        for (GLuint b = 0; b < 9; ++b) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
+        const GLuint bound[] = {layer_buffer, patch_buffer, key_r, key_s, slot_count, counters, used, readback, args, depth_count};
+        for (GLuint b = 0; b < 10; ++b) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
         gl->UseProgram(pair_program);
-        gl->Uniform1ui(pair_layers, static_cast<GLuint>(filled));
+        gl->Uniform1ui(pair_layers, static_cast<GLuint>(layer_capacity));
         gl->Uniform1ui(pair_mask, table_size - 1);
         const GLuint tiles = static_cast<GLuint>((W + 15) / 16);
+        if (profile) gl->QueryCounter(stamps[1], GL_TIMESTAMP);
         gl->DispatchCompute(tiles, tiles, 1);
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        if (profile) gl->QueryCounter(stamps[2], GL_TIMESTAMP);
         gl->UseProgram(args_program);
         gl->DispatchCompute(1, 1, 1);
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
@@ -553,6 +516,8 @@ struct ZBufferBackend::Impl {
         gl->BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args);
         gl->DispatchComputeIndirect(0);
         gl->MemoryBarrier(GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
+        if (profile) gl->QueryCounter(stamps[3], GL_TIMESTAMP);
+        const auto submitted = std::chrono::steady_clock::now();
         GLsync fence = gl->FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
         GLbitfield flush = GL_SYNC_FLUSH_COMMANDS_BIT;
         for (;;) {
@@ -565,6 +530,14 @@ struct ZBufferBackend::Impl {
             flush = 0;
         }
         gl->DeleteSync(fence);
+        if (profile) {
+            cpu_wait += std::chrono::duration<double>(std::chrono::steady_clock::now() - submitted).count();
+            GLuint64 t[4];
+            for (int k = 0; k < 4; ++k) gl->GetQueryObjectui64v(stamps[k], GL_QUERY_RESULT, &t[k]);
+            gpu_draw += 1e-9 * static_cast<double>(t[1] - t[0]);
+            gpu_pair += 1e-9 * static_cast<double>(t[2] - t[1]);
+            gpu_compact += 1e-9 * static_cast<double>(t[3] - t[2]);
+        }
         return {mapped[0], mapped[1], mapped[2]};
     }
 
@@ -591,15 +564,11 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
         throw std::runtime_error("zbuffer: too many patches for 32-bit ids");
     s.index_count = static_cast<GLsizei>(indices.size());
 
-    s.peel_program = s.link({s.compile(GL_VERTEX_SHADER, kVertexShader), s.compile(GL_FRAGMENT_SHADER, kFragmentShader)});
-    s.copy_program = s.link({s.compile(GL_COMPUTE_SHADER, kCopyShader)});
+    s.draw_program = s.link({s.compile(GL_VERTEX_SHADER, kVertexShader), s.compile(GL_FRAGMENT_SHADER, kFragmentShader)});
     s.pair_program = s.link({s.compile(GL_COMPUTE_SHADER, kPairShader)});
     s.args_program = s.link({s.compile(GL_COMPUTE_SHADER, kArgsShader)});
     s.compact_program = s.link({s.compile(GL_COMPUTE_SHADER, kCompactShader)});
-    s.scale_location = gl.GetUniformLocation(s.peel_program, "scale");
-    s.peel_location = gl.GetUniformLocation(s.peel_program, "peel");
-    s.copy_width = gl.GetUniformLocation(s.copy_program, "width");
-    s.copy_layer = gl.GetUniformLocation(s.copy_program, "layer");
+    s.draw_capacity = gl.GetUniformLocation(s.draw_program, "capacity");
     s.pair_width = gl.GetUniformLocation(s.pair_program, "width");
     s.pair_layers = gl.GetUniformLocation(s.pair_program, "layers");
     s.pair_mask = gl.GetUniformLocation(s.pair_program, "mask");
@@ -613,8 +582,8 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.BindVertexArray(s.vao);
     gl.GenBuffers(1, &s.vertex_buffer);
     gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
-    gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.vertices.size(), 3) * sizeof(float)),
-                  nullptr, GL_STREAM_DRAW);
+    gl.BufferStorage(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.vertices.size(), 3) * sizeof(float)),
+                     nullptr, GL_DYNAMIC_STORAGE_BIT);
     gl.EnableVertexAttribArray(0);
     gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
     gl.GenBuffers(1, &s.index_buffer);
@@ -622,30 +591,19 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)),
                   indices.data(), GL_STATIC_DRAW);
 
-    // Framebuffer: patch ids (R32UI) and 32-bit depths, two of each used in turn.
+    // A framebuffer of the map's size that the fragments do not write (they append to
+    // their pixel's list); no depth test: every fragment counts.
     const GLsizei W = s.grid.width();
-    gl.GenTextures(2, s.ids);
-    gl.GenTextures(2, s.depth);
-    for (int k = 0; k < 2; ++k) {
-        gl.BindTexture(GL_TEXTURE_2D, s.ids[k]);
-        gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_R32UI, W, W);
-        gl.BindTexture(GL_TEXTURE_2D, s.depth[k]);
-        gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_DEPTH_COMPONENT32F, W, W);
-        gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_NONE);
-        for (GLuint t : {s.ids[k], s.depth[k]}) {
-            gl.BindTexture(GL_TEXTURE_2D, t);
-            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        }
-    }
+    gl.GenTextures(1, &s.target);
+    gl.BindTexture(GL_TEXTURE_2D, s.target);
+    gl.TexStorage2D(GL_TEXTURE_2D, 1, GL_R8, W, W);
     gl.GenFramebuffers(1, &s.framebuffer);
     gl.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
-    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.ids[0], 0);
-    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, s.depth[0], 0);
-    const GLenum buffers[] = {GL_COLOR_ATTACHMENT0};
-    gl.DrawBuffers(1, buffers);
+    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, s.target, 0);
+    const GLenum none[] = {GL_NONE};
+    gl.DrawBuffers(1, none);
     if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-        throw std::runtime_error("zbuffer: the R32UI + 32-bit depth framebuffer is not supported");
+        throw std::runtime_error("zbuffer: the map's framebuffer is not complete");
 
     // A viewport of a power of two pixels (at least the map) makes the transform of the
     // sub-pixel positions exact; the scissor keeps the map.
@@ -653,30 +611,36 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.Viewport(0, 0, viewport, viewport);
     gl.Enable(GL_SCISSOR_TEST);
     gl.Scissor(0, 0, W, W);
-    gl.Enable(GL_DEPTH_TEST);
-    gl.DepthFunc(GL_LESS);
+    gl.Disable(GL_DEPTH_TEST);
     gl.Disable(GL_CULL_FACE);
-    gl.UseProgram(s.peel_program);
-    gl.Uniform1f(s.scale_location, static_cast<float>(2.0 / (kSubpixel * viewport)));
-    gl.UseProgram(s.copy_program);
-    gl.Uniform1ui(s.copy_width, static_cast<GLuint>(W));
+    gl.UseProgram(s.draw_program);
+    gl.Uniform1f(gl.GetUniformLocation(s.draw_program, "scale"), static_cast<float>(2.0 / (kSubpixel * viewport)));
+    gl.Uniform1ui(gl.GetUniformLocation(s.draw_program, "width"), static_cast<GLuint>(W));
     gl.UseProgram(s.pair_program);
     gl.Uniform1ui(s.pair_width, static_cast<GLuint>(W));
     gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(s.normals.size()));
     gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
     gl.Uniform1d(s.pair_tie, 1e-9 * s.grid.radius());
 
-    // Buffers of the compute passes: per-patch depth coefficients, the counters, the
-    // compaction's group counts, the layers (grown as needed) and the hash table (grown
-    // when more than half full).
+    // Buffers of the passes: per-patch depth coefficients (rewritten per direction, in
+    // the GPU's memory), each pixel's surface count, the counters, the compaction's
+    // group counts, the layers (grown as needed) and the hash table (grown when it
+    // overflows or is more than half full).
     s.records.resize(4 * s.normals.size());
-    s.patch_buffer = s.buffer(static_cast<GLsizeiptr>(std::max<std::size_t>(s.records.size(), 4) * sizeof(double)), nullptr,
-                              GL_STREAM_DRAW);
+    gl.GenBuffers(1, &s.patch_buffer);
+    gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.patch_buffer);
+    gl.BufferStorage(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.records.size(), 4) * sizeof(double)),
+                     nullptr, GL_DYNAMIC_STORAGE_BIT);
+    const std::vector<std::uint32_t> no_surfaces(static_cast<std::size_t>(W) * W, 0);
+    s.depth_count = s.buffer(static_cast<GLsizeiptr>(no_surfaces.size() * 4), no_surfaces.data(), GL_DYNAMIC_COPY);
     const std::uint32_t zeros[4] = {0, 0, 0, 0};
     s.counters = s.buffer(sizeof zeros, zeros, GL_DYNAMIC_COPY);
     s.args = s.buffer(3 * sizeof(std::uint32_t), zeros, GL_DYNAMIC_COPY);
-    s.reserve_layers(8, 0);
-    s.make_table(1u << 12);
+    s.reserve_layers(8);
+    s.make_table(next_power_of_two(static_cast<std::uint32_t>(std::clamp<std::size_t>(4 * s.normals.size(), 4096, 1u << 22))));
+    const char* profile = std::getenv("RAYBUNDLE_ZBUFFER_PROFILE");
+    s.profile = profile && *profile && std::string(profile) != "0";
+    if (s.profile) gl.GenQueries(4, s.stamps);
     s.check("setup");
 }
 
@@ -690,18 +654,26 @@ ZBufferBackend::~ZBufferBackend() {
     } catch (...) {
         return;  // destroying the context frees them anyway
     }
+    if (s.profile && s.directions > 0) {
+        const double d = 1e3 / static_cast<double>(s.directions);
+        std::fprintf(stderr,
+                     "zbuffer profile, ms per direction over %ld: CPU prepare %.3f, submit %.3f, wait %.3f, finish %.3f; "
+                     "GPU draw %.3f, pair %.3f, compact %.3f; %.2f surfaces at the deepest pixel\n",
+                     s.directions, s.cpu_prepare * d, s.cpu_submit * d, s.cpu_wait * d, s.cpu_finish * d, s.gpu_draw * d,
+                     s.gpu_pair * d, s.gpu_compact * d, static_cast<double>(s.layers) / static_cast<double>(s.directions));
+        gl.DeleteQueries(4, s.stamps);
+    }
     if (s.readback != 0) {
         gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.readback);
         gl.UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
     }
     gl.DeleteFramebuffers(1, &s.framebuffer);
-    gl.DeleteTextures(2, s.depth);
-    gl.DeleteTextures(2, s.ids);
-    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.patch_buffer, s.key_r,   s.key_s,
-                              s.slot_count,    s.counters,     s.used,         s.readback,     s.args};
+    gl.DeleteTextures(1, &s.target);
+    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.depth_count, s.patch_buffer, s.key_r,
+                              s.key_s,         s.slot_count,   s.counters,     s.used,        s.readback,     s.args};
     gl.DeleteBuffers(static_cast<GLsizei>(std::size(buffers)), buffers);
     gl.DeleteVertexArrays(1, &s.vao);
-    for (GLuint p : {s.peel_program, s.copy_program, s.pair_program, s.args_program, s.compact_program})
+    for (GLuint p : {s.draw_program, s.pair_program, s.args_program, s.compact_program})
         gl.DeleteProgram(p);
 }
 
@@ -712,7 +684,7 @@ std::string ZBufferBackend::details() const {
     std::string d = impl_->context->describe();
     if (impl_->directions > 0) {
         char buf[64];
-        std::snprintf(buf, sizeof buf, "; %.1f depth layers per direction",
+        std::snprintf(buf, sizeof buf, "; %.1f surfaces at a direction's deepest pixel",
                       static_cast<double>(impl_->layers) / static_cast<double>(impl_->directions));
         d += buf;
     }
@@ -725,11 +697,12 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     s.context->make_current();
     out.direction = w;
     out.entries.clear();
+    const auto start = std::chrono::steady_clock::now();
     MapGrid& grid = s.grid;
     grid.project(w, jitter);
     const std::size_t n = s.normals.size();
 
-    // Vertices: the grid's snapped positions and a depth along w for the peeling.
+    // Vertices: the grid's snapped positions, and their depth along w inside the clip volume.
     const Vec3 center = grid.center();
     const double depth_scale = 1.0 / (1.001 * grid.radius());
     const auto& X = grid.projected_x();
@@ -761,29 +734,27 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.records.size() * sizeof(double)),
                      s.records.data());
 
-    // As many layers as the last direction needed, and one more: one wait for the GPU
-    // when that was enough (no pixel has a surface in the last layer drawn).
-    int filled = std::min(s.guess, kMaxLayers + 1);
-    s.peel(0, filled);
-    Impl::Back back = s.pair(filled);
-    while (static_cast<int>(back.layers) == filled) {
-        if (filled > kMaxLayers)
-            throw std::runtime_error("zbuffer: more than " + std::to_string(kMaxLayers) +
-                                     " surfaces behind one another along one pixel's ray; use exact-painter");
-        const int more = std::min(filled + std::max(2, filled / 2), kMaxLayers + 1);
-        s.peel(filled, more);
-        filled = more;
-        back = s.pair(filled);
+    // One draw and one wait for the GPU; again only when a pixel had more surfaces than
+    // the layer buffer holds, or the table overflowed (both are then grown).
+    const auto prepared = std::chrono::steady_clock::now();
+    const double wait_before = s.cpu_wait;
+    Impl::Back back{};
+    for (;;) {
+        s.draw();
+        back = s.pair();
+        const bool deeper = static_cast<int>(back.layers) > s.layer_capacity;
+        if (back.layers > static_cast<std::uint32_t>(kMaxLayers))
+            throw std::runtime_error("zbuffer: " + std::to_string(back.layers) +
+                                     " surfaces over one pixel (at most " + std::to_string(kMaxLayers) +
+                                     "); use exact-painter");
+        if (deeper) s.reserve_layers(std::min(kMaxLayers, static_cast<int>(back.layers) + 2));
+        if (back.overflow != 0) s.make_table(8 * s.table_size);
+        if (!deeper && back.overflow == 0) break;
     }
-    // A table that overflowed lost pairs: grown, and the pass run again (the layers stay).
-    while (back.overflow != 0) {
-        s.make_table(2 * s.table_size);
-        back = s.pair(filled);
-    }
-    s.layers += back.layers + 1;
+    s.layers += back.layers;
     ++s.directions;
-    s.guess = static_cast<int>(back.layers) + 1;
     s.check("transfer");
+    const auto paired = std::chrono::steady_clock::now();
 
     // One entry per (receiver, source), in that order whatever the GPU's scheduling.
     const std::uint32_t m = back.count;
@@ -802,6 +773,12 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     for (std::uint32_t j = 0; j < m; ++j)
         out.entries.push_back({static_cast<std::uint32_t>(s.keys[j] >> 32), static_cast<std::uint32_t>(s.keys[j]),
                                static_cast<double>(s.counts[j]) * area});
+    if (s.profile) {
+        const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+        s.cpu_prepare += seconds(start, prepared);
+        s.cpu_submit += seconds(prepared, paired) - (s.cpu_wait - wait_before);
+        s.cpu_finish += seconds(paired, std::chrono::steady_clock::now());
+    }
 }
 
 }  // namespace raybundle::visibility

@@ -1,6 +1,6 @@
 #pragma once
-// Hardware z-buffer visibility through OpenGL 4.5 (004 section 5.1.4's idea, done by
-// depth peeling), exact: the same matrix as the global z-buffer, drawn by the GPU.
+// Hardware z-buffer visibility through OpenGL 4.5 (004 section 5.1.4's idea): the GPU
+// rasterises, orders and pairs; exact, the same matrix as the global z-buffer.
 //
 // Parameters (BackendOptions): resolution (int, pixels per side of the same jittered
 // grid as the other discrete backends; default: default_resolution(scene)), jitter
@@ -8,23 +8,29 @@
 //
 // Per direction:
 //   1. The vertices are projected on the CPU by MapGrid (the grid every discrete backend
-//      uses: positions snapped to 1/256 pixel, which a GPU's rasteriser keeps exactly).
-//   2. Depth peeling finds every patch over every pixel centre: pass k keeps, per pixel,
-//      the least (float depth, patch id) after layer k - 1's, so coincident surfaces
-//      (a two-sided panel, touching blocks) come out one layer each instead of merging.
-//      A compute pass copies each layer's patch ids into a buffer of layers.
-//   3. A compute pass per pixel re-orders its layers by the patches' exact depths at
-//      the pixel centre, in double precision from the same plane coefficients as the
-//      global z-buffer, ties ordered as by every backend (pixel_pairs.h), and pairs each
-//      source with the receiver behind it (and the sky, when asked for). The float
-//      depths only drive the peeling; the order is the exact one.
-//   4. The pairs are counted on the GPU in a hash table (two 32-bit keys claimed by
-//      compare-and-swap, a count added atomically); only the distinct pairs, their
-//      count and the table's used slots come back over the bus: thousands of entries,
-//      not megapixels. The CPU sorts them by (receiver, source): the same entries in
-//      the same order for any GPU scheduling.
-// Layers are drawn in batches sized by the previous direction's depth complexity, with
-// one wait for the GPU per batch, one for the pair count and one for the entries.
+//      uses: positions snapped to 1/256 pixel, which a GPU's rasteriser keeps exactly
+//      through a power-of-two viewport), and each patch's depth plane over the map is
+//      written as the global z-buffer computes it (double precision).
+//   2. One draw of all patches without a depth test: every fragment appends its patch
+//      to its pixel's list (a per-pixel count, the k-th arrival in layer k of a buffer).
+//      Depth peeling would need a draw and a read per layer, and float depths that merge
+//      coincident surfaces; the lists keep all of them.
+//   3. A compute pass per pixel orders its list by the patches' exact depths at the
+//      pixel centre, ties as by every backend (pixel_pairs.h), and pairs each source with
+//      the receiver behind it (and the sky, when asked for). Each 16 x 16 tile counts its
+//      pairs in shared memory, then adds them to a global hash table (two 32-bit keys
+//      claimed by compare-and-swap, a count added atomically).
+//   4. A one-thread pass sizes the compaction, which copies the table's used slots into
+//      a persistently mapped buffer and clears them. One fence: only the distinct pairs
+//      cross the bus, thousands of entries rather than megapixels. The CPU sorts them
+//      by (receiver, source): the same entries in the same order whatever the GPU's
+//      scheduling.
+// A pixel with more surfaces than the layer buffer holds, or a full table, grows the
+// buffer and runs the direction again (rare after the first directions); more than 64
+// surfaces over one pixel is an error that names exact-painter.
+//
+// RAYBUNDLE_ZBUFFER_PROFILE=1 prints the CPU and GPU milliseconds per stage to stderr
+// when the backend is destroyed.
 //
 // The OpenGL context comes from gl_context.h (OSMesa by default, EGL on a GPU).
 #include "visibility/backend.h"
