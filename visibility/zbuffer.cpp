@@ -80,11 +80,7 @@ namespace {
     X(PFNGLUNIFORM1DPROC, Uniform1d)                                                                          \
     X(PFNGLDISPATCHCOMPUTEINDIRECTPROC, DispatchComputeIndirect)                                              \
     X(PFNGLBUFFERSTORAGEPROC, BufferStorage)                                                                  \
-    X(PFNGLMAPBUFFERRANGEPROC, MapBufferRange)                                                                \
-    X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                                                                      \
-    X(PFNGLFENCESYNCPROC, FenceSync)                                                                          \
-    X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                                                                \
-    X(PFNGLDELETESYNCPROC, DeleteSync)                                                                        \
+    X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                            \
     X(PFNGLGENQUERIESPROC, GenQueries)                                                                        \
     X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                                  \
     X(PFNGLQUERYCOUNTERPROC, QueryCounter)                                                                    \
@@ -118,17 +114,18 @@ void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 
 const char* kFragmentShader = R"(#version 450 core
 layout(std430, binding = 0) writeonly buffer Layers { uint layer_id[]; };
 layout(std430, binding = 9) coherent buffer Depth { uint depth_count[]; };
-uniform uint width;
+uniform uint tiles;     // 8 x 8 tiles per row: pixels are stored tile by tile
 uniform uint capacity;  // layers the buffer holds
 void main() {
-    uint p = uint(gl_FragCoord.y) * width + uint(gl_FragCoord.x);
+    uvec2 q = uvec2(gl_FragCoord.xy);
+    uint p = ((q.y >> 3) * tiles + (q.x >> 3)) * 64u + (q.y & 7u) * 8u + (q.x & 7u);
     uint k = atomicAdd(depth_count[p], 1u);
-    if (k < capacity) layer_id[k * width * width + p] = uint(gl_PrimitiveID);
+    if (k < capacity) layer_id[k * tiles * tiles * 64u + p] = uint(gl_PrimitiveID);
 }
 )";
 
-// The counters the passes share on the GPU (binding 5), and what comes back to the CPU
-// (binding 7: a buffer mapped once, persistently).
+// The counters the passes share on the GPU (binding 5); what comes back to the CPU is
+// in the read-back buffer (binding 7).
 #define RAYBUNDLE_ZBUFFER_BUFFERS                                                                          \
     "layout(std430, binding = 2) coherent buffer KeyR { uint key_r[]; };\n"                                 \
     "layout(std430, binding = 3) coherent buffer KeyS { uint key_s[]; };\n"                                 \
@@ -152,6 +149,7 @@ layout(std430, binding = 0) readonly buffer Layers { uint layer_id[]; };
 layout(std430, binding = 1) readonly buffer Patches { dvec4 patch_depth[]; };  // t0, tx, ty, kind
 layout(std430, binding = 9) buffer Depth { uint depth_count[]; };
 uniform uint width;
+uniform uint tiles;   // 8 x 8 tiles per row, as the draw stores pixels
 uniform uint layers;  // layers the buffer holds
 uniform uint mask;     // global table size - 1 (a power of two)
 uniform uint patches;  // the sky's receiver index is patches, its source patches + 1
@@ -224,10 +222,10 @@ void main() {
     if (t == 0u) tile_layers = 0u;
     barrier();
 
-    uint cells = width * width;
+    uint cells = tiles * tiles * 64u;
     uvec2 q = gl_GlobalInvocationID.xy;
     if (q.x < width && q.y < width) {
-        uint p = q.y * width + q.x;
+        uint p = ((q.y >> 3) * tiles + (q.x >> 3)) * 64u + (q.y & 7u) * 8u + (q.x & 7u);
         double x = double(q.x), y = double(q.y);
         uint id[kMaxLayers];
         double depth[kMaxLayers];
@@ -386,7 +384,7 @@ struct ZBufferBackend::Impl {
     GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0, target = 0;
     GLuint layer_buffer = 0, depth_count = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0,
            used = 0, readback = 0, args = 0;
-    const std::uint32_t* mapped = nullptr;  // the read-back buffer: 4 counters, then 3 words per entry
+    std::vector<std::uint32_t> entry_words;  // from the read-back buffer: 3 words per entry
     GLint draw_capacity = -1;
     GLint pair_width = -1, pair_layers = -1, pair_mask = -1, pair_patches = -1, pair_sky = -1, pair_tie = -1;
     GLsizei index_count = 0;
@@ -448,12 +446,8 @@ struct ZBufferBackend::Impl {
     }
 
     // A hash table of `size` empty slots, its list of used slots, and a read-back
-    // buffer with room for as many entries, mapped for good.
+    // buffer (4 counters, then 3 words per entry) with room for as many entries.
     void make_table(std::uint32_t size) {
-        if (readback != 0) {
-            gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
-            gl->UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
-        }
         const GLuint old[] = {key_r, key_s, slot_count, used, readback};
         gl->DeleteBuffers(5, old);
         table_size = size;
@@ -463,22 +457,21 @@ struct ZBufferBackend::Impl {
         key_s = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
         slot_count = buffer(bytes, zeros.data(), GL_DYNAMIC_COPY);
         used = buffer(bytes, nullptr, GL_DYNAMIC_COPY);
-        gl->GenBuffers(1, &readback);
-        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
-        const GLbitfield flags = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
-        gl->BufferStorage(GL_SHADER_STORAGE_BUFFER, 16 + 3 * bytes, nullptr, flags);
-        mapped = static_cast<const std::uint32_t*>(gl->MapBufferRange(GL_SHADER_STORAGE_BUFFER, 0, 16 + 3 * bytes, flags));
-        if (!mapped) throw std::runtime_error("zbuffer: cannot map the read-back buffer");
+        readback = buffer(16 + 3 * bytes, nullptr, GL_DYNAMIC_COPY);
     }
 
     // Room for `n` surfaces per pixel in the layer buffer.
     void reserve_layers(int n) {
         if (n <= layer_capacity) return;
-        const GLsizeiptr layer_bytes = static_cast<GLsizeiptr>(grid.width()) * grid.width() * 4;
+        const GLsizeiptr layer_bytes = static_cast<GLsizeiptr>(cells()) * 4;
         gl->DeleteBuffers(1, &layer_buffer);
         layer_capacity = n;
         layer_buffer = buffer(layer_capacity * layer_bytes, nullptr, GL_DYNAMIC_COPY);
     }
+
+    // Pixels in the buffers: 8 x 8 tiles (neighbouring fragments, neighbouring words).
+    GLuint tiles() const { return static_cast<GLuint>((grid.width() + 7) / 8); }
+    std::size_t cells() const { return static_cast<std::size_t>(tiles()) * tiles() * 64; }
 
     // Every fragment of every patch into its pixel's list.
     void draw() {
@@ -495,7 +488,8 @@ struct ZBufferBackend::Impl {
     };
 
     // The drawn surfaces paired and counted, compacted into the read-back buffer, the
-    // lists and the table cleared, all on the GPU; then one wait for it.
+    // lists and the table cleared, all on the GPU; then one wait for it, and the
+    // entries copied back.
     Back pair() {
         const GLsizei W = grid.width();
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
@@ -504,9 +498,9 @@ struct ZBufferBackend::Impl {
         gl->UseProgram(pair_program);
         gl->Uniform1ui(pair_layers, static_cast<GLuint>(layer_capacity));
         gl->Uniform1ui(pair_mask, table_size - 1);
-        const GLuint tiles = static_cast<GLuint>((W + 15) / 16);
+        const GLuint groups = static_cast<GLuint>((W + 15) / 16);
         if (profile) gl->QueryCounter(stamps[1], GL_TIMESTAMP);
-        gl->DispatchCompute(tiles, tiles, 1);
+        gl->DispatchCompute(groups, groups, 1);
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         if (profile) gl->QueryCounter(stamps[2], GL_TIMESTAMP);
         gl->UseProgram(args_program);
@@ -515,21 +509,12 @@ struct ZBufferBackend::Impl {
         gl->UseProgram(compact_program);
         gl->BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args);
         gl->DispatchComputeIndirect(0);
-        gl->MemoryBarrier(GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
+        gl->MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         if (profile) gl->QueryCounter(stamps[3], GL_TIMESTAMP);
         const auto submitted = std::chrono::steady_clock::now();
-        GLsync fence = gl->FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-        GLbitfield flush = GL_SYNC_FLUSH_COMMANDS_BIT;
-        for (;;) {
-            const GLenum r = gl->ClientWaitSync(fence, flush, 1000000000);
-            if (r == GL_ALREADY_SIGNALED || r == GL_CONDITION_SATISFIED) break;
-            if (r == GL_WAIT_FAILED) {
-                gl->DeleteSync(fence);
-                throw std::runtime_error("zbuffer: waiting for the GPU failed");
-            }
-            flush = 0;
-        }
-        gl->DeleteSync(fence);
+        std::uint32_t header[4];
+        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
+        gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof header, header);  // waits for the GPU
         if (profile) {
             cpu_wait += std::chrono::duration<double>(std::chrono::steady_clock::now() - submitted).count();
             GLuint64 t[4];
@@ -538,7 +523,11 @@ struct ZBufferBackend::Impl {
             gpu_pair += 1e-9 * static_cast<double>(t[2] - t[1]);
             gpu_compact += 1e-9 * static_cast<double>(t[3] - t[2]);
         }
-        return {mapped[0], mapped[1], mapped[2]};
+        entry_words.resize(3 * static_cast<std::size_t>(header[0]));
+        if (header[0] > 0 && header[1] == 0)
+            gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 16, static_cast<GLsizeiptr>(entry_words.size() * 4),
+                                 entry_words.data());
+        return {header[0], header[1], header[2]};
     }
 
     void check(const char* where) {
@@ -615,9 +604,10 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.Disable(GL_CULL_FACE);
     gl.UseProgram(s.draw_program);
     gl.Uniform1f(gl.GetUniformLocation(s.draw_program, "scale"), static_cast<float>(2.0 / (kSubpixel * viewport)));
-    gl.Uniform1ui(gl.GetUniformLocation(s.draw_program, "width"), static_cast<GLuint>(W));
+    gl.Uniform1ui(gl.GetUniformLocation(s.draw_program, "tiles"), s.tiles());
     gl.UseProgram(s.pair_program);
     gl.Uniform1ui(s.pair_width, static_cast<GLuint>(W));
+    gl.Uniform1ui(gl.GetUniformLocation(s.pair_program, "tiles"), s.tiles());
     gl.Uniform1ui(s.pair_patches, static_cast<GLuint>(s.normals.size()));
     gl.Uniform1i(s.pair_sky, s.sky ? 1 : 0);
     gl.Uniform1d(s.pair_tie, 1e-9 * s.grid.radius());
@@ -631,7 +621,7 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.patch_buffer);
     gl.BufferStorage(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.records.size(), 4) * sizeof(double)),
                      nullptr, GL_DYNAMIC_STORAGE_BIT);
-    const std::vector<std::uint32_t> no_surfaces(static_cast<std::size_t>(W) * W, 0);
+    const std::vector<std::uint32_t> no_surfaces(s.cells(), 0);
     s.depth_count = s.buffer(static_cast<GLsizeiptr>(no_surfaces.size() * 4), no_surfaces.data(), GL_DYNAMIC_COPY);
     const std::uint32_t zeros[4] = {0, 0, 0, 0};
     s.counters = s.buffer(sizeof zeros, zeros, GL_DYNAMIC_COPY);
@@ -662,10 +652,6 @@ ZBufferBackend::~ZBufferBackend() {
                      s.directions, s.cpu_prepare * d, s.cpu_submit * d, s.cpu_wait * d, s.cpu_finish * d, s.gpu_draw * d,
                      s.gpu_pair * d, s.gpu_compact * d, static_cast<double>(s.layers) / static_cast<double>(s.directions));
         gl.DeleteQueries(4, s.stamps);
-    }
-    if (s.readback != 0) {
-        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.readback);
-        gl.UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
     }
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(1, &s.target);
@@ -760,7 +746,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     const std::uint32_t m = back.count;
     s.keys.resize(m);
     s.counts.resize(m);
-    const std::uint32_t* e = s.mapped + 4;
+    const std::uint32_t* e = s.entry_words.data();
     for (std::uint32_t j = 0; j < m; ++j) {
         s.keys[j] = pixel_pair(e[3 * j], e[3 * j + 1]);
         s.counts[j] = e[3 * j + 2];
