@@ -18,6 +18,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -430,6 +431,38 @@ TEST_CASE("the GPU z-buffer: the same seed gives the same matrix, whatever the h
         CHECK(a.entries[k].receiver == b.entries[k].receiver);
         CHECK(a.entries[k].source == b.entries[k].source);
         CHECK(a.entries[k].area == b.entries[k].area);
+    }
+}
+
+TEST_CASE("the GPU z-buffer: more than 64 surfaces over one pixel is a clear error", "[visibility][zbuffer]") {
+    // 70 parallel quads stacked along z: every pixel under them holds 70 surfaces,
+    // more than the pairing pass orders; the error says so and names a backend that
+    // has no such limit.
+    if (!built("zbuffer")) {
+        WARN("this build has no zbuffer backend: nothing to check");
+        return;
+    }
+    std::string objects;
+    for (int k = 0; k < 70; ++k) {
+        const double z = 0.01 * k;
+        objects += (objects.empty() ? "" : ",") + quad(Vec3(0, 0, z), Vec3(1, 0, z), Vec3(1, 1, z), Vec3(0, 1, z),
+                                                       Vec3(0, 0, 1), "m");
+    }
+    const auto scene = scenes::parse_scene(R"({"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]},
+        "patch_size": "none", "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}",
+                                           "stack.json", ".");
+    visibility::BackendOptions opt;
+    opt.resolution = 32;
+    auto zbuffer = visibility::make_backend("zbuffer", scene, opt);
+    visibility::GeometryMatrix m;
+    try {
+        zbuffer->transfer(Vec3(0, 0, 1), {0.5, 0.5}, m);
+        FAIL("no error for 70 surfaces over one pixel");
+    } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        INFO(what);
+        CHECK(what.find("70 surfaces over one pixel") != std::string::npos);
+        CHECK(what.find("exact-painter") != std::string::npos);
     }
 }
 
