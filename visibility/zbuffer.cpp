@@ -36,8 +36,6 @@ namespace {
     X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                                                \
     X(PFNGLBINDTEXTUREPROC, BindTexture)                                                                      \
     X(PFNGLTEXSTORAGE2DPROC, TexStorage2D)                                                                    \
-    X(PFNGLTEXPARAMETERIPROC, TexParameteri)                                                                  \
-    X(PFNGLACTIVETEXTUREPROC, ActiveTexture)                                                                  \
     X(PFNGLCREATESHADERPROC, CreateShader)                                                                    \
     X(PFNGLSHADERSOURCEPROC, ShaderSource)                                                                    \
     X(PFNGLCOMPILESHADERPROC, CompileShader)                                                                  \
@@ -65,16 +63,12 @@ namespace {
     X(PFNGLVIEWPORTPROC, Viewport)                                                                            \
     X(PFNGLENABLEPROC, Enable)                                                                                \
     X(PFNGLDISABLEPROC, Disable)                                                                              \
-    X(PFNGLDEPTHFUNCPROC, DepthFunc)                                                                          \
-    X(PFNGLCLEARBUFFERUIVPROC, ClearBufferuiv)                                                                \
-    X(PFNGLCLEARBUFFERFVPROC, ClearBufferfv)                                                                  \
     X(PFNGLDRAWELEMENTSPROC, DrawElements)                                                                    \
     X(PFNGLSCISSORPROC, Scissor)                                                                              \
     X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                                              \
     X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                                                  \
     X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                                                \
     X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                                  \
-    X(PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData)                                                          \
     X(PFNGLUNIFORM1UIPROC, Uniform1ui)                                                                        \
     X(PFNGLUNIFORM1FPROC, Uniform1f)                                                                          \
     X(PFNGLUNIFORM1DPROC, Uniform1d)                                                                          \
