@@ -104,7 +104,7 @@ namespace {
 // the pixel noise of an entry falls as 1/sqrt(samples). One test case per scene: each
 // takes minutes under the sanitizers, where one limit holds per test.
 void discrete_backends_agree_with_arrangement(const char* scene_name) {
-    const std::map<std::string, int> jitters = {{"painter", 128}, {"zbuffer", 64}};
+    const std::map<std::string, int> jitters = {{"painter", 128}};
     sampling::RandomDirections dirs(5);
     std::vector<Vec3> directions;
     for (int d = 0; d < 10; ++d) directions.push_back(dirs.next());
@@ -114,6 +114,10 @@ void discrete_backends_agree_with_arrangement(const char* scene_name) {
     for (const auto& w : directions) reference.push_back(averaged(*exact, w, 1, 0));
     for (const auto& info : visibility::backend_infos()) {
         if (!info.discrete || info.exact != (std::string(scene_name) == "cornell-box")) continue;
+        // The z-buffer gives the global z-buffer's matrix pixel for pixel (test_exact.cpp)
+        // and meets the arrangement on the contact scenes; its 640 maps of 512² here cost
+        // minutes on llvmpipe under the sanitizers, and would test nothing new.
+        if (info.name == "zbuffer") continue;
         visibility::BackendOptions opt;
         opt.resolution = 512;
         auto backend = visibility::make_backend(info.name, scene, opt);
