@@ -75,6 +75,7 @@ namespace {
     X(PFNGLDISPATCHCOMPUTEINDIRECTPROC, DispatchComputeIndirect)                                              \
     X(PFNGLBUFFERSTORAGEPROC, BufferStorage)                                                                  \
     X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                            \
+    X(PFNGLGETINTEGER64VPROC, GetInteger64v)                                                                  \
     X(PFNGLGENQUERIESPROC, GenQueries)                                                                        \
     X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                                  \
     X(PFNGLQUERYCOUNTERPROC, QueryCounter)                                                                    \
@@ -93,7 +94,6 @@ struct Gl {
     }
 };
 
-
 // Drawing: vertices come in the map's sub-pixel units (exact integers) and a depth for
 // the rasteriser; with a power-of-two viewport the transform to window coordinates is
 // exact, so the rasteriser sees MapGrid's snapped positions.
@@ -105,12 +105,16 @@ void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 
 
 // Every fragment (no depth test) goes into its pixel's list: the k-th to arrive at pixel
 // p is layer k there. The order of arrival does not matter: the pairing pass sorts.
+// (Layer indices fit 32 bits: reserve_layers() keeps the buffer under 2^32 words.)
 const char* kFragmentShader = R"(#version 450 core
 layout(std430, binding = 0) writeonly buffer Layers { uint layer_id[]; };
+layout(std430, binding = 1) readonly buffer Patches { dvec4 patch_depth[]; };  // t0, tx, ty, kind
 layout(std430, binding = 9) coherent buffer Depth { uint depth_count[]; };
 uniform uint tiles;     // 8 x 8 tiles per row: pixels are stored tile by tile
 uniform uint capacity;  // layers the buffer holds
 void main() {
+    // An edge-on patch (kind 0) blocks nothing: the global z-buffer does not draw it.
+    if (patch_depth[gl_PrimitiveID].w == 0.0lf) return;
     uvec2 q = uvec2(gl_FragCoord.xy);
     uint p = ((q.y >> 3) * tiles + (q.x >> 3)) * 64u + (q.y & 7u) * 8u + (q.x & 7u);
     uint k = atomicAdd(depth_count[p], 1u);
@@ -137,6 +141,7 @@ void main() {
 // thread with the same receiver to get there; a thread that finds either word taken by
 // another value probes on. Every claimed global slot is listed once in `used`.
 constexpr int kMaxLayers = 64;
+constexpr std::uint32_t kMaxTable = 1u << 28;  // slots: 4 words each on the GPU, 3 to read back
 const char* kPairShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Layers { uint layer_id[]; };
@@ -165,7 +170,7 @@ uint hash(uint r, uint s) {
 
 void add_global(uint r, uint s, uint c) {
     uint slot = hash(r, s) & mask;
-    for (uint probe = 0u; probe <= mask; ++probe) {
+    for (uint probe = 0u; probe < 256u; ++probe) {  // a crowded table: grown and run again
         uint kr = atomicCompSwap(key_r[slot], 0u, r + 1u);
         if (kr == 0u || kr == r + 1u) {
             uint ks = atomicCompSwap(key_s[slot], 0u, s + 1u);
@@ -214,6 +219,7 @@ void main() {
         local_c[i] = 0u;
     }
     if (t == 0u) tile_layers = 0u;
+    memoryBarrierShared();
     barrier();
 
     uint cells = tiles * tiles * 64u;
@@ -275,6 +281,7 @@ void main() {
             if (source[m - 1]) add(patches + 1u, id[m - 1]);
         }
     }
+    memoryBarrierShared();
     barrier();
     for (uint i = t; i < kLocal; i += 256u)
         if (local_c[i] != 0u) add_global(local_r[i] - 1u, local_s[i] - 1u, local_c[i]);
@@ -321,6 +328,8 @@ void main() {
     slot_count[slot] = 0u;
 }
 )";
+
+#undef RAYBUNDLE_ZBUFFER_BUFFERS
 
 // Sorts (key, count) records by key, least significant 11 bits first, skipping the
 // digits that all keys share.
@@ -455,13 +464,28 @@ struct ZBufferBackend::Impl {
     }
 
     // Room for `n` surfaces per pixel in the layer buffer.
-    void reserve_layers(int n) {
-        if (n <= layer_capacity) return;
-        const GLsizeiptr layer_bytes = static_cast<GLsizeiptr>(cells()) * 4;
+    // Room for at least `needed` surfaces per pixel in the layer buffer, `wanted` where
+    // one buffer can hold them (GL_MAX_SHADER_STORAGE_BLOCK_SIZE: 128 MiB on llvmpipe,
+    // eight 2049-pixel layers' worth).
+    void reserve_layers(int needed, int wanted) {
+        if (needed <= layer_capacity) return;
+        GLint64 max_block = 0;
+        gl->GetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
+        const std::size_t fit = std::min<std::size_t>(static_cast<std::size_t>(max_block) / (4 * cells()),
+                                                       ((std::size_t{1} << 32) - 1) / cells());
+        const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(std::max(needed, wanted)), fit));
+        if (n < needed)
+            throw std::runtime_error("zbuffer: " + std::to_string(needed) + " surfaces over a pixel of a " +
+                                     std::to_string(grid.width()) + "-pixel map need " +
+                                     std::to_string(4 * static_cast<std::size_t>(needed) * cells()) +
+                                     " bytes in one buffer (the GPU takes " + std::to_string(max_block) +
+                                     "); use a smaller resolution or exact-painter");
         gl->DeleteBuffers(1, &layer_buffer);
+        layer_buffer = 0;
+        layer_buffer = buffer(static_cast<GLsizeiptr>(4 * static_cast<std::size_t>(n) * cells()), nullptr, GL_DYNAMIC_COPY);
         layer_capacity = n;
-        layer_buffer = buffer(layer_capacity * layer_bytes, nullptr, GL_DYNAMIC_COPY);
     }
+
 
     // Pixels in the buffers: 8 x 8 tiles (neighbouring fragments, neighbouring words).
     GLuint tiles() const { return static_cast<GLuint>((grid.width() + 7) / 8); }
@@ -472,6 +496,7 @@ struct ZBufferBackend::Impl {
         if (profile) gl->QueryCounter(stamps[0], GL_TIMESTAMP);
         gl->UseProgram(draw_program);
         gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, layer_buffer);
+        gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, patch_buffer);
         gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, depth_count);
         gl->Uniform1ui(draw_capacity, static_cast<GLuint>(layer_capacity));
         gl->DrawElements(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr);
@@ -518,7 +543,7 @@ struct ZBufferBackend::Impl {
             gpu_compact += 1e-9 * static_cast<double>(t[3] - t[2]);
         }
         entry_words.resize(3 * static_cast<std::size_t>(header[0]));
-        if (header[0] > 0 && header[1] == 0)
+        if (header[0] > 0 && header[1] == 0 && header[2] <= static_cast<std::uint32_t>(layer_capacity))
             gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 16, static_cast<GLsizeiptr>(entry_words.size() * 4),
                                  entry_words.data());
         return {header[0], header[1], header[2]};
@@ -620,7 +645,7 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     const std::uint32_t zeros[4] = {0, 0, 0, 0};
     s.counters = s.buffer(sizeof zeros, zeros, GL_DYNAMIC_COPY);
     s.args = s.buffer(3 * sizeof(std::uint32_t), zeros, GL_DYNAMIC_COPY);
-    s.reserve_layers(8);
+    s.reserve_layers(1, 8);
     s.make_table(next_power_of_two(static_cast<std::uint32_t>(std::clamp<std::size_t>(4 * s.normals.size(), 4096, 1u << 22))));
     const char* profile = std::getenv("RAYBUNDLE_ZBUFFER_PROFILE");
     s.profile = profile && *profile && std::string(profile) != "0";
@@ -645,8 +670,8 @@ ZBufferBackend::~ZBufferBackend() {
                      "GPU draw %.3f, pair %.3f, compact %.3f; %.2f surfaces at the deepest pixel\n",
                      s.directions, s.cpu_prepare * d, s.cpu_submit * d, s.cpu_wait * d, s.cpu_finish * d, s.gpu_draw * d,
                      s.gpu_pair * d, s.gpu_compact * d, static_cast<double>(s.layers) / static_cast<double>(s.directions));
-        gl.DeleteQueries(4, s.stamps);
     }
+    if (s.profile) gl.DeleteQueries(4, s.stamps);
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(1, &s.target);
     const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.depth_count, s.patch_buffer, s.key_r,
@@ -727,8 +752,13 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
             throw std::runtime_error("zbuffer: " + std::to_string(back.layers) +
                                      " surfaces over one pixel (at most " + std::to_string(kMaxLayers) +
                                      "); use exact-painter");
-        if (deeper) s.reserve_layers(std::min(kMaxLayers, static_cast<int>(back.layers) + 2));
-        if (back.overflow != 0) s.make_table(8 * s.table_size);
+        if (deeper) s.reserve_layers(static_cast<int>(back.layers), std::min(kMaxLayers, static_cast<int>(back.layers) + 2));
+        if (back.overflow != 0) {
+            if (s.table_size >= kMaxTable)
+                throw std::runtime_error("zbuffer: the pairs of one direction overflow a table of " +
+                                         std::to_string(kMaxTable) + " slots; use exact-painter");
+            s.make_table(std::min(8 * s.table_size, kMaxTable));
+        }
         if (!deeper && back.overflow == 0) break;
     }
     s.layers += back.layers;
@@ -746,7 +776,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
         s.counts[j] = e[3 * j + 2];
     }
     // A table more than half full is grown for the next direction.
-    if (m > s.table_size / 2) s.make_table(4 * s.table_size);
+    if (m > s.table_size / 2 && s.table_size < kMaxTable) s.make_table(std::min(4 * s.table_size, kMaxTable));
     radix_sort(s.keys, s.counts, s.key_tmp, s.count_tmp);
     const double area = grid.pixel_area();
     out.entries.reserve(m);

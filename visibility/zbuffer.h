@@ -1,6 +1,8 @@
 #pragma once
 // Hardware z-buffer visibility through OpenGL 4.5 (004 section 5.1.4's idea): the GPU
-// rasterises, orders and pairs; exact, the same matrix as the global z-buffer.
+// rasterises, orders and pairs. Exact: the global z-buffer's matrix, up to which of two
+// triangles owns a pixel centre lying exactly on their shared edge (the rasteriser's
+// rule rather than raster.h's).
 //
 // Parameters (BackendOptions): resolution (int, pixels per side of the same jittered
 // grid as the other discrete backends; default: default_resolution(scene)), jitter
@@ -11,8 +13,9 @@
 //      uses: positions snapped to 1/256 pixel, which a GPU's rasteriser keeps exactly
 //      through a power-of-two viewport), and each patch's depth plane over the map is
 //      written as the global z-buffer computes it (double precision).
-//   2. One draw of all patches without a depth test: every fragment appends its patch
-//      to its pixel's list (a per-pixel count, the k-th arrival in layer k of a buffer).
+//   2. One draw of all patches without a depth test: every fragment of a patch that is
+//      not edge-on appends the patch to its pixel's list (a per-pixel count, the k-th
+//      arrival in layer k of a buffer).
 //      Depth peeling would need a draw and a read per layer, and float depths that merge
 //      coincident surfaces; the lists keep all of them.
 //   3. A compute pass per pixel orders its list by the patches' exact depths at the
@@ -21,13 +24,14 @@
 //      pairs in shared memory, then adds them to a global hash table (two 32-bit keys
 //      claimed by compare-and-swap, a count added atomically).
 //   4. A one-thread pass sizes the compaction, which copies the table's used slots into
-//      a persistently mapped buffer and clears them. One fence: only the distinct pairs
-//      cross the bus, thousands of entries rather than megapixels. The CPU sorts them
-//      by (receiver, source): the same entries in the same order whatever the GPU's
-//      scheduling.
-// A pixel with more surfaces than the layer buffer holds, or a full table, grows the
-// buffer and runs the direction again (rare after the first directions); more than 64
-// surfaces over one pixel is an error that names exact-painter.
+//      a read-back buffer and clears them. One wait for the GPU (reading the entry
+//      count), then only the distinct pairs cross the bus: thousands of entries rather
+//      than megapixels. The CPU sorts them by (receiver, source): the same entries in
+//      the same order whatever the GPU's scheduling.
+// A pixel with more surfaces than the layer buffer holds, or a crowded table, grows the
+// buffer and runs the direction again (rare after the first directions). More than 64
+// surfaces over one pixel, more layers than one buffer of the GPU holds, or a table
+// past 2^28 slots is an error that names exact-painter.
 //
 // RAYBUNDLE_ZBUFFER_PROFILE=1 prints the CPU and GPU milliseconds per stage to stderr
 // when the backend is destroyed.
