@@ -91,11 +91,16 @@ Ranks::Ranks(int& argc, char**& argv) {
         name_the_dead(rank_, size_);
         return;
     }
+    // Rank 0 says so before any rank may exit: mpirun ends the other ranks as soon as one
+    // exits with an error, and once ended rank 0 before its line was out.
+    const std::string message = "rank " + std::to_string(first) + " of " + std::to_string(size_) +
+                                " runs another command than rank 0: mpirun must start the same raybundle command on "
+                                "every rank";
+    if (rank_ == 0) std::cerr << "raybundle: error: " << message << "\n" << std::flush;
+    MPI_Barrier(MPI_COMM_WORLD);
     MPI_Finalize();
     mpi_ = false;
-    throw std::runtime_error("rank " + std::to_string(first) + " of " + std::to_string(size_) +
-                             " runs another command than rank 0: mpirun must start the same raybundle command on "
-                             "every rank");
+    throw RankFailed(message, 2);  // said already; the exit code of bad input
 }
 
 Ranks::~Ranks() {

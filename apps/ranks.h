@@ -40,7 +40,9 @@ struct RankFailed : std::runtime_error {
 class Ranks final : public sampling::Team {
 public:
     // MPI_Init where mpirun started the process (its environment says so); throws
-    // std::runtime_error where mpirun started a build without MPI with more than one.
+    // std::runtime_error where mpirun started a build without MPI with more than one, and
+    // RankFailed (code 2, its line already written by rank 0) where the ranks were started
+    // with different commands.
     Ranks(int& argc, char**& argv);
     ~Ranks() override;  // MPI_Finalize
     Ranks(const Ranks&) = delete;

@@ -105,6 +105,8 @@ int main(int argc, char** argv) {
     std::optional<rb::apps::Ranks> ranks;
     try {
         ranks.emplace(argc, argv);
+    } catch (const rb::apps::RankFailed& e) {
+        return e.code;  // ranks running different commands: rank 0 has said so
     } catch (const std::exception& e) {
         std::cerr << "raybundle: error: " << e.what() << "\n";
         return kExitBadInput;
