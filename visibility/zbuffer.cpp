@@ -94,13 +94,13 @@ struct Gl {
     }
 };
 
-// Drawing: vertices come in the map's sub-pixel units (exact integers) and a depth for
-// the rasteriser; with a power-of-two viewport the transform to window coordinates is
-// exact, so the rasteriser sees MapGrid's snapped positions.
+// Drawing: vertices come in the map's sub-pixel units (exact integers); with a
+// power-of-two viewport the transform to window coordinates is exact, so the rasteriser
+// sees MapGrid's snapped positions. No depth: the lists are ordered by the pairing pass.
 const char* kVertexShader = R"(#version 450 core
-layout(location = 0) in vec3 position;  // x, y in 1/256 pixel; z in [-1, 1]
+layout(location = 0) in vec2 position;  // x, y in 1/256 pixel
 uniform float scale;                    // 2 / (256 viewport): a power of two
-void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 1.0, position.z, 1.0); }
+void main() { gl_Position = vec4(position.x * scale - 1.0, position.y * scale - 1.0, 0.0, 1.0); }
 )";
 
 // Every fragment (no depth test) goes into its pixel's list: the k-th to arrive at pixel
@@ -382,7 +382,6 @@ struct ZBufferBackend::Impl {
     bool sky = false;
     std::vector<Vec3> normals;
     std::vector<double> plane;  // n . (first vertex)
-    std::vector<Vec3> positions;
     GLuint draw_program = 0, pair_program = 0, args_program = 0, compact_program = 0;
     GLuint vao = 0, vertex_buffer = 0, index_buffer = 0, framebuffer = 0, target = 0;
     GLuint layer_buffer = 0, depth_count = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0,
@@ -393,7 +392,7 @@ struct ZBufferBackend::Impl {
     GLsizei index_count = 0;
     int layer_capacity = 0;         // surfaces per pixel the layer buffer holds
     std::uint32_t table_size = 0;   // slots of the hash table (a power of two)
-    std::vector<float> vertices;    // x, y, z per vertex, per direction
+    std::vector<float> vertices;    // x, y per vertex, per direction
     std::vector<double> records;    // t0, tx, ty, kind per patch, per direction
     std::vector<std::uint64_t> keys, key_tmp;
     std::vector<std::uint32_t> counts, count_tmp;
@@ -406,8 +405,7 @@ struct ZBufferBackend::Impl {
 
     Impl(const scenes::Scene& scene, const BackendOptions& options)
         : grid(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
-          sky(options.sky),
-          positions(scene.vertex_positions()) {}
+          sky(options.sky) {}
 
     GLuint compile(GLenum type, const char* source) {
         const GLuint s = gl->CreateShader(type);
@@ -565,7 +563,7 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     std::vector<std::uint32_t> indices;
     for (const auto& p : scene.patch_list()) {
         s.normals.push_back(p.normal);
-        s.plane.push_back(p.normal.dot(s.positions[p.v[0]]));
+        s.plane.push_back(p.normal.dot(scene.vertex_positions()[p.v[0]]));
         for (int k : p.v) indices.push_back(static_cast<std::uint32_t>(k));
     }
     if (s.normals.size() + 2 >= std::numeric_limits<std::uint32_t>::max())
@@ -585,15 +583,15 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     s.pair_tie = gl.GetUniformLocation(s.pair_program, "tie");
 
     // Vertices (rewritten per direction) and the patches' triangles: primitive i is patch i.
-    s.vertices.resize(3 * s.positions.size());
+    s.vertices.resize(2 * scene.vertex_positions().size());
     gl.GenVertexArrays(1, &s.vao);
     gl.BindVertexArray(s.vao);
     gl.GenBuffers(1, &s.vertex_buffer);
     gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
-    gl.BufferStorage(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.vertices.size(), 3) * sizeof(float)),
+    gl.BufferStorage(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(std::max<std::size_t>(s.vertices.size(), 2) * sizeof(float)),
                      nullptr, GL_DYNAMIC_STORAGE_BIT);
     gl.EnableVertexAttribArray(0);
-    gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    gl.VertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
     gl.GenBuffers(1, &s.index_buffer);
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, s.index_buffer);
     gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)),
@@ -707,15 +705,12 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     grid.project(w, jitter);
     const std::size_t n = s.normals.size();
 
-    // Vertices: the grid's snapped positions, and their depth along w inside the clip volume.
-    const Vec3 center = grid.center();
-    const double depth_scale = 1.0 / (1.001 * grid.radius());
+    // Vertices: the grid's snapped positions.
     const auto& X = grid.projected_x();
     const auto& Y = grid.projected_y();
-    for (std::size_t k = 0; k < s.positions.size(); ++k) {
-        s.vertices[3 * k] = static_cast<float>(X[k]);
-        s.vertices[3 * k + 1] = static_cast<float>(Y[k]);
-        s.vertices[3 * k + 2] = static_cast<float>(w.dot(s.positions[k] - center) * depth_scale);
+    for (std::size_t k = 0; k < X.size(); ++k) {
+        s.vertices[2 * k] = static_cast<float>(X[k]);
+        s.vertices[2 * k + 1] = static_cast<float>(Y[k]);
     }
     gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
     gl.BufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)), s.vertices.data());
