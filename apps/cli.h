@@ -19,7 +19,8 @@
 namespace raybundle::apps {
 
 // The images --aov DIR writes, DIR/<name>.exr.
-inline constexpr std::array<const char*, 5> kAovNames = {"direct", "indirect", "indirect-filtered", "normal", "depth"};
+inline constexpr std::array<const char*, 6> kAovNames = {"direct", "indirect", "indirect-filtered", "bias", "normal",
+                                                         "depth"};
 
 // The user's command line is wrong: one line, exit code 2.
 struct UsageError : std::runtime_error {

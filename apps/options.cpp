@@ -199,6 +199,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                                                                "goes on and corrects it (the field as a control variate: "
                                                                "converges to the true image; 0: the field as the answer)")
                                  ->check(kFinite & CLI::Range(0.0, 1.0)));
+    f.row("bias_probe", yes, value("--bias-probe", g.bias_probe, "final gather without --correction: probability that a gather "
+                                                               "ray is also followed as the correction would, apart from the "
+                                                               "image, so that the estimated error sees the field's bias (0: off)")
+                                 ->check(kFinite & CLI::Range(0.0, 1.0)));
     f.row("filter", yes, parsed("--filter", [&g](const std::string& v) { g.filter.filter = render::parse_filter(v); },
                                 "final gather: guided | bilateral | atrous | none")
                              ->check(choices(render::kFilterNames)));
@@ -207,7 +211,7 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                                     ->check(CLI::Range(0, 1024)));
     f.row("eps_normal", yes, value("--eps-normal", g.filter.eps_normal, "guided filter: regularisation of the normals")->check(kPositive));
     f.row("eps_depth", yes, value("--eps-depth", g.filter.eps_depth, "guided filter: regularisation of the depth")->check(kPositive));
-    f.row("", no, cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, normal, depth EXRs in DIR"));
+    f.row("", no, cmd.add_option("--aov", c.aov, "final gather: also direct, indirect, indirect-filtered, bias, normal, depth EXRs in DIR"));
     f.row("reference", no, cmd.add_option("--reference", c.reference, "an EXR of the same size (e.g. from --method pathtrace): the "
                                                                       "image's relative L1 error, MSE, 4x4-block error and worst 16x16 block against it go into the "
                                                                       "summary line and the stats")
@@ -268,7 +272,7 @@ void check_command(const CLI::App& cmd, Command& c) {
     }
     if (r.solver.method == "pathtrace") {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
-                                 "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
+                                 "--correction", "--bias-probe", "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
@@ -279,7 +283,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         r.path.spp = cmd.count("--spp") > 0 ? r.gather.spp : render::PathTraceOptions{}.spp;
     } else if (r.gather.gather_rays == 0) {
         for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
-                                 "--filter-radius", "--eps-normal", "--eps-depth"})
+                                 "--correction", "--bias-probe", "--filter-radius", "--eps-normal", "--eps-depth"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " needs the final gather (--gather N, N > 0)");
     } else if (r.gather.spp > 4096) {

@@ -26,7 +26,7 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
         outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, r.image, c.exposure); });
     if (r.gather && !c.aov.empty()) {
         const auto& g = *r.gather;
-        const render::Image* aovs[] = {&g.direct, &g.indirect, &g.indirect_filtered, &g.normal, &g.depth};
+        const render::Image* aovs[] = {&g.direct, &g.indirect, &g.indirect_filtered, &g.bias, &g.normal, &g.depth};
         static_assert(std::size(aovs) == kAovNames.size());
         for (std::size_t i = 0; i < kAovNames.size(); ++i)
             outputs.stage(c.aov + "/" + kAovNames[i] + ".exr",

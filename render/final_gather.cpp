@@ -97,6 +97,8 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         throw scenes::OptionError("emission_samples", "must be >= 0, got " + std::to_string(o.emission_samples));
     if (!(o.correction >= 0.0 && o.correction <= 1.0))
         throw scenes::OptionError("correction", "must be in [0, 1], got " + std::to_string(o.correction));
+    if (!(o.bias_probe >= 0.0 && o.bias_probe <= 1.0))
+        throw scenes::OptionError("bias_probe", "must be in [0, 1], got " + std::to_string(o.bias_probe));
     if (o.glossy_rays < 0)
         throw scenes::OptionError("glossy_rays", "must be >= 0, got " + std::to_string(o.glossy_rays));
     const int W = camera.width(), H = camera.height();
@@ -109,8 +111,13 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     r.normal = Image(W, H);
     r.depth = Image(W, H);
     r.position = Image(W, H);
+    // The bias probe's estimate of the field's error in the indirect light (with the
+    // correction on, the image has none to measure).
+    const bool probe = o.bias_probe > 0.0 && o.correction == 0.0;
+    Image field_error(W, H);
     std::vector<int> guide_patch(static_cast<std::size_t>(W) * H, -1);
-    std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), lookups(H, 0), across(H, 0);
+    std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), bias_rays(H, 0), lookups(H, 0),
+        across(H, 0);
     // Spread over a team, this process computes its rows in passes 1 and 3, and they
     // are shared after each: every member filters the whole image.
     const RowShare block(run.team, H);
@@ -130,7 +137,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         const int y = block.row(row);
         // Counted here and stored once a row: rows side by side belong to different
         // threads, and counters next to each other in memory would share a cache line.
-        long cam = 0, shadow = 0, gathered = 0;
+        long cam = 0, shadow = 0, gathered = 0, probed = 0;
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
             ++cam;
@@ -151,14 +158,23 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     direct += g.glossy(s.patch, s.point, n, -d, o.glossy_rays, rng, gathered);
                 put(r.direct, x, y, direct);
             }
-            put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gathered));
+            if (!probe) {
+                put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gathered));
+                continue;
+            }
+            sampling::Rng probe_rng(run.seed, sampling::streams::kBiasPixels(o.pass, p, 32));
+            BiasProbe bp{o.bias_probe, probe_rng};
+            put(r.indirect, x, y, g.indirect(s.patch, s.point, n, -d, o.gather_rays, rng, gathered, &bp));
+            put(field_error, x, y, bp.error);
+            probed += bp.rays;
         }
         camera_rays[y] = cam;
         shadow_rays[y] = shadow;
         gather_rays[y] = gathered;
+        bias_rays[y] = probed;
         row_done("final gather", t0);
     });
-    for (Image* image : {&r.direct, &r.indirect, &r.normal, &r.depth, &r.position}) block.share(*image);
+    for (Image* image : {&r.direct, &r.indirect, &field_error, &r.normal, &r.depth, &r.position}) block.share(*image);
     block.share(guide_patch);
     const auto t1 = Clock::now();
 
@@ -171,6 +187,17 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     r.filter_radius = filter.radius;
     r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, r.position, scene.bounds_center(),
                                           depth_scale, depth_scale, filter, run.threads);
+    // What the filter and the field take from the truth, as the image reads them.
+    r.bias = Image(W, H);
+    r.bias_probed = probe || o.correction > 0.0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const int patch = guide_patch[static_cast<std::size_t>(y) * W + x];
+            if (patch < 0) continue;
+            put(r.bias, x, y,
+                scene.material_of(patch).albedo *
+                    (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
+        }
     if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 
@@ -268,12 +295,13 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     });
     block.share(r.image);
     block.share(r.direct);
-    for (auto* counts : {&camera_rays, &shadow_rays, &gather_rays, &lookups, &across}) block.share(*counts);
+    for (auto* counts : {&camera_rays, &shadow_rays, &gather_rays, &bias_rays, &lookups, &across}) block.share(*counts);
     const auto t3 = Clock::now();
     for (int y = 0; y < H; ++y) {
         r.camera_rays += camera_rays[y];
         r.shadow_rays += shadow_rays[y];
         r.gather_rays += gather_rays[y];
+        r.bias_rays += bias_rays[y];
         r.lookups += lookups[y];
         r.lookups_across += across[y];
     }

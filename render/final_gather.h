@@ -88,6 +88,11 @@ struct GatherOptions {
     // of the Cornell boxes but adds more noise than it removes bias in the rooms lit
     // through a door or a window (docs/final-image.md section 10).
     double correction = 0.0;
+    // With the correction off: the probability with which a gather ray is also followed
+    // as the correction would follow it, apart from the image, to measure the field's
+    // error where the image reads it (render/gather_estimator.h; GatherResult::bias).
+    // About 1.3 more rays per probed ray; 0: no probe, and no bias in the estimate.
+    double bias_probe = 1.0 / 16.0;
     int spp = 16;             // camera samples per pixel (the first is the guide)
     // With spp > 1: camera rays per pixel, besides the spp samples, for what the camera
     // sees unlit, emission and the sky (one ray each, no light computed); 0: the spp
@@ -108,7 +113,15 @@ struct GatherResult {
     Image normal;             // guide normals (unit; zero for background)
     Image depth;              // guide depth (distance from the eye; zero for background)
     Image position;           // guide hit point (world space; zero for background)
-    long camera_rays = 0, shadow_rays = 0, gather_rays = 0;
+    // At the guide samples, an unbiased, noisy estimate of the image's bias in its
+    // indirect light: albedo (filtered E - E - D), where D is the bias probe's estimate of
+    // the field's error in E (zero without a probe) and filtered E - E the filter's. Its
+    // means over blocks of pixels are what render/progressive.h's estimate uses.
+    Image bias;
+    // Whether it holds the field's error: the probe ran, or the correction took the
+    // field's error out of the image (else it holds the filter's departure alone).
+    bool bias_probed = false;
+    long camera_rays = 0, shadow_rays = 0, gather_rays = 0, bias_rays = 0;
     int filter_radius = 0;  // the radius the filter used (of the last pass: rounds may vary)
     // Extra samples that took their indirect light from a guide (spp > 1), and those
     // of them whose guide's depth differs from theirs by more than 10 % (a lookup

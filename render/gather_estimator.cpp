@@ -61,15 +61,24 @@ Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const V
 }
 
 Rgb GatherEstimator::indirect(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count,
-                              sampling::Rng& rng, long& rays) const {
+                              sampling::Rng& rng, long& rays, BiasProbe* probe) const {
     Vec3 u, v;
     scenes::orthonormal_basis(n, u, v);
     const Vec3 from = lighting_.origin(x, patches_[p].normal, to_eye);
-    return stratified_mean(count, rng, [&](double u1, double u2) -> Rgb {
+    Rgb error = Rgb::Zero();
+    const Rgb mean = stratified_mean(count, rng, [&](double u1, double u2) -> Rgb {
         const Vec3 w = sampling::cosine_hemisphere(u1, u2, n, u, v);
         ++rays;
-        return field_along(from, w, rng, rays);
+        const auto hit = caster_.intersect(from, w);
+        const Rgb read = arriving(hit, from, w, rng, rays, 0, correction_, correction_ > 0.0);
+        // The same ray as the correction follows it (go on at the first read), from the
+        // probe's own draws.
+        if (probe && probe->rng.uniform() < probe->rate)
+            error += (arriving(hit, from, w, probe->rng, probe->rays, 0, 1.0, true) - read) / probe->rate;
+        return read;
     });
+    if (probe) probe->error += error / count;
+    return mean;
 }
 
 Rgb GatherEstimator::glossy(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int count,
@@ -87,30 +96,30 @@ Rgb GatherEstimator::glossy(std::size_t p, const Vec3& x, const Vec3& n, const V
 }
 
 Rgb GatherEstimator::field_along(const Vec3& from, const Vec3& w, sampling::Rng& rng, long& rays, int bounce) const {
-    return arriving(caster_.intersect(from, w), from, w, rng, rays, bounce, correction_);
+    return arriving(caster_.intersect(from, w), from, w, rng, rays, bounce, correction_, correction_ > 0.0);
 }
 
 Rgb GatherEstimator::arriving(const scenes::RayHit& hit, const Vec3& from, const Vec3& w, sampling::Rng& rng,
-                              long& rays, int bounce, double go_on) const {
+                              long& rays, int bounce, double go_on, bool corrected) const {
     if (!hit.valid()) return scene_.sky ? scene_.sky->arriving_along(-w) : Rgb::Zero();
     if (patches_[hit.patch].normal.dot(w) >= 0.0) return Rgb::Zero();
     const Vec3 y = from + hit.t * w;
     if (bounce < kBounces && (scene_.material_of(hit.patch).glossy() ||
                               (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
-        return bounce_at(hit, y, -w, rng, rays, bounce + 1);
+        return bounce_at(hit, y, -w, rng, rays, bounce + 1, corrected);
     const auto& c = corners_[hit.patch];
     const Rgb field = ((1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] -
                        scene_.material_of(hit.patch).emission)
                           .max(0.0);
     // The field as a control variate: with probability go_on the path goes on and its
     // difference from the field, divided by go_on, corrects the reading.
-    if (go_on > 0.0 && bounce < kMostBounces && rng.uniform() < go_on)
-        return field + (bounce_at(hit, y, -w, rng, rays, bounce + 1) - field) / go_on;
+    if (corrected && go_on > 0.0 && bounce < kMostBounces && rng.uniform() < go_on)
+        return field + (bounce_at(hit, y, -w, rng, rays, bounce + 1, true) - field) / go_on;
     return field;
 }
 
 Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
-                               long& rays, int bounce) const {
+                               long& rays, int bounce, bool corrected) const {
     const std::size_t q = static_cast<std::size_t>(hit.patch);
     const auto& m = scene_.material_of(q);
     const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
@@ -137,8 +146,8 @@ Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const V
     // probability of the path's weight at this vertex (at most 0.95), so that the
     // weight over the probability stays at most 1 where that weight is at most 0.95
     // (every diffuse surface; a glossy lobe's sample may weigh more).
-    const double go_on = correction_ > 0.0 ? std::min(0.95, f.maxCoeff()) : 0.0;
-    return L + f * arriving(next, at.from, w, rng, rays, bounce, go_on);
+    const double go_on = corrected ? std::min(0.95, f.maxCoeff()) : 0.0;
+    return L + f * arriving(next, at.from, w, rng, rays, bounce, go_on, corrected);
 }
 
 }  // namespace raybundle::render

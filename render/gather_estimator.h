@@ -19,6 +19,12 @@
 // whatever the field; single readings, and so single pixels of the indirect image, may
 // be negative.
 //
+// The bias probe (GatherOptions::bias_probe): with the correction off, a gather ray is
+// also, with a small probability, followed as the correction would follow it, from a
+// generator of its own. The difference (corrected - read) / probability is an unbiased
+// estimate of the field's error as that ray reads it; it is kept apart (BiasProbe), so
+// the image is the same with the probe or without it.
+//
 // Thread-safe: every method is const; randomness comes from the caller's generator.
 #include "render/direct_light.h"
 #include "render/final_gather.h"
@@ -30,6 +36,16 @@
 #include <vector>
 
 namespace raybundle::render {
+
+// One guide sample's bias probe: its probability per gather ray, its generator, and
+// what indirect() adds: the mean over the sample's gather rays of (corrected - read) /
+// rate (0 for rays not probed), and the rays the probe traced.
+struct BiasProbe {
+    double rate = 0.0;
+    sampling::Rng& rng;
+    scenes::Rgb error = scenes::Rgb::Zero();
+    long rays = 0;
+};
 
 class GatherEstimator {
 public:
@@ -47,8 +63,9 @@ public:
                        int samples, sampling::Rng& rng, long& rays) const;
     // Incident indirect radiance at x: the mean over `count` cosine-weighted rays
     // (stratified, sampling/strata.h) of the radiance the field reflects at their hits.
+    // With `probe`, its error estimate of those readings (see above).
     scenes::Rgb indirect(std::size_t p, const scenes::Vec3& x, const scenes::Vec3& n, const scenes::Vec3& to_eye,
-                         int count, sampling::Rng& rng, long& rays) const;
+                         int count, sampling::Rng& rng, long& rays, BiasProbe* probe = nullptr) const;
     // Glossy reflection of the field at x (a glossy material): the mean over `count`
     // directions drawn from the Phong lobe (stratified) of the lobe's weight times the
     // radiance the field reflects at their hits.
@@ -62,16 +79,17 @@ private:
     // where the path goes on.
     scenes::Rgb field_along(const scenes::Vec3& from, const scenes::Vec3& w, sampling::Rng& rng, long& rays,
                             int bounce = 0) const;
-    // The same for a ray from `from` along w whose hit is known; where it reads the
-    // field, the path goes on with probability go_on and corrects the reading.
+    // The same for a ray from `from` along w whose hit is known. `corrected`: where it
+    // reads the field, the path goes on with probability go_on and corrects the reading,
+    // and so on along the path (by Russian roulette past this read).
     scenes::Rgb arriving(const scenes::RayHit& hit, const scenes::Vec3& from, const scenes::Vec3& w,
-                         sampling::Rng& rng, long& rays, int bounce, double go_on) const;
+                         sampling::Rng& rng, long& rays, int bounce, double go_on, bool corrected) const;
     // The radiance a surface met by a secondary ray sends back towards it, its
     // emission excluded: one light point and one BRDF direction (balance heuristic for
     // the light they meet) plus every point light; what the direction meets reflects
     // the field (field_along).
     scenes::Rgb bounce_at(const scenes::RayHit& hit, const scenes::Vec3& y, const scenes::Vec3& w_out,
-                          sampling::Rng& rng, long& rays, int bounce) const;
+                          sampling::Rng& rng, long& rays, int bounce, bool corrected) const;
 
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;

@@ -91,12 +91,17 @@ struct Shape {
     double field = -1.0;  // e_f / e_total of the latest probed round (negative: not probed)
 };
 
+// One half's pass: its image and, from the final gather, its bias image (else empty).
+struct Pass {
+    Image image, bias;
+};
+
 // What a round's advance did: all its steps; all, and told to stop after the round;
 // stopped part-way (pause), with new averaged steps in both chains, or without.
 enum class Advanced { all, last, cut, nothing_new };
 
 // The rounds (see the header): `advance(steps_scale, run)` moves the solver on,
-// `render(h, scale, pass, run)` makes half h's pass, `probe(scale, pass, run)` half
+// `render(h, scale, pass, run)` makes half h's Pass, `probe(scale, pass, run)` half
 // A's pass from chain B's field (or nothing), `after(round, image, estimate)` sees
 // each round's result. The runs passed on report progress with the round and the
 // estimate.
@@ -105,7 +110,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
                   After after) {
     check(o);
     Rounds out;
-    Image sum[2];  // per half: sum over rounds of scale * pass
+    Image sum[2], bias_sum[2];  // per half: sums over rounds of scale * pass
     double estimate = -1.0;
     long round = 0;
     sampling::RunOptions inner = run;
@@ -156,8 +161,10 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         Image pass_image[2];
         for (int h = 0; h < 2; ++h) {
             const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
-            pass_image[h] = render(h, scale, pass, half_run(inner, h));
+            Pass made = render(h, scale, pass, half_run(inner, h));
+            pass_image[h] = std::move(made.image);
             add_scaled(sum[h], pass_image[h], scale);
+            if (!made.bias.rgb.empty()) add_scaled(bias_sum[h], made.bias, scale);
         }
         bool probed = false;
         const auto t2 = Clock::now();
@@ -183,12 +190,17 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         steps_total += steps;
         field_sum += scale * scale / steps;
         const Image a = scaled(sum[0], 1.0 / out.scale), b = scaled(sum[1], 1.0 / out.scale);
-        estimate = estimated_relative_l1(a, b);
+        const ErrorEstimate parts =
+            bias_sum[0].rgb.empty() || bias_sum[1].rgb.empty()
+                ? estimate_error(a, b, Image(), Image())
+                : estimate_error(a, b, scaled(bias_sum[0], 1.0 / out.scale), scaled(bias_sum[1], 1.0 / out.scale));
+        estimate = parts.total;
         Image mean = a;
         for (std::size_t k = 0; k < mean.rgb.size(); ++k) mean.rgb[k] = 0.5f * (a.rgb[k] + b.rgb[k]);
         const double spent = since(start);
-        out.rounds.push_back({scale, steps, spent, estimate});
+        out.rounds.push_back({scale, steps, spent, estimate, parts});
         out.estimate = estimate;
+        out.parts = parts;
         after(round, mean, estimate, spent);
 
         // The next round, or why there is none.
@@ -205,6 +217,20 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             out.stopped = "the estimate reached the target";
             break;
         }
+        if (target && parts.bias >= o.target_error) {
+            // The probed error of the latest round at most half the budget so far: where
+            // it was the field's noise, it fell by 1 / sqrt 2 at least since then.
+            double before = 0.0;
+            const Round* half = nullptr;
+            for (const Round& k : out.rounds) {
+                before += k.scale;
+                if (before <= out.scale / 2.0) half = &k;
+            }
+            if (round >= 3 && half && parts.bias > 0.9 * half->parts.bias) {
+                out.stopped = "the probed error, a bias, is at the target or above: more rounds do not lower it";
+                break;
+            }
+        }
         if (estimate <= 0.0) {
             out.stopped = "the halves agree exactly: nothing left to average";
             break;
@@ -216,15 +242,19 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         const double t_s = out.seconds_solve / steps_total, t_g = out.seconds_render / out.scale;
         if (probed && G > 0.0 && t_s > 0.0 && t_g > 0.0)
             shape.steps = std::clamp(std::sqrt(F / G * (timed ? t_g / t_s : 1.0)), 0.125, 8.0);
-        // The squared error after a further round of scale x, by the model, calibrated
-        // to the estimate now.
+        // The squared noise after a further round of scale x, by the model, calibrated
+        // to the noise estimate now; the bias stays.
         auto model = [&](double x) {
             return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
         };
-        const double calibrate = shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
+        const double calibrate =
+            shape.field >= 0.0 && model(0.0) > 0.0 ? parts.noise * parts.noise / model(0.0) : 0.0;
         double next = 8.0 * out.scale;
         if (target) {
-            const double want = std::pow(o.target_error / 1.05, 2);
+            // Noise that, with the bias, keeps 5 % to spare (a tenth of the target's square
+            // at least, where the bias is near the target).
+            const double goal = o.target_error / 1.05;
+            const double want = std::max(goal * goal - parts.bias * parts.bias, 0.1 * goal * goal);
             if (calibrate > 0.0) {
                 // The smallest of 64 round sizes from an eighth to 8 times the scale so far
                 // whose model reaches the target, else the largest.
@@ -236,7 +266,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
                     }
                 }
             } else {
-                const double ratio = estimate / o.target_error;
+                const double ratio = parts.noise / (1.05 * std::sqrt(want));
                 next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
             }
             if (!timed && out.scale >= kMostScale) {
@@ -306,10 +336,12 @@ void add_gather(GatherResult& sum, const GatherResult& pass, double w) {
     add_scaled(sum.direct, pass.direct, w);
     add_scaled(sum.indirect, pass.indirect, w);
     add_scaled(sum.indirect_filtered, pass.indirect_filtered, w);
+    add_scaled(sum.bias, pass.bias, w);
     sum.filter_radius = pass.filter_radius;
     sum.camera_rays += pass.camera_rays;
     sum.shadow_rays += pass.shadow_rays;
     sum.gather_rays += pass.gather_rays;
+    sum.bias_rays += pass.bias_rays;
     sum.lookups += pass.lookups;
     sum.lookups_across += pass.lookups_across;
     sum.seconds_guides += pass.seconds_guides;
@@ -327,6 +359,94 @@ double estimated_relative_l1(const Image& a, const Image& b) {
         total += std::abs(0.5 * (static_cast<double>(a.rgb[k]) + b.rgb[k]));
     }
     return total > 0.0 ? 0.5 * diff / total : 0.0;
+}
+
+ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a, const Image& bias_b, int block) {
+    if (a.width != b.width || a.height != b.height) throw std::invalid_argument("image sizes differ");
+    const bool biased = !bias_a.rgb.empty() || !bias_b.rgb.empty();
+    if (biased && (bias_a.width != a.width || bias_a.height != a.height || bias_b.width != a.width ||
+                   bias_b.height != a.height))
+        throw std::invalid_argument("bias image sizes differ from the image's");
+    if (block < 1) throw std::invalid_argument("block must be >= 1");
+    const double noise = estimated_relative_l1(a, b);
+    if (!biased) return {noise, noise, 0.0, 0.0};
+    // Per block and channel, sums over its pixels of the mean bias image r, of r^2, of
+    // the half-difference h = (a - b) / 2, and of |h - its block mean| (a second pass).
+    const int bw = (a.width + block - 1) / block, bh = (a.height + block - 1) / block;
+    struct Block {
+        double n = 0.0;
+        Rgb r = Rgb::Zero(), r2 = Rgb::Zero(), h = Rgb::Zero(), deviation = Rgb::Zero();
+    };
+    std::vector<Block> blocks(static_cast<std::size_t>(bw) * bh);
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            Block& B = blocks[static_cast<std::size_t>(y / block) * bw + x / block];
+            B.n += 1.0;
+            const float *pa = a.at(x, y), *pb = b.at(x, y), *ba = bias_a.at(x, y), *bb = bias_b.at(x, y);
+            for (int c = 0; c < 3; ++c) {
+                const double r = 0.5 * (static_cast<double>(ba[c]) + bb[c]), h = 0.5 * (static_cast<double>(pa[c]) - pb[c]);
+                B.r[c] += r;
+                B.r2[c] += r * r;
+                B.h[c] += h;
+            }
+        }
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            Block& B = blocks[static_cast<std::size_t>(y / block) * bw + x / block];
+            const float *pa = a.at(x, y), *pb = b.at(x, y);
+            for (int c = 0; c < 3; ++c)
+                B.deviation[c] += std::abs(0.5 * (static_cast<double>(pa[c]) - pb[c]) - B.h[c] / B.n);
+        }
+    // The spread of r over each block (its pixels' variance), and the same pooled over
+    // the block and its eight neighbours: r's noise is heavy-tailed (a few probed rays
+    // a block), and one block's spread alone too uncertain a measure of it.
+    std::vector<Rgb> spread(blocks.size(), Rgb::Zero());
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        const Block& B = blocks[i];
+        if (B.n > 1.0) spread[i] = ((B.r2 / B.n - (B.r / B.n).square()).max(0.0)) * (B.n / (B.n - 1.0));
+    }
+    const double root_two = std::sqrt(2.0), root_two_over_pi = std::sqrt(2.0 / M_PI);
+    double sum = 0.0, bias = 0.0, truth = 0.0;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        const Block& B = blocks[i];
+        const int bx = static_cast<int>(i) % bw, by = static_cast<int>(i) / bw;
+        Rgb pooled = Rgb::Zero();
+        int neighbours = 0;
+        for (int y = std::max(0, by - 1); y <= std::min(bh - 1, by + 1); ++y)
+            for (int x = std::max(0, bx - 1); x <= std::min(bw - 1, bx + 1); ++x) {
+                pooled += spread[static_cast<std::size_t>(y) * bw + x];
+                ++neighbours;
+            }
+        pooled /= neighbours;
+        for (int c = 0; c < 3; ++c) {
+            // The block's error: the mean of r less its pixels' own noise (their variance
+            // over n), with the sign of that mean.
+            const double m = B.r[c] / B.n;
+            const double beta = std::sqrt(std::max(0.0, m * m - pooled[c] / B.n));
+            // The pixels' noise about the block's error: the halves' half-difference less
+            // its block mean (what the whole block shares, the field's noise, is in beta),
+            // as a mean absolute deviation (robust to a few noisy pixels: a light's edge),
+            // over the normal's sqrt(2 / pi) for its deviation.
+            const double spread_h = B.n > 1.0 ? B.deviation[c] / B.n * std::sqrt(B.n / (B.n - 1.0)) : 0.0;
+            const double sigma = spread_h / root_two_over_pi;
+            sum += B.n * (sigma > 0.0 ? spread_h * std::exp(-beta * beta / (2.0 * sigma * sigma)) +
+                                            beta * std::erf(beta / (sigma * root_two))
+                                      : beta);
+            bias += B.n * beta;
+            // The truth's sum: the image less the block's error, pixel by pixel.
+            const double error = m < 0.0 ? -beta : beta;
+            for (int y = by * block; y < std::min(a.height, (by + 1) * block); ++y)
+                for (int x = bx * block; x < std::min(a.width, (bx + 1) * block); ++x)
+                    truth += std::abs(0.5 * (static_cast<double>(a.at(x, y)[c]) + b.at(x, y)[c]) - error);
+        }
+    }
+    if (truth <= 0.0) return {noise, noise, 0.0, 0.0};
+    ErrorEstimate out;
+    out.noise = noise;
+    out.probed = sum / truth;
+    out.bias = bias / truth;
+    out.total = out.probed;
+    return out;
 }
 
 long chain_steps(long steps, const RoundOptions& rounds) { return half_of(steps, first_scale(rounds)); }
@@ -426,10 +546,11 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                                    std::to_string(n) + "): give it SolverOptions::steps = chain_steps()");
         segment[h] = between(seen[h].field, seen[h].n, now, n);
         seen[h] = {std::move(now), n};
-        if (!o.gather) return shade(scene, segment[h], *gbuffer, o.shading);
+        if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading), Image()};
         GatherResult result = final_gather(scene, caster, segment[h], camera, pass_options(scale, pass), r);
         add_gather(gathered, result, scale);
-        return std::move(result.image);
+        // Without the probe the bias image lacks the field's error: the halves' rule alone.
+        return Pass{std::move(result.image), result.bias_probed ? std::move(result.bias) : Image()};
     };
     // Half A's pass again, its samples, chain B's field (see Shape); none for the patch image.
     auto probe = [&](double scale, std::uint64_t pass, const sampling::RunOptions& r) {
@@ -458,6 +579,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         gathered.direct = scaled(gathered.direct, w);
         gathered.indirect = scaled(gathered.indirect, w);
         gathered.indirect_filtered = scaled(gathered.indirect_filtered, w);
+        gathered.bias = scaled(gathered.bias, w);
         out.gather = std::move(gathered);
     }
     return out;
@@ -477,7 +599,7 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
         out.traced.paths += traced.paths;
         out.traced.rays += traced.rays;
         out.traced.seconds += traced.seconds;
-        return std::move(traced.image);
+        return Pass{std::move(traced.image), Image()};
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.traced.image = image;

@@ -14,11 +14,36 @@
 //
 //   estimated relative L1 error = sum |A - B| / (2 sum |(A + B) / 2|)
 //
-// over pixels and channels, the measure of render/metrics.h. It sees noise, not bias:
-// the visibility maps' resolution, the filter's blur, the diffuse shot's quadrature,
-// the shadow ratio's bias in penumbrae and walks truncated at D bounces are not in it
-// (docs/final-image.md measures them against references). The edge-avoiding A-Trous
-// filter weighs by colour, is not linear, and makes the estimate approximate.
+// over pixels and channels, the measure of render/metrics.h. That is the noise.
+//
+// The bias. The final gather's halves also come with an image of their error (with
+// the bias probe on, or the correction; else the estimate is the halves' rule alone)
+// (GatherResult::bias: r = albedo (filtered E - E - D), D the bias probe's estimate of
+// the field's error in E): the image's error is r plus noise that is independent from
+// pixel to pixel (albedo (E + D - E*) and the direct light's), so over a block of 8x8
+// pixels the mean of r is the image's error there: the filter's and the field's,
+// bias and the field's own noise alike, as this image reads them. With m that mean
+// (over both halves) and v the spread of r over the block (pooled with its eight
+// neighbours': r's noise is heavy-tailed), beta = sqrt(max(0, m^2 -
+// v / n)) is the block's error less r's own noise; with sigma the spread of the
+// halves' half-difference (a - b) / 2 over the block about its mean (the pixels' noise
+// about what the block shares; its mean absolute deviation, over sqrt(2 / pi), which a
+// few noisy pixels at a light's edge do not inflate), a pixel's expected error is that
+// of a normal error of mean beta and deviation sigma:
+//
+//   E |N(beta, sigma^2)| = sigma sqrt(2 / pi) exp(-beta^2 / (2 sigma^2)) + beta erf(beta / (sigma sqrt 2)).
+//
+// Its sum over blocks and channels, over sum |mean - beta| (the truth's, as far as it is
+// known; beta with the sign of m), is the probed estimate, and the run's estimate where
+// there are bias images. It measures the field's noise as realised in this image,
+// where the halves' rule has only its expectation: the two differ most where that noise
+// is a few large patterns (docs/final-image.md section 14). ErrorEstimate has both, and
+// the probed error's part that is beta ("bias"; the field's noise is in it too, and
+// falls as the rounds go on, the bias does not). Still not in it: the visibility maps' resolution where the field is read
+// directly (the patch image), the diffuse shot's quadrature, the shadow ratio's bias in
+// penumbrae, the glossy rays' field readings, and walks truncated at D bounces in the
+// patch image. The edge-avoiding A-Trous filter weighs by colour, is not linear, and
+// makes the estimate approximate.
 //
 // Rounds. Round k has a scale r_k: its share of the budget (the camera samples,
 // emission samples and gather rays of the options, and as many steps times the
@@ -34,9 +59,11 @@
 // its own streams. The rounds:
 //   - no target and no time budget: one round of scale 1, the budget as given;
 //   - target_error E: a first round of scale 1/4, then each round sized by an error
-//     model (below) calibrated to the estimate: the scale that reaches E with 5 % to
-//     spare, from an eighth to 8 times the scale so far; until the estimate is at
-//     most E, or 1024 times the options' budget is spent;
+//     model (below) calibrated to the noise estimate: the scale that brings the noise to
+//     sqrt(E'^2 - bias^2), E' = E / 1.05, from an eighth to 8 times the scale so far;
+//     until the estimate is at most E, 1024 times the options' budget is spent, or
+//     from the third round on the probed error is E or more and fell by less than a
+//     tenth while the budget doubled (a bias: more rounds do not lower it; GatherOptions::correction does);
 //   - time_budget S (what is left of it once the scene is prepared, render/run.h):
 //     rounds sized by the seconds per unit of scale so far to fill S,
 //     until a round worth at least an eighth of the scale so far no longer fits; the
@@ -83,17 +110,26 @@ struct RoundOptions {
 };
 
 // One round's record.
+// An image's estimated relative L1 error (see above): the total, the halves' rule
+// (noise), the probed error and its bias part (both 0 without bias images; negative:
+// none).
+struct ErrorEstimate {
+    double total = -1.0, noise = -1.0, probed = -1.0, bias = -1.0;
+};
+
 struct Round {
     double scale = 0.0;     // its share of the budget (camera samples, gather rays)
     double steps = 0.0;     // its share of the options' steps
     double seconds = 0.0;   // since the rounds began, at its end
     double estimate = -1.0; // the image's estimated relative L1 error after it
+    ErrorEstimate parts;    // the same with its parts
 };
 
 struct Rounds {
     std::vector<Round> rounds;
     double scale = 0.0;         // the budget used, in units of the options' budget
     double estimate = -1.0;     // the final image's estimated relative L1 error
+    ErrorEstimate parts;        // the same with its parts (bias 0 where there is no bias image)
     std::string stopped;        // why the rounds stopped
     bool interrupted = false;   // by FieldImageOptions::pause, before the rounds were done
     // Wall time of the chains' steps, of the passes, and of the probes.
@@ -179,5 +215,10 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
 // relative L1 error of the mean of two independent halves (see above); 0 for images
 // that are 0 everywhere.
 double estimated_relative_l1(const Image& a, const Image& b);
+
+// The estimate with the halves' bias images bias_a and bias_b (see above; both empty:
+// no bias, total = noise) over blocks of `block` pixels. Throws std::invalid_argument
+// for sizes that differ.
+ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a, const Image& bias_b, int block = 8);
 
 }  // namespace raybundle::render

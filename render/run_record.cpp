@@ -33,9 +33,20 @@ constexpr std::pair<const char*, std::optional<double> ConvergenceRow::*> kRowVa
 json rounds_record(const Rounds& r, const RoundOptions& o) {
     json rounds = json::array();
     for (const auto& k : r.rounds)
-        rounds.push_back(
-            {{"scale", k.scale}, {"steps", k.steps}, {"seconds", k.seconds}, {"estimated_error", k.estimate}});
-    json out = {{"image_estimated_error", r.estimate}, {"scale", r.scale}, {"stopped", r.stopped}, {"rounds", rounds}};
+        rounds.push_back({{"scale", k.scale},
+                          {"steps", k.steps},
+                          {"seconds", k.seconds},
+                          {"estimated_error", k.estimate},
+                          {"estimated_noise", k.parts.noise},
+                          {"estimated_probed", k.parts.probed},
+                          {"estimated_bias", k.parts.bias}});
+    json out = {{"image_estimated_error", r.estimate},
+                {"image_estimated_noise", r.parts.noise},
+                {"image_estimated_probed", r.parts.probed},
+                {"image_estimated_bias", r.parts.bias},
+                {"scale", r.scale},
+                {"stopped", r.stopped},
+                {"rounds", rounds}};
     if (r.field_share >= 0.0) {
         out["field_share"] = r.field_share;
         out["steps_share"] = r.steps_share;
@@ -104,6 +115,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
             {"direct", direct_light_name(o.direct)},
             {"glossy_rays", o.glossy_rays},
             {"correction", o.correction},
+            {"bias_probe", o.correction > 0.0 ? 0.0 : o.bias_probe},
             {"spp", o.spp},
             {"emission_samples", o.emission_samples},
             {"filter", filter_name(o.filter.filter)},
@@ -114,6 +126,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
             {"camera_rays", g.camera_rays},
             {"shadow_rays", g.shadow_rays},
             {"gather_rays_total", g.gather_rays},
+            {"bias_probe_rays", g.bias_rays},
             {"lookups", g.lookups},
             {"lookups_across_depth", g.lookups_across},
             {"seconds_guides", g.seconds_guides},
@@ -273,9 +286,13 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
         print(", mean radiance %.6g", r.mean_radiance);
         if (r.error) print(", relative L1 error %.3g", *r.error);
     }
-    if (r.rounds.estimate >= 0.0)
-        print(", estimated error %.2g %% (%zu round%s)", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
+    if (r.rounds.estimate >= 0.0) {
+        print(", estimated error %.2g %% (%zu round%s", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
               r.rounds.rounds.size() == 1 ? "" : "s");
+        if (r.rounds.parts.bias > 0.0)
+            print("; noise %.2g %%, bias %.2g %%", 100.0 * r.rounds.parts.noise, 100.0 * r.rounds.parts.bias);
+        print(")");
+    }
     if (r.against)
         print(", against the reference: relative L1 %.4g, MSE %.4g, 4x4 blocks %.4g, worst 16x16 block %+.4g",
               r.against->relative_l1, r.against->mse, r.against->block4_l1, r.against->worst_block16);

@@ -44,9 +44,10 @@ inline constexpr Range kWalks{"walks", 0x3a1c0000ull, kMaxChains << 32};  // per
 inline constexpr Range kGuidePixels{"guide pixels", 1ull << 50, kMaxPasses << 32};    // the guide sample of pixel p
 inline constexpr Range kSamplePixels{"sample pixels", 2ull << 50, kMaxPasses << 32};  // its further samples
 inline constexpr Range kPathPixels{"path pixels", 3ull << 50, kMaxPasses << 32};      // the path tracer's pixel p
+inline constexpr Range kBiasPixels{"bias pixels", 4ull << 50, kMaxPasses << 32};      // the bias probe at guide p
 
 inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kAdaptiveWalks, kMapJitters, kWalks,
-                                 kGuidePixels, kSamplePixels, kPathPixels};
+                                 kGuidePixels, kSamplePixels, kPathPixels, kBiasPixels};
 
 constexpr bool disjoint() {
     for (const Range& a : kAll)

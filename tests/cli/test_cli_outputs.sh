@@ -41,7 +41,7 @@ mkdir -p aov
 if "$bin" solve --builtin cornell-box --patch-size 100 --iterations 50 --gather 4 --spp 2 --width 32 --height 32 --aov aov \
      -o g.exr --stats g.json 2>err.txt; then
   ok=1
-  for f in g.exr aov/direct.exr aov/indirect.exr aov/indirect-filtered.exr aov/normal.exr aov/depth.exr; do
+  for f in g.exr aov/direct.exr aov/indirect.exr aov/indirect-filtered.exr aov/bias.exr aov/normal.exr aov/depth.exr; do
     [ -s "$f" ] || { fail "gather run: $f missing"; ok=0; }
   done
   for key in final_gather gather_rays shadow_rays seconds_filter; do grep -q "\"$key\"" g.json || { fail "gather stats lack $key"; ok=0; }; done

@@ -22,7 +22,7 @@ expect_bad "--direct-samples out of range" "--direct-samples" solve good.json --
 "$bin" solve --builtin homogeneous-box --width 16 --height 16 --iterations 100 --gather 8 --spp 4 --stats est.json \
   --csv est.csv >est.txt 2>&1
 check $? "estimate run failed: $(cat est.txt)"
-grep -q "estimated error [0-9.]* % (1 round)" est.txt
+grep -q "estimated error [0-9.]* % (1 round[;)]" est.txt
 check $? "summary line lacks the estimated error: $(cat est.txt)"
 grep -q '"stopped": "one round: the budget as given"' est.json && grep -q '"field_estimated_error"' est.json
 check $? "stats lack the estimate: $(head -c 400 est.json)"
@@ -48,6 +48,11 @@ done
 for v in 0 -1 inf nan; do
   expect_bad "--time-budget $v" "--time-budget" solve --builtin homogeneous-box --time-budget "$v"
 done
+for v in -0.1 1.5 nan abc; do
+  expect_bad "--bias-probe $v" "--bias-probe" solve --builtin homogeneous-box --bias-probe "$v"
+done
+expect_bad "--bias-probe with pathtrace" "--bias-probe" solve --builtin homogeneous-box --method pathtrace --bias-probe 0.1
+expect_bad "--bias-probe without the gather" "--bias-probe" solve --builtin homogeneous-box --gather 0 --bias-probe 0.1
 # A budget the scene's preparation takes whole: one round all the same, said in a
 # warning. Its wall time is the least this run takes (the preparation and one first
 # round) on this machine as loaded now: the budgets below are multiples of it, so that

@@ -3,8 +3,8 @@
 # at every point of its commit, through a preloaded rename()/unlink()
 # (tests/cli/commit_shim.cpp), never leave it part old, part new.
 #
-# A run writes 11 outputs over an old set (each file holding "old"). Its commit has
-# 13 points: 1 the journal made, 2..12 the renames, 13 the journal removed. At each
+# A run writes 12 outputs over an old set (each file holding "old"). Its commit has
+# 14 points: 1 the journal made, 2..13 the renames, 14 the journal removed. At each
 # of them, in turn:
 # - SIGINT (the run stops cleanly; it was complete): exit 130, every output new;
 # - SIGINT twice, SIGTERM twice (abandon the run): the commit under way completes,
@@ -27,8 +27,8 @@ fail() { echo "FAIL: $*"; failed=$((failed + 1)); }
 run=(solve --builtin cornell-box --width 16 --height 16 --iterations 20 -q)
 outputs=(-o d/img.exr -o d/img.png --stats d/s.json --csv d/c.csv --patches d/p.csv --ply d/p.ply --aov d/aov)
 files=(d/img.exr d/img.png d/s.json d/c.csv d/p.csv d/p.ply
-       d/aov/depth.exr d/aov/direct.exr d/aov/indirect.exr d/aov/indirect-filtered.exr d/aov/normal.exr)
-points=13
+       d/aov/depth.exr d/aov/direct.exr d/aov/indirect.exr d/aov/indirect-filtered.exr d/aov/bias.exr d/aov/normal.exr)
+points=14
 
 reset() {
   rm -rf d && mkdir -p d/aov

@@ -580,3 +580,58 @@ TEST_CASE("final gather: the correction takes out light a field leaks through a 
     CHECK(leaked > 0.005);
     CHECK(std::abs(corrected) < leaked / 10.0);
 }
+
+TEST_CASE("final gather: the bias probe measures a wrong field's error and leaves the image as it was",
+          "[render][gather][bias]") {
+    // The homogeneous box with a field of 0.7 everywhere (the truth is 1): read as the
+    // answer it makes the image about 0.86. The bias image's mean is an unbiased
+    // estimate of that error (image - truth); with the right field it is about 0. The
+    // probe draws from streams of its own: the image is bit for bit the same without it.
+    auto scene = scenes::make_builtin("homogeneous-box", 0.34);
+    scene.camera.width = scene.camera.height = 16;
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    auto mean_of = [](const render::Image& img) {
+        double s = 0.0;
+        for (float v : img.rgb) s += v;
+        return s / static_cast<double>(img.rgb.size());
+    };
+    render::GatherOptions o = guide_only_gather();
+    o.gather_rays = 256;
+    o.filter.filter = render::Filter::none;
+    o.bias_probe = 0.25;
+    for (const double level : {0.7, 1.0}) {
+        solver::RadianceField field;
+        field.radiance.assign(scene.patch_list().size(), Rgb::Constant(level));
+        const auto r = render::final_gather(scene, caster, field, camera, o, {});
+        const double error = mean_of(r.image) - 1.0, estimated = mean_of(r.bias);
+        INFO("field " << level << ": image error " << error << ", bias image's mean " << estimated << ", probe rays "
+                      << r.bias_rays << " beside " << r.gather_rays);
+        if (level < 1.0) {
+            CHECK(error < -0.1);
+            CHECK(estimated == Approx(error).epsilon(0.1));
+        } else {
+            CHECK(std::abs(error) < 0.01);
+            CHECK(std::abs(estimated) < 0.01);
+        }
+        CHECK(r.bias_rays > 0);
+        CHECK(r.bias_rays < r.gather_rays);
+        render::GatherOptions off = o;
+        off.bias_probe = 0.0;
+        const auto plain = render::final_gather(scene, caster, field, camera, off, {});
+        CHECK(plain.image.rgb == r.image.rgb);
+        CHECK(plain.bias_rays == 0);
+        CHECK(r.bias_probed);
+        CHECK_FALSE(plain.bias_probed);
+        CHECK(mean_of(plain.bias) == 0.0);  // no filter: only the probe has something to say
+    }
+    // With the correction on there is no field error in the image to probe.
+    o.correction = 0.5;
+    solver::RadianceField field;
+    field.radiance.assign(scene.patch_list().size(), Rgb::Constant(0.7));
+    CHECK(render::final_gather(scene, caster, field, camera, o, {}).bias_rays == 0);
+    for (const double p : {-0.1, 1.5, std::nan("")}) {
+        o.bias_probe = p;
+        CHECK_THROWS_AS(render::final_gather(scene, caster, field, camera, o, {}), scenes::OptionError);
+    }
+}

@@ -5,6 +5,7 @@
 #include "render/metrics.h"
 #include "render/progressive.h"
 #include "render/run.h"
+#include "sampling/rng.h"
 #include "scenes/builtin.h"
 #include "solver/solver.h"
 
@@ -60,6 +61,52 @@ TEST_CASE("estimated_relative_l1: half the halves' difference over the mean", "[
     CHECK(render::estimated_relative_l1(a, a) == 0.0);
     render::Image zero(2, 1);
     CHECK(render::estimated_relative_l1(zero, zero) == 0.0);
+}
+
+TEST_CASE("estimate_error: noise, bias and both, against the error they make", "[render][progressive][bias]") {
+    // Halves a = truth + bias + noise_a, b likewise, and bias images = bias + their own
+    // noise (as the final gather's are: unbiased, noisier than the image). The estimate
+    // is held against the mean's true relative L1 error.
+    constexpr int W = 96, H = 96;
+    sampling::Rng rng(17, 3);
+    auto normal = [&rng] {
+        const double u1 = std::max(rng.uniform(), 1e-300), u2 = rng.uniform();
+        return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+    };
+    struct Case {
+        const char* name;
+        double noise, bias, bias_noise;
+    };
+    for (const Case c : {Case{"noise alone", 0.02, 0.0, 0.1}, Case{"bias alone", 0.0005, 0.05, 0.1},
+                         Case{"both", 0.02, 0.03, 0.1}, Case{"noise, no bias image", 0.02, 0.0, -1.0}}) {
+        render::Image a(W, H), b(W, H), ba(W, H), bb(W, H), truth(W, H), mean(W, H);
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x)
+                for (int k = 0; k < 3; ++k) {
+                    // A bright corner too bright, a band too dark, the rest right.
+                    const double level = 1.0 + 0.5 * k, bias = x < 32 && y < 32 ? c.bias : (y > 64 ? -c.bias / 2 : 0.0);
+                    truth.at(x, y)[k] = static_cast<float>(level);
+                    a.at(x, y)[k] = static_cast<float>(level + bias + c.noise * normal());
+                    b.at(x, y)[k] = static_cast<float>(level + bias + c.noise * normal());
+                    mean.at(x, y)[k] = 0.5f * (a.at(x, y)[k] + b.at(x, y)[k]);
+                    ba.at(x, y)[k] = static_cast<float>(bias + std::max(c.bias_noise, 0.0) * normal());
+                    bb.at(x, y)[k] = static_cast<float>(bias + std::max(c.bias_noise, 0.0) * normal());
+                }
+        const double error = render::relative_l1(mean, truth);
+        const auto e = c.bias_noise < 0.0 ? render::estimate_error(a, b, {}, {}) : render::estimate_error(a, b, ba, bb);
+        INFO(c.name << ": true error " << error << ", estimated " << e.total << " (noise " << e.noise << ", bias "
+                    << e.bias << ")");
+        CHECK(e.total == Approx(error).epsilon(0.15));
+        // The noise part is the halves' rule, over the truth's estimated sum.
+        CHECK(e.noise == Approx(render::estimated_relative_l1(a, b)).epsilon(0.02));
+        // Noise in the bias images makes some blocks' bias look nonzero: little, next to
+        // the image's noise.
+        if (c.bias == 0.0) CHECK(e.bias <= 0.5 * e.noise);
+        if (c.bias_noise < 0.0) CHECK(e.total == e.noise);
+    }
+    CHECK_THROWS_AS(render::estimate_error(render::Image(2, 2), render::Image(2, 2), render::Image(2, 1),
+                                           render::Image(2, 1)),
+                    std::invalid_argument);
 }
 
 namespace {
@@ -262,4 +309,62 @@ TEST_CASE("rounds: the steps' share follows where the noise is", "[render][progr
     m = homogeneous(so, io, {}, 7);
     CHECK(m.image.rounds.field_share < 0.0);
     CHECK(m.image.rounds.steps_share == 1.0);
+}
+
+namespace {
+
+// A chain whose field is the same at every step: here a wrong one.
+class FixedChain : public render::FieldChain {
+public:
+    explicit FixedChain(solver::RadianceField field) : field_(std::move(field)) {}
+    void advance(long steps, const sampling::ProgressCallback&) override { steps_ += steps; }
+    solver::RadianceField field() const override { return field_; }
+    long averaged() const override { return steps_; }
+
+private:
+    solver::RadianceField field_;
+    long steps_ = 0;
+};
+
+}  // namespace
+
+TEST_CASE("error estimate: a run whose field is wrong sees its bias", "[render][progressive][bias]") {
+    // Both chains hold a field of 0.7 on the homogeneous box (the truth is 1): the
+    // halves agree, and the image is about 14 % too dark. The estimate sees that with
+    // the bias probe (its default), and only its noise without it.
+    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
+    scene.camera.width = scene.camera.height = 32;
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    solver::RadianceField wrong;
+    wrong.radiance.assign(scene.patch_list().size(), scenes::Rgb::Constant(0.7));
+    render::FieldImageOptions io;
+    io.gather_options = guide_only_gather();
+    io.steps = 10;
+    io.gather_options.gather_rays = 64;
+    io.gather_options.spp = 4;
+    io.gather_options.direct_samples = 4;
+    sampling::RunOptions run;
+    run.threads = 2;
+    run.seed = 3;
+    render::Image one(32, 32);
+    one.rgb.assign(one.rgb.size(), 1.0f);
+    for (const double probe : {render::GatherOptions{}.bias_probe, 0.0}) {
+        io.gather_options.bias_probe = probe;
+        FixedChain a(wrong), b(wrong);
+        const auto made = render::field_image(scene, caster, camera, a, b, io, {}, run);
+        const double error = render::relative_l1(made.image, one);
+        const auto& e = made.rounds.parts;
+        INFO("probe " << probe << ": true error " << error << ", estimated " << e.total << " (noise " << e.noise
+                      << ", bias " << e.bias << ")");
+        CHECK(error > 0.1);
+        CHECK(made.rounds.estimate == e.total);
+        if (probe > 0.0) {
+            CHECK(e.total == Approx(error).epsilon(0.1));
+            CHECK(e.bias > 0.75 * error);
+            CHECK(made.gather->bias_rays > 0);
+        } else {
+            CHECK(e.total < 0.2 * error);
+        }
+    }
 }
