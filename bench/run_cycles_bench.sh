@@ -7,9 +7,11 @@
 # reused when present; its command and time are written beside it), then in one run
 # with the same thread count: Cycles at each of CYCLES_SPP samples per pixel (the
 # render call timed inside Blender) and raybundle with each argument set of
-# RAYBUNDLE_BUDGETS (the whole command-line run timed), each image's relative L1 error
-# and MSE against the reference (build/bench/image_error). Writes docs/bench-cycles.csv,
-# docs/bench-cycles.png and docs/bench-cycles.md.
+# RAYBUNDLE_BUDGETS (the whole command-line run timed), each image's relative L1 error,
+# MSE, relative L1 of 4x4-pixel means and worst 16x16 block against the reference
+# (build/bench/image_error), and raybundle's own estimate of its error (its stats'
+# image_estimated_error). Writes docs/bench-cycles.csv, docs/bench-cycles.png and
+# docs/bench-cycles.md.
 #
 # Usage: bench/run_cycles_bench.sh [--quick] [--threads N] [--no-build] [--out DIR]
 #                                   [--references-only] [--only NAME,...]
@@ -123,8 +125,9 @@ cycles_render() {
   [ -s "$exr" ] || { echo "run_cycles_bench: Cycles wrote no $exr" >&2; exit 1; }
 }
 seconds_of() { sed -n 's/.*"seconds_render": \([0-9.eE+-]*\).*/\1/p' "$1"; }
-error_of() {  # prints "relative_l1,mse"
-  "$image_error" "$1" "$2" | awk '$1 == "relative_l1" { r = $2 } $1 == "mse" { m = $2 } END { print r "," m }'
+error_of() {  # prints "relative_l1,mse,block4_l1,worst_block16"
+  "$image_error" "$1" "$2" | awk '$1 == "relative_l1" { r = $2 } $1 == "mse" { m = $2 } $1 == "block4_l1" { b = $2 }
+    $1 == "worst_block16" { w = $2 } END { print r "," m "," b "," w }'
 }
 
 # --- references ---------------------------------------------------------------------
@@ -157,7 +160,7 @@ done
 # --- timed runs ---------------------------------------------------------------------
 csv=$out/bench-cycles.csv
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
-echo "scene,renderer,setting,seconds,relative_l1,mse" >"$csv.partial"
+echo "scene,renderer,setting,seconds,relative_l1,mse,block4_l1,worst_block16,estimated" >"$csv.partial"
 for entry in "${SCENES[@]}"; do
   name=${entry%%|*}
   read -r -a args <<<"${entry#*|}"
@@ -165,7 +168,7 @@ for entry in "${SCENES[@]}"; do
   for spp in "${CYCLES_SPP[@]}"; do
     img=$work/images/$name-cycles-$spp.exr
     cycles_render "$work/$name.json" "$img" "$spp" "$SEED" "$work/$name-cycles-$spp.json"
-    row="$name,cycles,$spp spp,$(seconds_of "$work/$name-cycles-$spp.json"),$(error_of "$img" "$ref")"
+    row="$name,cycles,$spp spp,$(seconds_of "$work/$name-cycles-$spp.json"),$(error_of "$img" "$ref"),"
     echo "$row" | tee -a "$csv.partial"
   done
   k=0
@@ -174,9 +177,10 @@ for entry in "${SCENES[@]}"; do
     img=$work/images/$name-raybundle-$k.exr
     read -r -a b <<<"$budget"
     t0=$(date +%s.%N)
-    "$raybundle" solve "${args[@]}" "${b[@]}" --threads "$threads" --seed "$SEED" -q -o "$img"
+    "$raybundle" solve "${args[@]}" "${b[@]}" --threads "$threads" --seed "$SEED" -q -o "$img" --stats "$work/stats.json"
     t1=$(date +%s.%N)
-    row="$name,raybundle,$budget,$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'),$(error_of "$img" "$ref")"
+    estimated=$(sed -n 's/.*"image_estimated_error": \([0-9.eE+-]*\).*/\1/p' "$work/stats.json" | head -1)
+    row="$name,raybundle,$budget,$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'),$(error_of "$img" "$ref"),$estimated"
     echo "$row" | tee -a "$csv.partial"
   done
 done
@@ -269,9 +273,14 @@ mem=$(awk '$1 == "MemTotal:" { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)
   echo
   echo "## Measured points ([bench-cycles.csv](bench-cycles.csv))"
   echo
-  echo "| scene | renderer | setting | seconds | relative L1 | MSE |"
-  echo "| --- | --- | --- | --- | --- | --- |"
-  tail -n +2 "$csv" | awk -F, '{ printf "| %s | %s | `%s` | %.3g | %.4f | %.3g |\n", $1, $2, $3, $4, $5, $6 }'
+  echo "Beside the error per pixel: the relative L1 of 4×4-pixel means (which keeps a"
+  echo "bias and averages grain), the worst 16×16 block's relative error, and for raybundle"
+  echo "its own estimate of its relative L1 error (the stats' \`image_estimated_error\`)."
+  echo
+  echo "| scene | renderer | setting | seconds | relative L1 | MSE | 4×4 blocks | worst 16×16 | estimated |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+  tail -n +2 "$csv" | awk -F, '{ printf "| %s | %s | `%s` | %.3g | %.4f | %.3g | %.4f | %+.3f | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8,
+    $9 == "" ? "" : sprintf("%.4f", $9) }'
   echo
   echo "## Scenes and references"
   echo
