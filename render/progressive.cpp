@@ -123,6 +123,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         };
     const bool target = o.target_error > 0.0, timed = o.time_budget > 0.0;
     Shape shape;
+    int bias_floors = 0;  // rounds in a row that found a bias at the target or above
     double F = 0.0, G = 0.0, field_sum = 0.0;  // field_sum: sum_k r_k^2 / s_k
     double steps_total = 0.0;
     const auto start = Clock::now();
@@ -217,19 +218,24 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             out.stopped = "the estimate reached the target";
             break;
         }
+        // A bias at the target or above: the probed error of the latest round at most
+        // half the budget so far, where it was the field's noise, was sqrt 2 times larger
+        // at least. One round's bias is noisy itself: two rounds in a row must find it
+        // fell by less than a tenth.
+        bool floor = false;
         if (target && parts.bias >= o.target_error) {
-            // The probed error of the latest round at most half the budget so far: where
-            // it was the field's noise, it fell by 1 / sqrt 2 at least since then.
             double before = 0.0;
             const Round* half = nullptr;
             for (const Round& k : out.rounds) {
                 before += k.scale;
                 if (before <= out.scale / 2.0) half = &k;
             }
-            if (round >= 3 && half && parts.bias > 0.9 * half->parts.bias) {
-                out.stopped = "the probed error, a bias, is at the target or above: more rounds do not lower it";
-                break;
-            }
+            floor = half && parts.bias > 0.9 * half->parts.bias;
+        }
+        bias_floors = floor ? bias_floors + 1 : 0;
+        if (bias_floors >= 2) {
+            out.stopped = "the probed error, a bias, is at the target or above: more rounds do not lower it";
+            break;
         }
         if (estimate <= 0.0) {
             out.stopped = "the halves agree exactly: nothing left to average";
@@ -242,19 +248,17 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         const double t_s = out.seconds_solve / steps_total, t_g = out.seconds_render / out.scale;
         if (probed && G > 0.0 && t_s > 0.0 && t_g > 0.0)
             shape.steps = std::clamp(std::sqrt(F / G * (timed ? t_g / t_s : 1.0)), 0.125, 8.0);
-        // The squared noise after a further round of scale x, by the model, calibrated
-        // to the noise estimate now; the bias stays.
+        // The squared error after a further round of scale x, by the model of the noise,
+        // calibrated to the estimate now (a bias that does not fall makes the rounds
+        // smaller than they need be, and the rule above stops them).
         auto model = [&](double x) {
             return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
         };
         const double calibrate =
-            shape.field >= 0.0 && model(0.0) > 0.0 ? parts.noise * parts.noise / model(0.0) : 0.0;
+            shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
         double next = 8.0 * out.scale;
         if (target) {
-            // Noise that, with the bias, keeps 5 % to spare (a tenth of the target's square
-            // at least, where the bias is near the target).
-            const double goal = o.target_error / 1.05;
-            const double want = std::max(goal * goal - parts.bias * parts.bias, 0.1 * goal * goal);
+            const double want = std::pow(o.target_error / 1.05, 2);
             if (calibrate > 0.0) {
                 // The smallest of 64 round sizes from an eighth to 8 times the scale so far
                 // whose model reaches the target, else the largest.
@@ -266,7 +270,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
                     }
                 }
             } else {
-                const double ratio = parts.noise / (1.05 * std::sqrt(want));
+                const double ratio = estimate / o.target_error;
                 next = std::clamp(out.scale * (1.1 * ratio * ratio - 1.0), out.scale / 8.0, next);
             }
             if (!timed && out.scale >= kMostScale) {
@@ -367,7 +371,7 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
     if (biased && (bias_a.width != a.width || bias_a.height != a.height || bias_b.width != a.width ||
                    bias_b.height != a.height))
         throw std::invalid_argument("bias image sizes differ from the image's");
-    if (block < 1) throw std::invalid_argument("block must be >= 1");
+    if (block < 2) throw std::invalid_argument("block must be >= 2");
     const double noise = estimated_relative_l1(a, b);
     if (!biased) return {noise, noise, 0.0, 0.0};
     // Per block and channel, sums over its pixels of the mean bias image r, of r^2, of
@@ -400,10 +404,12 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
     // The spread of r over each block (its pixels' variance), and the same pooled over
     // the block and its eight neighbours: r's noise is heavy-tailed (a few probed rays
     // a block), and one block's spread alone too uncertain a measure of it.
-    std::vector<Rgb> spread(blocks.size(), Rgb::Zero());
+    // Pooled as squared deviations over degrees of freedom, so that a block of one pixel
+    // (an image's corner) adds nothing to its neighbours' measure.
+    std::vector<Rgb> squares(blocks.size(), Rgb::Zero());
     for (std::size_t i = 0; i < blocks.size(); ++i) {
         const Block& B = blocks[i];
-        if (B.n > 1.0) spread[i] = ((B.r2 / B.n - (B.r / B.n).square()).max(0.0)) * (B.n / (B.n - 1.0));
+        squares[i] = (B.r2 - B.r.square() / B.n).max(0.0);
     }
     const double root_two = std::sqrt(2.0), root_two_over_pi = std::sqrt(2.0 / M_PI);
     double sum = 0.0, bias = 0.0, truth = 0.0;
@@ -411,13 +417,14 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
         const Block& B = blocks[i];
         const int bx = static_cast<int>(i) % bw, by = static_cast<int>(i) / bw;
         Rgb pooled = Rgb::Zero();
-        int neighbours = 0;
+        double freedom = 0.0;
         for (int y = std::max(0, by - 1); y <= std::min(bh - 1, by + 1); ++y)
             for (int x = std::max(0, bx - 1); x <= std::min(bw - 1, bx + 1); ++x) {
-                pooled += spread[static_cast<std::size_t>(y) * bw + x];
-                ++neighbours;
+                const std::size_t j = static_cast<std::size_t>(y) * bw + x;
+                pooled += squares[j];
+                freedom += blocks[j].n - 1.0;
             }
-        pooled /= neighbours;
+        if (freedom > 0.0) pooled /= freedom;
         for (int c = 0; c < 3; ++c) {
             // The block's error: the mean of r less its pixels' own noise (their variance
             // over n), with the sign of that mean.
@@ -555,7 +562,9 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     // Half A's pass again, its samples, chain B's field (see Shape); none for the patch image.
     auto probe = [&](double scale, std::uint64_t pass, const sampling::RunOptions& r) {
         if (!o.gather) return Image();
-        return final_gather(scene, caster, segment[1], camera, pass_options(scale, pass), r).image;
+        GatherOptions g = pass_options(scale, pass);
+        g.bias_probe = 0.0;  // its image is all that is used
+        return final_gather(scene, caster, segment[1], camera, g, r).image;
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.image = image;

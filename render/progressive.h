@@ -39,7 +39,10 @@
 // where the halves' rule has only its expectation: the two differ most where that noise
 // is a few large patterns (docs/final-image.md section 14). ErrorEstimate has both, and
 // the probed error's part that is beta ("bias"; the field's noise is in it too, and
-// falls as the rounds go on, the bias does not). Still not in it: the visibility maps' resolution where the field is read
+// falls as the rounds go on, the bias does not). A block's mean sees what does not
+// cancel within it: the filter's blur across an edge inside a block (too bright on one
+// side, too dark on the other) is missed, and so are pixels whose guide sample met
+// nothing while their further samples meet a surface (a silhouette against the sky). Still not in it: the visibility maps' resolution where the field is read
 // directly (the patch image), the diffuse shot's quadrature, the shadow ratio's bias in
 // penumbrae, the glossy rays' field readings, and walks truncated at D bounces in the
 // patch image. The edge-avoiding A-Trous filter weighs by colour, is not linear, and
@@ -59,11 +62,12 @@
 // its own streams. The rounds:
 //   - no target and no time budget: one round of scale 1, the budget as given;
 //   - target_error E: a first round of scale 1/4, then each round sized by an error
-//     model (below) calibrated to the noise estimate: the scale that brings the noise to
-//     sqrt(E'^2 - bias^2), E' = E / 1.05, from an eighth to 8 times the scale so far;
-//     until the estimate is at most E, 1024 times the options' budget is spent, or
-//     from the third round on the probed error is E or more and fell by less than a
-//     tenth while the budget doubled (a bias: more rounds do not lower it; GatherOptions::correction does);
+//     model (below) calibrated to the estimate: the scale that reaches E with 5 % to
+//     spare, from an eighth to 8 times the scale so far; until the estimate is at
+//     most E, 1024 times the options' budget is spent, or in two rounds in a row the
+//     probed error's bias part is E or more and fell by less than a tenth since the
+//     budget was half what it is (a bias: more rounds do not lower it;
+//     GatherOptions::correction does);
 //   - time_budget S (what is left of it once the scene is prepared, render/run.h):
 //     rounds sized by the seconds per unit of scale so far to fill S,
 //     until a round worth at least an eighth of the scale so far no longer fits; the
@@ -218,7 +222,7 @@ double estimated_relative_l1(const Image& a, const Image& b);
 
 // The estimate with the halves' bias images bias_a and bias_b (see above; both empty:
 // no bias, total = noise) over blocks of `block` pixels. Throws std::invalid_argument
-// for sizes that differ.
+// for sizes that differ or a block below 2.
 ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a, const Image& bias_b, int block = 8);
 
 }  // namespace raybundle::render

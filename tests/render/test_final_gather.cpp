@@ -199,6 +199,8 @@ TEST_CASE("final gather: spread over a team by rows, every member makes the imag
                 CHECK(r.gather_rays == alone.gather_rays);
                 CHECK(r.shadow_rays == alone.shadow_rays);
                 CHECK(r.lookups == alone.lookups);
+                CHECK(r.bias.rgb == alone.bias.rgb);  // the probe's rows shared too
+                CHECK(r.bias_rays == alone.bias_rays);
             }
         }
     }
