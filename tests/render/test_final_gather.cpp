@@ -44,6 +44,13 @@ solver::RadianceField solve(const scenes::Scene& scene, long steps, bool diffuse
 }
 
 // The default solver's field after `steps` steps, with the diffuse shot.
+// The mean over pixels and channels.
+double mean_of(const render::Image& img) {
+    double s = 0.0;
+    for (float v : img.rgb) s += v;
+    return s / static_cast<double>(img.rgb.size());
+}
+
 solver::RadianceField diffuse_shot_field(const scenes::Scene& scene, long steps) {
     const solver::Transport transport(scene, solver::ShotOptions{true});
     solver::SolverOptions so;
@@ -527,11 +534,6 @@ TEST_CASE("final gather: the field as a control variate converges to the truth f
     wrong.radiance.assign(scene.patch_list().size(), Rgb::Constant(0.7));
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
-    auto mean_of = [](const render::Image& img) {
-        double s = 0.0;
-        for (float v : img.rgb) s += v;
-        return s / static_cast<double>(img.rgb.size());
-    };
     render::GatherOptions o = guide_only_gather();
     o.gather_rays = 256;
     o.filter.filter = render::Filter::none;
@@ -570,11 +572,6 @@ TEST_CASE("final gather: the correction takes out light a field leaks through a 
     o.gather_rays = 64;
     o.filter.filter = render::Filter::none;
     o.correction = 0.0;
-    auto mean_of = [](const render::Image& img) {
-        double s = 0.0;
-        for (float v : img.rgb) s += v;
-        return s / static_cast<double>(img.rgb.size());
-    };
     const double leaked = mean_of(render::final_gather(scene, caster, field, render::PinholeCamera(scene.camera), o, {}).image);
     o.correction = 0.5;
     const double corrected = mean_of(render::final_gather(scene, caster, field, render::PinholeCamera(scene.camera), o, {}).image);
@@ -593,11 +590,6 @@ TEST_CASE("final gather: the bias probe measures a wrong field's error and leave
     scene.camera.width = scene.camera.height = 16;
     const scenes::RayCaster caster(scene);
     const render::PinholeCamera camera(scene.camera);
-    auto mean_of = [](const render::Image& img) {
-        double s = 0.0;
-        for (float v : img.rgb) s += v;
-        return s / static_cast<double>(img.rgb.size());
-    };
     render::GatherOptions o = guide_only_gather();
     o.gather_rays = 256;
     o.filter.filter = render::Filter::none;

@@ -341,33 +341,47 @@ private:
     long steps_ = 0;
 };
 
+// The homogeneous box at 32x32 (1 everywhere) made in rounds from chains whose field
+// is 0.7 everywhere, with `rays` gather rays and `spp` camera and light samples.
+struct WrongFieldBox {
+    scenes::Scene scene;
+    scenes::RayCaster caster;
+    solver::RadianceField field;
+    render::FieldImageOptions io;
+    WrongFieldBox(int rays, int spp) : scene(box(32)), caster(scene) {
+        field.radiance.assign(scene.patch_list().size(), scenes::Rgb::Constant(0.7));
+        io.gather_options = guide_only_gather();
+        io.steps = 10;
+        io.gather_options.gather_rays = rays;
+        io.gather_options.spp = spp;
+        io.gather_options.direct_samples = spp;
+    }
+    static scenes::Scene box(int size) {
+        auto s = scenes::make_builtin("homogeneous-box", 0.25);
+        s.camera.width = s.camera.height = size;
+        return s;
+    }
+    render::FieldImage made(const render::RoundOptions& ro, const sampling::RunOptions& run) const {
+        FixedChain a(field), b(field);
+        return render::field_image(scene, caster, render::PinholeCamera(scene.camera), a, b, io, ro, run);
+    }
+};
+
 }  // namespace
 
 TEST_CASE("error estimate: a run whose field is wrong sees its bias", "[render][progressive][bias]") {
     // Both chains hold a field of 0.7 on the homogeneous box (the truth is 1): the
     // halves agree, and the image is about 14 % too dark. The estimate sees that with
     // the bias probe (its default), and only its noise without it.
-    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
-    scene.camera.width = scene.camera.height = 32;
-    const scenes::RayCaster caster(scene);
-    const render::PinholeCamera camera(scene.camera);
-    solver::RadianceField wrong;
-    wrong.radiance.assign(scene.patch_list().size(), scenes::Rgb::Constant(0.7));
-    render::FieldImageOptions io;
-    io.gather_options = guide_only_gather();
-    io.steps = 10;
-    io.gather_options.gather_rays = 64;
-    io.gather_options.spp = 4;
-    io.gather_options.direct_samples = 4;
+    WrongFieldBox box(64, 4);
     sampling::RunOptions run;
     run.threads = 2;
     run.seed = 3;
     render::Image one(32, 32);
     one.rgb.assign(one.rgb.size(), 1.0f);
     for (const double probe : {render::GatherOptions{}.bias_probe, 0.0}) {
-        io.gather_options.bias_probe = probe;
-        FixedChain a(wrong), b(wrong);
-        const auto made = render::field_image(scene, caster, camera, a, b, io, {}, run);
+        box.io.gather_options.bias_probe = probe;
+        const auto made = box.made({}, run);
         const double error = render::relative_l1(made.image, one);
         const auto& e = made.rounds.parts;
         INFO("probe " << probe << ": true error " << error << ", estimated " << e.total << " (noise " << e.noise
@@ -388,23 +402,12 @@ TEST_CASE("target error: a bias above the target stops the rounds, named", "[ren
     // The field of 0.7 on the homogeneous box again (about 14 % off): no round lowers
     // that, and a target of 5 % stops once two rounds in a row find the bias where it
     // was at half the budget, not after 1024 times the options' budget.
-    auto scene = scenes::make_builtin("homogeneous-box", 0.25);
-    scene.camera.width = scene.camera.height = 32;
-    const scenes::RayCaster caster(scene);
-    solver::RadianceField wrong;
-    wrong.radiance.assign(scene.patch_list().size(), scenes::Rgb::Constant(0.7));
-    render::FieldImageOptions io;
-    io.gather_options = guide_only_gather();
-    io.steps = 10;
-    io.gather_options.gather_rays = 16;
-    io.gather_options.spp = 2;
-    io.gather_options.direct_samples = 2;
+    const WrongFieldBox box(16, 2);
     render::RoundOptions ro;
     ro.target_error = 0.05;
     sampling::RunOptions run;
     run.threads = 2;
-    FixedChain a(wrong), b(wrong);
-    const auto made = render::field_image(scene, caster, render::PinholeCamera(scene.camera), a, b, io, ro, run);
+    const auto made = box.made(ro, run);
     const auto& r = made.rounds;
     INFO("rounds " << r.rounds.size() << ", scale " << r.scale << ", estimate " << r.estimate << " (bias "
                    << r.parts.bias << "), stopped: " << r.stopped);
