@@ -254,8 +254,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         auto model = [&](double x) {
             return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
         };
-        const double calibrate =
-            shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
+        const double calibrate = shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
         double next = 8.0 * out.scale;
         if (target) {
             const double want = std::pow(o.target_error / 1.05, 2);
