@@ -195,10 +195,17 @@ void add_solve_options(CLI::App& cmd, Command& c) {
                              ->check(choices(render::kDirectLightNames)));
     f.row("glossy_rays", yes, value("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
                                   ->check(CLI::Range(0, 1 << 16)));
-    f.row("correction", yes, value("--correction", g.correction, "final gather: probability Q that a ray reading the solved field "
-                                                               "goes on and corrects it (the field as a control variate: "
-                                                               "converges to the true image; 0: the field as the answer)")
-                                 ->check(kFinite & CLI::Range(0.0, 1.0)));
+    f.row("correction", yes,
+          parsed("--correction",
+                 [&c, &g](const std::string& v) {
+                     c.config.auto_correction = v == "auto";
+                     g.correction = c.config.auto_correction ? 0.0 : std::stod(v);
+                 },
+                 "final gather: auto (read the field or correct it, as the bias probe finds pays) or the probability Q "
+                 "that a ray reading the solved field goes on and corrects it (the field as a control variate: "
+                 "converges to the true image; 0: the field as the answer)")
+              ->check(CLI::IsMember({"auto"}) | (kFinite & CLI::Range(0.0, 1.0)))
+              ->default_str("auto"));
     f.row("bias_probe", yes, value("--bias-probe", g.bias_probe, "final gather without --correction: probability that a gather "
                                                                "ray is also followed as the correction would, apart from the "
                                                                "image, so that the estimated error sees the field's bias (0: off)")

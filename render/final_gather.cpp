@@ -187,6 +187,16 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     r.filter_radius = filter.radius;
     r.indirect_filtered = filter_indirect(r.indirect, r.normal, r.depth, r.position, scene.bounds_center(),
                                           depth_scale, depth_scale, filter, run.threads);
+    // With the probe: E with its corrections, filtered (for a linear filter that is
+    // filtered E plus the filtered corrections); the image adds the difference below.
+    Image corrected_filtered, corrected_indirect;
+    if (probe) {
+        corrected_indirect = r.indirect;
+        for (std::size_t k = 0; k < corrected_indirect.rgb.size(); ++k) corrected_indirect.rgb[k] += field_error.rgb[k];
+        corrected_filtered = filter_indirect(corrected_indirect, r.normal, r.depth, r.position, scene.bounds_center(),
+                                             depth_scale, depth_scale, filter, run.threads);
+        r.corrected_bias = Image(W, H);
+    }
     // What the filter and the field take from the truth, as the image reads them.
     r.bias = Image(W, H);
     r.bias_probed = probe || o.correction > 0.0;
@@ -194,10 +204,18 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         for (int x = 0; x < W; ++x) {
             const int patch = guide_patch[static_cast<std::size_t>(y) * W + x];
             if (patch < 0) continue;
+            const Rgb albedo = scene.material_of(patch).albedo;
             put(r.bias, x, y,
-                scene.material_of(patch).albedo *
-                    (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
+                albedo * (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
+            if (probe)
+                put(r.corrected_bias, x, y,
+                    albedo * (get(corrected_filtered, x, y) - get(corrected_indirect, x, y)));
         }
+    // What the probe's corrections add to the guide's filtered E.
+    auto added = [&](int x, int y) {
+        return probe ? Rgb(get(corrected_filtered, x, y) - get(r.indirect_filtered, x, y)) : Rgb(Rgb::Zero());
+    };
+    Image correction_added = probe ? Image(W, H) : Image();
     if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 
@@ -217,11 +235,13 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
         long cam = 0, shadow = 0, gathered = 0, looked = 0, crossed = 0;  // stored once a row, as in pass 1
         for (int x = 0; x < W; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * W + x;
-            Rgb sum = Rgb::Zero();
+            Rgb sum = Rgb::Zero(), more = Rgb::Zero();  // more: the probe's corrections
             if (o.spp == 1) {
                 sum = get(r.direct, x, y);  // the background's sky, if any, on a guide that met nothing
-                if (guide_patch[p] >= 0)
+                if (guide_patch[p] >= 0) {
                     sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
+                    more = scene.material_of(guide_patch[p]).albedo * added(x, y);
+                }
             } else {
                 // A stream of its own, so that the guide pass is the same with any spp.
                 sampling::Rng rng(run.seed, sampling::streams::kSamplePixels(o.pass, p, 32));
@@ -276,6 +296,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     if (best >= 0) {
                         const auto [bx, by] = cand_xy[static_cast<std::size_t>(best)];
                         L += scene.material_of(hit.patch).albedo * get(r.indirect_filtered, bx, by);
+                        more += scene.material_of(hit.patch).albedo * added(bx, by);
                         ++looked;
                         if (std::abs(cand_d[static_cast<std::size_t>(best)] - hit.t) > 0.1 * hit.t) ++crossed;
                     }
@@ -283,8 +304,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                 }
                 put(r.direct, x, y, direct / o.spp + seen);
                 sum = sum / o.spp + seen;
+                more /= o.spp;
             }
             put(r.image, x, y, sum);
+            if (probe) put(correction_added, x, y, more);
         }
         camera_rays[y] += cam;
         shadow_rays[y] += shadow;
@@ -295,6 +318,11 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     });
     block.share(r.image);
     block.share(r.direct);
+    if (probe) {
+        block.share(correction_added);
+        r.corrected = r.image;
+        for (std::size_t k = 0; k < r.corrected.rgb.size(); ++k) r.corrected.rgb[k] += correction_added.rgb[k];
+    }
     for (auto* counts : {&camera_rays, &shadow_rays, &gather_rays, &bias_rays, &lookups, &across}) block.share(*counts);
     const auto t3 = Clock::now();
     for (int y = 0; y < H; ++y) {

@@ -123,6 +123,12 @@ struct GatherResult {
     // Whether it holds the field's error: the probe ran, or the correction took the
     // field's error out of the image (else it holds the filter's departure alone).
     bool bias_probed = false;
+    // With the probe on: the image as the correction at rate bias_probe would make it
+    // (the probe's corrections added to E before the filter, then composed as the
+    // image is), unbiased whatever the field, noisier; and its bias image (the
+    // filter's departure alone). Empty without a probe. render/progressive.h chooses
+    // between the two (GatherOptions::correction "auto").
+    Image corrected, corrected_bias;
     long camera_rays = 0, shadow_rays = 0, gather_rays = 0, bias_rays = 0;
     int filter_radius = 0;  // the radius the filter used (of the last pass: rounds may vary)
     // Extra samples that took their indirect light from a guide (spp > 1), and those

@@ -9,10 +9,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <mutex>
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <utility>
 
 namespace raybundle::render {
 
@@ -91,9 +93,19 @@ struct Shape {
     double field = -1.0;  // e_f / e_total of the latest probed round (negative: not probed)
 };
 
-// One half's pass: its image and, from the final gather, its bias image (else empty).
+// One half's pass: its image and, from the final gather, its bias image (else empty);
+// with the bias probe, the image as the probe's corrections make it and its bias image,
+// and the probe's share of the pass's rays (else empty, 0).
 struct Pass {
-    Image image, bias;
+    Image image, bias, corrected, corrected_bias;
+    double probe_share = 0.0;
+    explicit Pass(Image i, Image b = Image()) : image(std::move(i)), bias(std::move(b)) {}
+};
+
+// The correction "auto" for run_rounds: on, and the probe's rate.
+struct AutoCorrection {
+    bool on = false;
+    double probe = 0.0;
 };
 
 // What a round's advance did: all its steps; all, and told to stop after the round;
@@ -107,19 +119,25 @@ enum class Advanced { all, last, cut, nothing_new };
 // estimate.
 template <class Advance, class Render, class Probe, class After>
 Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advance advance, Render render, Probe probe,
-                  After after) {
+                  After after, const AutoCorrection& automatic = {}) {
     check(o);
     Rounds out;
-    Image sum[2], bias_sum[2];  // per half: sums over rounds of scale * pass
+    // Per half: sums over rounds of scale * pass, as read (U) and corrected (C: the
+    // probe's corrections added where a round has them; the same as U where not).
+    Image sum[2], bias_sum[2], csum[2], cbias_sum[2];
+    double q = 0.0;            // the correction the rounds run with
+    bool use_corrected = false;
+    double probe_share = 0.0;  // the latest probed pass's
+    double render_since = 0.0, scale_since = 0.0;  // render seconds and scale since q last changed
     double estimate = -1.0;
     long round = 0;
     sampling::RunOptions inner = run;
     if (run.progress)
         inner.progress = [&](const sampling::Progress& p) {
-            sampling::Progress q = p;
-            q.round = round;
-            q.estimate = estimate;
-            run.progress(q);
+            sampling::Progress shown = p;
+            shown.round = round;
+            shown.estimate = estimate;
+            run.progress(shown);
         };
     const bool target = o.target_error > 0.0, timed = o.time_budget > 0.0;
     Shape shape;
@@ -162,7 +180,12 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         Image pass_image[2];
         for (int h = 0; h < 2; ++h) {
             const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
-            Pass made = render(h, scale, pass, half_run(inner, h));
+            Pass made = render(h, scale, pass, q, half_run(inner, h));
+            const bool probed_pass = !made.corrected.rgb.empty();
+            add_scaled(csum[h], probed_pass ? made.corrected : made.image, scale);
+            if (!made.bias.rgb.empty())
+                add_scaled(cbias_sum[h], probed_pass ? made.corrected_bias : made.bias, scale);
+            if (probed_pass) probe_share = made.probe_share;
             pass_image[h] = std::move(made.image);
             add_scaled(sum[h], pass_image[h], scale);
             if (!made.bias.rgb.empty()) add_scaled(bias_sum[h], made.bias, scale);
@@ -185,21 +208,53 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         }
         out.seconds_solve += std::chrono::duration<double>(t1 - t0).count();
         out.seconds_render += std::chrono::duration<double>(t2 - t1).count();
+        render_since += std::chrono::duration<double>(t2 - t1).count();
+        scale_since += scale;
         const double probe_seconds = since(t2);
         out.seconds_probe += probe_seconds;
         out.scale += scale;
         steps_total += steps;
         field_sum += scale * scale / steps;
-        const Image a = scaled(sum[0], 1.0 / out.scale), b = scaled(sum[1], 1.0 / out.scale);
-        const ErrorEstimate parts =
-            bias_sum[0].rgb.empty() || bias_sum[1].rgb.empty()
-                ? estimate_error(a, b, Image(), Image())
-                : estimate_error(a, b, scaled(bias_sum[0], 1.0 / out.scale), scaled(bias_sum[1], 1.0 / out.scale));
+        // Both halves' means so far, and their estimate.
+        auto estimated = [&](const Image (&s)[2], const Image (&bs)[2]) {
+            std::pair<Image, Image> halves{scaled(s[0], 1.0 / out.scale), scaled(s[1], 1.0 / out.scale)};
+            const ErrorEstimate e =
+                bs[0].rgb.empty() || bs[1].rgb.empty()
+                    ? estimate_error(halves.first, halves.second, Image(), Image())
+                    : estimate_error(halves.first, halves.second, scaled(bs[0], 1.0 / out.scale),
+                                     scaled(bs[1], 1.0 / out.scale));
+            return std::pair{std::move(halves), e};
+        };
+        auto [halves, parts] = estimated(sum, bias_sum);
+        // The correction "auto": C where its estimate is lower (always, once the rounds
+        // correct); U's figures kept for the choice of q below.
+        CorrectionInputs weighed;
+        double corrected_noise = -1.0;
+        const bool weigh = automatic.on && q == 0.0 && !csum[0].rgb.empty() && probe_share > 0.0;
+        if (automatic.on && !csum[0].rgb.empty()) {
+            auto [chalves, cparts] = estimated(csum, cbias_sum);
+            if (q == 0.0) corrected_noise = cparts.noise;
+            if (weigh) {
+                weighed.probe = automatic.probe;
+                weighed.noise = parts.noise;
+                weighed.bias = parts.shared;
+                weighed.corrected_noise = cparts.noise;
+                weighed.corrected_bias = cparts.shared;
+                weighed.scale = out.scale;
+            }
+            use_corrected = q > 0.0 || cparts.total < parts.total;
+            if (use_corrected) {
+                halves = std::move(chalves);
+                parts = cparts;
+            }
+        }
+        const Image& a = halves.first;
+        const Image& b = halves.second;
         estimate = parts.total;
         Image mean = a;
         for (std::size_t k = 0; k < mean.rgb.size(); ++k) mean.rgb[k] = 0.5f * (a.rgb[k] + b.rgb[k]);
         const double spent = since(start);
-        out.rounds.push_back({scale, steps, spent, estimate, parts});
+        out.rounds.push_back({scale, q, use_corrected, corrected_noise, {}, steps, spent, estimate, parts});
         out.estimate = estimate;
         out.parts = parts;
         after(round, mean, estimate, spent);
@@ -245,7 +300,8 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             out.stopped = "the most rounds a run has streams for";
             break;
         }
-        const double t_s = out.seconds_solve / steps_total, t_g = out.seconds_render / out.scale;
+        // Render seconds per unit of scale at the correction the rounds now run with.
+        const double t_s = out.seconds_solve / steps_total, t_g = render_since / scale_since;
         if (probed && G > 0.0 && t_s > 0.0 && t_g > 0.0)
             shape.steps = std::clamp(std::sqrt(F / G * (timed ? t_g / t_s : 1.0)), 0.125, 8.0);
         // The squared error after a further round of scale x, by the model of the noise,
@@ -255,7 +311,9 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
         };
         const double calibrate = shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
-        double next = 8.0 * out.scale;
+        // While the correction "auto" is undecided, rounds at most double the budget so
+        // far: more moments to decide at, each with more of the bias seen.
+        double next = (weigh ? 1.0 : 8.0) * out.scale;
         if (target) {
             const double want = std::pow(o.target_error / 1.05, 2);
             if (calibrate > 0.0) {
@@ -288,10 +346,40 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             }
             next = std::min(next, fits);
         }
+        if (weigh) {
+            // The probe's share of the rounds' cost (of the render's rays, times the
+            // render's share of the time; without a time budget the seconds are not used,
+            // t_g = t_s as for the shape, so that the choice depends on the seed alone),
+            // and the budget to come at that cost: what fits in the time, else the
+            // target's largest next round.
+            weighed.probe_cost = timed ? probe_share * t_g / (t_s * shape.steps + t_g) : probe_share / (shape.steps + 1.0);
+            weighed.more = timed ? (o.time_budget - spent) / (t_s * shape.steps + t_g) : 8.0 * out.scale;
+            const CorrectionPlan plan = choose_correction(weighed);
+            out.rounds.back().plan = plan;
+            if (plan.q > 0.0) {
+                q = plan.q;
+                // The rounds' render cost rises with the paths: the next round is sized
+                // at the new cost, and the cost measured anew from it.
+                if (timed) next /= 1.0 + weighed.probe_cost * (q / automatic.probe - 1.0);
+                render_since = scale_since = 0.0;
+                char line[160];
+                std::snprintf(line, sizeof line,
+                              "after round %ld: correcting at q = %g (predicted %.3g %% against %.3g %% reading the field)",
+                              round, q, 100.0 * plan.predicted, 100.0 * plan.reading);
+                out.correction_choice = line;
+            }
+        }
         scale = next;
     }
     out.steps_share = shape.steps;
     out.field_share = shape.field;
+    if (automatic.on) {
+        out.correction = q;
+        out.corrected = use_corrected;
+        if (out.correction_choice.empty())
+            out.correction_choice = use_corrected ? "the probe's corrections: their estimate is the lower"
+                                                  : "the field read as the answer: its estimate is the lower";
+    }
     return out;
 }
 
@@ -372,13 +460,14 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
         throw std::invalid_argument("bias image sizes differ from the image's");
     if (block < 2) throw std::invalid_argument("block must be >= 2");
     const double noise = estimated_relative_l1(a, b);
-    if (!biased) return {noise, noise, 0.0, 0.0};
+    if (!biased) return {noise, noise, 0.0, 0.0, 0.0};
     // Per block and channel, sums over its pixels of the mean bias image r, of r^2, of
     // the half-difference h = (a - b) / 2, and of |h - its block mean| (a second pass).
     const int bw = (a.width + block - 1) / block, bh = (a.height + block - 1) / block;
     struct Block {
         double n = 0.0;
-        Rgb r = Rgb::Zero(), r2 = Rgb::Zero(), h = Rgb::Zero(), deviation = Rgb::Zero();
+        Rgb r = Rgb::Zero(), r2 = Rgb::Zero(), h = Rgb::Zero(), deviation = Rgb::Zero(), ra = Rgb::Zero(),
+            rb = Rgb::Zero();
     };
     std::vector<Block> blocks(static_cast<std::size_t>(bw) * bh);
     for (int y = 0; y < a.height; ++y)
@@ -390,6 +479,8 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
                 const double r = 0.5 * (static_cast<double>(ba[c]) + bb[c]), h = 0.5 * (static_cast<double>(pa[c]) - pb[c]);
                 B.r[c] += r;
                 B.r2[c] += r * r;
+                B.ra[c] += ba[c];
+                B.rb[c] += bb[c];
                 B.h[c] += h;
             }
         }
@@ -411,7 +502,7 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
         squares[i] = (B.r2 - B.r.square() / B.n).max(0.0);
     }
     const double root_two = std::sqrt(2.0), root_two_over_pi = std::sqrt(2.0 / M_PI);
-    double sum = 0.0, bias = 0.0, truth = 0.0;
+    double sum = 0.0, bias = 0.0, truth = 0.0, shared = 0.0, shared_spread = 0.0;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
         const Block& B = blocks[i];
         const int bx = static_cast<int>(i) % bw, by = static_cast<int>(i) / bw;
@@ -439,6 +530,11 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
                                             beta * std::erf(beta / (sigma * root_two))
                                       : beta);
             bias += B.n * beta;
+            // n times the product of the halves' means, mA mB = (beta + eA) (beta + eB), and
+            // its variance from (mA - mB)^2, which estimates var eA + var eB.
+            const double ma = B.ra[c] / B.n, mb = B.rb[c] / B.n, d2 = (ma - mb) * (ma - mb);
+            shared += B.n * ma * mb;
+            shared_spread += B.n * B.n * (std::max(0.0, ma * mb) * d2 + 0.25 * d2 * d2);
             // The truth's sum: the image less the block's error, pixel by pixel.
             const double error = m < 0.0 ? -beta : beta;
             for (int y = by * block; y < std::min(a.height, (by + 1) * block); ++y)
@@ -446,13 +542,36 @@ ErrorEstimate estimate_error(const Image& a, const Image& b, const Image& bias_a
                     truth += std::abs(0.5 * (static_cast<double>(a.at(x, y)[c]) + b.at(x, y)[c]) - error);
         }
     }
-    if (truth <= 0.0) return {noise, noise, 0.0, 0.0};
+    if (truth <= 0.0) return {noise, noise, 0.0, 0.0, 0.0};
     ErrorEstimate out;
+    const double values = 3.0 * a.width * a.height;
+    // Less twice its standard error: a bias that the noise could make is not counted;
+    // one that stands out of it is, and more so as the noise falls.
+    out.shared = std::sqrt(std::max(0.0, shared - 2.0 * std::sqrt(shared_spread)) / values) / (truth / values);
     out.noise = noise;
     out.probed = sum / truth;
     out.bias = bias / truth;
     out.total = out.probed;
     return out;
+}
+
+CorrectionPlan choose_correction(const CorrectionInputs& in) {
+    CorrectionPlan plan;
+    const double R = in.scale, P = in.probe, n2 = in.noise * in.noise;
+    if (!(R > 0.0) || !(P > 0.0)) return plan;
+    const double b2 = in.bias * in.bias, f2 = in.corrected_bias * in.corrected_bias;
+    const double c2 = std::max(0.0, in.corrected_noise * in.corrected_noise - n2);
+    plan.reading = std::sqrt(b2 + n2 * R / (R + in.more));
+    plan.predicted = plan.reading;
+    if (!(in.more > 0.0)) return plan;  // no rounds to come: nothing to choose
+    for (const double q : {0.125, 0.25, 0.5, 1.0}) {
+        if (q < P) continue;
+        const double x = in.more / (1.0 + in.probe_cost * (q / P - 1.0));
+        const double e = std::sqrt(f2 + n2 * R / (R + x) + c2 * R * (R + x * P / q) / ((R + x) * (R + x)));
+        if (plan.q == 0.0 || e < plan.predicted) plan = {q, e, plan.reading};
+    }
+    if (plan.predicted > plan.reading * (1.0 + in.tolerance)) return {0.0, plan.reading, plan.reading};
+    return plan;
 }
 
 long chain_steps(long steps, const RoundOptions& rounds) { return half_of(steps, first_scale(rounds)); }
@@ -534,8 +653,9 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         }
         return Advanced::all;
     };
-    auto pass_options = [&](double scale, std::uint64_t pass) {
+    auto pass_options = [&](double scale, std::uint64_t pass, double correction) {
         GatherOptions g = o.gather_options;
+        if (o.auto_correction) g.correction = correction;
         g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
         // A pixel of one sample is its centre (spp = 1): passes of a pixel's area keep two.
         g.spp = static_cast<int>(half_of(g.spp, scale, g.spp > 1 ? 2 : 1));
@@ -543,7 +663,8 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         g.pass = pass;
         return g;
     };
-    auto render = [&](int h, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+    double correction = o.gather_options.correction;  // of the latest pass, for the field's probe
+    auto render = [&](int h, double scale, std::uint64_t pass, double q, const sampling::RunOptions& r) {
         FieldChain& chain = *chains[h];
         solver::RadianceField now = chain.field();
         const long n = chain.averaged();
@@ -552,16 +673,26 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                                    std::to_string(n) + "): give it SolverOptions::steps = chain_steps()");
         segment[h] = between(seen[h].field, seen[h].n, now, n);
         seen[h] = {std::move(now), n};
-        if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading), Image()};
-        GatherResult result = final_gather(scene, caster, segment[h], camera, pass_options(scale, pass), r);
+        if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading)};
+        const GatherOptions g = pass_options(scale, pass, q);
+        correction = g.correction;
+        GatherResult result = final_gather(scene, caster, segment[h], camera, g, r);
         add_gather(gathered, result, scale);
         // Without the probe the bias image lacks the field's error: the halves' rule alone.
-        return Pass{std::move(result.image), result.bias_probed ? std::move(result.bias) : Image()};
+        Pass made{std::move(result.image), result.bias_probed ? std::move(result.bias) : Image()};
+        if (o.auto_correction && !result.corrected.rgb.empty()) {
+            made.corrected = std::move(result.corrected);
+            made.corrected_bias = std::move(result.corrected_bias);
+            const double rays = static_cast<double>(result.camera_rays + result.shadow_rays + result.gather_rays +
+                                                    result.bias_rays);
+            made.probe_share = rays > 0.0 ? result.bias_rays / rays : 0.0;
+        }
+        return made;
     };
     // Half A's pass again, its samples, chain B's field (see Shape); none for the patch image.
     auto probe = [&](double scale, std::uint64_t pass, const sampling::RunOptions& r) {
         if (!o.gather) return Image();
-        GatherOptions g = pass_options(scale, pass);
+        GatherOptions g = pass_options(scale, pass, correction);
         g.bias_probe = 0.0;  // its image is all that is used
         return final_gather(scene, caster, segment[1], camera, g, r).image;
     };
@@ -579,7 +710,10 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         s.round = round;
         observe(s);
     };
-    out.rounds = run_rounds(rounds, run, advance, render, probe, after);
+    const AutoCorrection automatic{o.gather && o.auto_correction && o.gather_options.correction == 0.0 &&
+                                       o.gather_options.bias_probe > 0.0,
+                                   o.gather_options.bias_probe};
+    out.rounds = run_rounds(rounds, run, advance, render, probe, after, automatic);
     if (o.gather) {
         // Both halves of every pass were added with their round's scale.
         const double w = 1.0 / (2.0 * out.rounds.scale);
@@ -599,7 +733,7 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
     if (o.spp < 1) throw scenes::OptionError("spp", "must be >= 1, got " + std::to_string(o.spp));
     TracedImage out;
     auto advance = [](double, const sampling::RunOptions&) { return Advanced::all; };
-    auto render = [&](int, double scale, std::uint64_t pass, const sampling::RunOptions& r) {
+    auto render = [&](int, double scale, std::uint64_t pass, double, const sampling::RunOptions& r) {
         PathTraceOptions p = o;
         p.spp = static_cast<int>(half_of(o.spp, scale));
         p.pass = pass;
@@ -607,7 +741,7 @@ TracedImage traced_image(const scenes::Scene& scene, const scenes::RayCaster& ca
         out.traced.paths += traced.paths;
         out.traced.rays += traced.rays;
         out.traced.seconds += traced.seconds;
-        return Pass{std::move(traced.image), Image()};
+        return Pass{std::move(traced.image)};
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.traced.image = image;

@@ -74,6 +74,20 @@
 //     first round always runs, its steps cut to what fits in an eighth of S once a
 //     quarter of them is timed;
 //   - both: whichever stops first.
+// The correction, "auto" (FieldImageOptions::auto_correction; the run's default). With
+// the bias probe on, a pass also comes as the correction at the probe's rate P would
+// make it (GatherResult::corrected: unbiased whatever the field, noisier), so every
+// round has two images: U, the field read as the answer, and C, corrected. The run
+// shows whichever of the two has the lower estimated error (the probed estimate of
+// each); and before each round, while the rounds read the field, it predicts the final
+// error of going on as now against going on with the correction at q (1/8, 1/4, 1/2,
+// 1: paths instead of the probe, at their cost) from what it has measured
+// (choose_correction), and switches to the best q for good: the image is then C, the
+// probed rounds before counted with their corrections. As the budget grows, the halves'
+// noise falls and the field's bias does not, so the choice goes to C: the image
+// converges to the scene's true light whatever the field (docs/final-image.md
+// section 15).
+//
 // With a target or a time budget the first two rounds also measure how much of the
 // estimate is the field's noise (a probe: half A's samples again, on chain B's field)
 // and set the share of the steps for the rounds after them: the solve gets more where
@@ -119,10 +133,26 @@ struct RoundOptions {
 // none).
 struct ErrorEstimate {
     double total = -1.0, noise = -1.0, probed = -1.0, bias = -1.0;
+    // The bias both halves share, as a root mean square over the image relative to the
+    // truth's mean |value|: from the products of the halves' block means of r, whose
+    // expectation is the square of the error they have in common (the chains' noise is
+    // independent between the halves, the field's bias is not), less twice the sum's
+    // standard error: what stands out of the noise. 0 without bias images.
+    double shared = -1.0;
+};
+
+struct CorrectionPlan {
+    double q = 0.0;           // 0: go on reading the field
+    double predicted = 0.0;   // its predicted final error
+    double reading = 0.0;     // the predicted final error of reading the field
 };
 
 struct Round {
     double scale = 0.0;     // its share of the budget (camera samples, gather rays)
+    double correction = 0.0;  // the correction it ran with (GatherOptions::correction)
+    bool corrected = false; // the image after it is the corrected one (C)
+    double corrected_noise = -1.0;  // C's halves' rule while the rounds probe (negative: none)
+    CorrectionPlan plan;    // the correction "auto"'s prediction after it (q 0 and all 0: none)
     double steps = 0.0;     // its share of the options' steps
     double seconds = 0.0;   // since the rounds began, at its end
     double estimate = -1.0; // the image's estimated relative L1 error after it
@@ -140,7 +170,40 @@ struct Rounds {
     double seconds_solve = 0.0, seconds_render = 0.0, seconds_probe = 0.0;
     double steps_share = 1.0;   // steps per unit of scale of the last rounds, relative to the options'
     double field_share = -1.0;  // the field's part of the latest probed round's estimate (negative: not probed)
+    // The correction "auto" (else: correction 0, not corrected, choice empty): the
+    // correction of the last rounds, whether the image is the corrected one, and why.
+    double correction = 0.0;
+    bool corrected = false;
+    std::string correction_choice;
 };
+
+// What choose_correction weighs (relative L1 errors, as the estimates give them).
+struct CorrectionInputs {
+    double probe = 0.0;            // P, the bias probe's rate
+    double noise = 0.0;            // U's halves' rule: its noise
+    double bias = 0.0;             // U's shared bias (ErrorEstimate::shared): the field's and the filter's
+    double corrected_noise = 0.0;  // C's halves' rule
+    double corrected_bias = 0.0;   // C's shared bias: the filter's
+    double scale = 0.0;            // the budget so far
+    double more = 0.0;             // the budget still to come at the probe's cost (0: none)
+    double probe_cost = 0.0;       // the probe's share of that cost
+    // How much more predicted error the correction may cost than reading the field: the
+    // price of removing a bias too small for the probe to see yet.
+    double tolerance = 0.25;
+};
+
+// The correction for the rounds to come: 0 (read the field; the probe goes on) or the
+// q of {1/8, 1/4, 1/2, 1} (>= P) with the least predicted final error, where, with
+// R = scale, x = more at the probe's cost (more / (1 + probe_cost (q / P - 1)) with the
+// correction), n = noise, c^2 = corrected_noise^2 - n^2 (the probe's corrections' own
+// noise), b = bias and f = corrected_bias:
+//
+//   reading the field:  b^2 + n^2 R / (R + x)
+//   correcting at q:    f^2 + n^2 R / (R + x) + c^2 R (R + x P / q) / (R + x)^2
+//
+// (each term's noise falls as its share of the budget grows; the probe's corrections
+// so far count in the corrected image with their own, P's, noise).
+CorrectionPlan choose_correction(const CorrectionInputs& in);
 
 // What the caller sees as the run goes: after every `record_every` steps of the solve
 // (the field of both chains so far; image empty), and after every round (the image so
@@ -179,6 +242,9 @@ struct FieldImageOptions {
     // solvers share nothing but the const Transport, and each chain's result is a
     // function of its own steps alone). Off where the chains talk to a team.
     bool chains_side_by_side = false;
+    // The correction chosen by the rounds from the bias probe (see above): with
+    // gather_options.correction 0 and bias_probe > 0.
+    bool auto_correction = false;
 };
 
 // A run stopped before it had an image to show.

@@ -456,6 +456,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& gi
     image_options.steps = c.solver.steps;
     image_options.gather = c.gather.gather_rays > 0;
     image_options.gather_options = c.gather;
+    image_options.auto_correction = c.auto_correction;
     image_options.shading = c.shading;
     image_options.chains_side_by_side = side_by_side;
     RunResult out;

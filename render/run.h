@@ -52,6 +52,10 @@ struct RunConfig {
     std::optional<bool> diffuse_shot;        // unset: on for diffuse scenes with area lights
     sampling::RunOptions run = all_cores();  // seed, threads (default: all cores), progress, team
     GatherOptions gather;                    // gather_rays 0: the patch image instead
+    // The correction "auto" (render/progressive.h): with gather.correction 0 and the
+    // bias probe on, the rounds choose between reading the field and correcting it.
+    // Off: gather.correction as given (0: the field read as the answer).
+    bool auto_correction = true;
     Shading shading = Shading::Smooth;       // the patch image
     PathTraceOptions path;                   // --method pathtrace
     RoundOptions rounds;                     // target error, time budget

@@ -32,18 +32,27 @@ constexpr std::pair<const char*, std::optional<double> ConvergenceRow::*> kRowVa
 
 json rounds_record(const Rounds& r, const RoundOptions& o) {
     json rounds = json::array();
-    for (const auto& k : r.rounds)
+    for (const auto& k : r.rounds) {
         rounds.push_back({{"scale", k.scale},
+                          {"correction", k.correction},
+                          {"corrected", k.corrected},
                           {"steps", k.steps},
                           {"seconds", k.seconds},
                           {"estimated_error", k.estimate},
                           {"estimated_noise", k.parts.noise},
                           {"estimated_probed", k.parts.probed},
-                          {"estimated_bias", k.parts.bias}});
+                          {"estimated_bias", k.parts.bias},
+                          {"estimated_shared_bias", k.parts.shared}});
+        if (k.corrected_noise >= 0.0) rounds.back()["estimated_corrected_noise"] = k.corrected_noise;
+        if (k.plan.reading > 0.0)
+            rounds.back()["correction_plan"] =
+                json{{"q", k.plan.q}, {"predicted", k.plan.predicted}, {"reading", k.plan.reading}};
+    }
     json out = {{"image_estimated_error", r.estimate},
                 {"image_estimated_noise", r.parts.noise},
                 {"image_estimated_probed", r.parts.probed},
                 {"image_estimated_bias", r.parts.bias},
+                {"image_estimated_shared_bias", r.parts.shared},
                 {"scale", r.scale},
                 {"stopped", r.stopped},
                 {"rounds", rounds}};
@@ -114,7 +123,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
             {"direct_samples", o.direct_samples},
             {"direct", direct_light_name(o.direct)},
             {"glossy_rays", o.glossy_rays},
-            {"correction", o.correction},
+            {"correction", c.auto_correction && o.correction == 0.0 && o.bias_probe > 0.0 ? json("auto") : json(o.correction)},
             {"bias_probe", o.correction > 0.0 ? 0.0 : o.bias_probe},
             {"spp", o.spp},
             {"emission_samples", o.emission_samples},
@@ -170,6 +179,21 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
                                            : std::string("the patch radiance (") + shading_name(c.shading) +
                                                  " shading); --gather N for a final gather";
     stats["decisions"]["rounds"] = r.rounds.stopped;
+    if (r.gather) {
+        const auto& g = c.gather;
+        std::string line;
+        if (!r.rounds.correction_choice.empty())
+            line = "auto: " + r.rounds.correction_choice + (r.rounds.corrected ? "; the image is corrected" : "; the image reads the field");
+        else if (g.correction > 0.0)
+            line = "the field as a control variate at q = " + json(g.correction).dump() + " (--correction)";
+        else if (c.auto_correction)
+            line = "the field read as the answer: auto needs the bias probe (--bias-probe 0)";
+        else
+            line = "the field read as the answer (--correction 0)";
+        stats["decisions"]["correction"] = line;
+        stats["estimate"]["correction"] = r.rounds.correction;
+        stats["estimate"]["corrected"] = r.rounds.corrected || g.correction > 0.0;
+    }
     stats["partial"] = r.rounds.interrupted;
     stats["steps_planned"] = r.planned_steps;
     if (c.resume)
@@ -291,6 +315,10 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
               r.rounds.rounds.size() == 1 ? "" : "s");
         if (r.rounds.parts.bias > 0.0)
             print("; noise %.2g %%, bias %.2g %%", 100.0 * r.rounds.parts.noise, 100.0 * r.rounds.parts.bias);
+        if (r.rounds.correction > 0.0)
+            print("; corrected at q = %g", r.rounds.correction);
+        else if (r.rounds.corrected)
+            print("; the probe's corrections");
         print(")");
     }
     if (r.against)

@@ -48,7 +48,16 @@ done
 for v in 0 -1 inf nan; do
   expect_bad "--time-budget $v" "--time-budget" solve --builtin homogeneous-box --time-budget "$v"
 done
-for v in -0.1 1.5 nan abc; do
+# The default is auto, said in the stats' final_gather and decisions; --correction 0 reads the field.
+"$bin" solve --builtin homogeneous-box --width 8 --height 8 --iterations 20 --gather 16 --stats auto.json -q
+check $? "the default correction (auto) failed"
+grep -q '"correction": "auto"' auto.json && grep -q '"correction": "auto: ' auto.json
+check $? "--correction auto: not in the stats' final_gather and decisions: $(grep correction auto.json)"
+"$bin" solve --builtin homogeneous-box --width 8 --height 8 --iterations 20 --gather 16 --correction 0 --stats read.json -q
+check $? "--correction 0 failed"
+grep -q '"correction": "the field read as the answer (--correction 0)"' read.json
+check $? "--correction 0: not in the stats' decisions: $(grep correction read.json)"
+for v in -0.1 1.5 nan abc Auto; do
   expect_bad "--bias-probe $v" "--bias-probe" solve --builtin homogeneous-box --bias-probe "$v"
 done
 expect_bad "--bias-probe with pathtrace" "--bias-probe" solve --builtin homogeneous-box --method pathtrace --bias-probe 0.1

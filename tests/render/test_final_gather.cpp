@@ -610,11 +610,17 @@ TEST_CASE("final gather: the bias probe measures a wrong field's error and leave
         }
         CHECK(r.bias_rays > 0);
         CHECK(r.bias_rays < r.gather_rays);
+        // The image as the correction at the probe's rate makes it: right on average
+        // whatever the field; its bias image, with no filter, nothing.
+        INFO("corrected image's mean " << mean_of(r.corrected));
+        CHECK(std::abs(mean_of(r.corrected) - 1.0) < 0.01);
+        CHECK(mean_of(r.corrected_bias) == 0.0);
         render::GatherOptions off = o;
         off.bias_probe = 0.0;
         const auto plain = render::final_gather(scene, caster, field, camera, off, {});
         CHECK(plain.image.rgb == r.image.rgb);
         CHECK(plain.bias_rays == 0);
+        CHECK(plain.corrected.rgb.empty());
         CHECK(r.bias_probed);
         CHECK_FALSE(plain.bias_probed);
         CHECK(mean_of(plain.bias) == 0.0);  // no filter: only the probe has something to say

@@ -35,6 +35,7 @@ Made homogeneous(const solver::SolverOptions& so, const render::FieldImageOption
     config.solver = so;
     config.solver.steps = io.steps;
     config.gather = io.gather_options;
+    config.auto_correction = io.auto_correction;  // off unless a test asks for it
     if (!io.gather) config.gather.gather_rays = 0;
     config.shading = io.shading;
     config.rounds = ro;
@@ -103,6 +104,14 @@ TEST_CASE("estimate_error: noise, bias and both, against the error they make", "
         // the image's noise.
         if (c.bias == 0.0) CHECK(e.bias <= 0.5 * e.noise);
         if (c.bias_noise < 0.0) CHECK(e.total == e.noise);
+        // The bias the halves share, as a root mean square over the mean |truth|: the
+        // corner's c.bias on 1024 of the 9216 pixels and the band's c.bias / 2 on 2976 of
+        // them, over a mean of 1.5, is 0.292 c.bias; less twice its standard error.
+        INFO("shared bias " << e.shared << ", exact " << 0.292 * c.bias);
+        if (c.bias_noise >= 0.0) {
+            CHECK(e.shared <= 0.292 * c.bias + 0.001);
+            CHECK(e.shared >= 0.8 * 0.292 * c.bias);
+        }
     }
     CHECK_THROWS_AS(render::estimate_error(render::Image(2, 2), render::Image(2, 2), render::Image(2, 1),
                                            render::Image(2, 1)),
@@ -277,6 +286,14 @@ TEST_CASE("rounds: the same seed gives the same image, for any thread count", "[
     CHECK(a.image.image.rgb == b.image.image.rgb);
     CHECK(a.image.rounds.rounds.size() == b.image.rounds.rounds.size());
     CHECK(a.image.image.rgb != c.image.image.rgb);
+    // The correction "auto" decides from the images alone (not the seconds) without a
+    // time budget.
+    io.auto_correction = true;
+    const auto d = homogeneous(so, io, ro, 5, false, 1);
+    const auto e = homogeneous(so, io, ro, 5, false, 3);
+    CHECK(d.image.image.rgb == e.image.image.rgb);
+    CHECK(d.image.rounds.correction == e.image.rounds.correction);
+    CHECK(d.image.rounds.rounds.size() == e.image.rounds.rounds.size());
 }
 
 TEST_CASE("rounds: bad options are refused by name", "[render][progressive]") {
@@ -419,4 +436,128 @@ TEST_CASE("target error: a bias above the target stops the rounds, named", "[ren
     render::Image one(32, 32);
     one.rgb.assign(one.rgb.size(), 1.0f);
     CHECK(r.estimate == Approx(render::relative_l1(made.image, one)).epsilon(0.1));
+}
+
+TEST_CASE("choose_correction: the correction where the bias outlasts the noise", "[render][progressive][correction]") {
+    render::CorrectionInputs in;
+    in.probe = 1.0 / 16.0;
+    in.noise = 0.02;
+    in.corrected_noise = 0.04;  // the probe's corrections add sqrt(0.04^2 - 0.02^2) = 3.5 % at P
+    in.scale = 1.0;
+    in.more = 15.0;
+    in.probe_cost = 0.1;
+    SECTION("no bias, corrections noisier than the tolerance allows: go on reading the field") {
+        const auto plan = render::choose_correction(in);
+        CHECK(plan.q == 0.0);
+        CHECK(plan.reading == Approx(0.02 / 4.0));
+        CHECK(plan.predicted == plan.reading);
+    }
+    SECTION("a bias above what the noise will be: correct, with its predicted error") {
+        in.bias = 0.02;
+        const auto plan = render::choose_correction(in);
+        CHECK(plan.q > 0.0);
+        CHECK(plan.reading == Approx(std::sqrt(0.02 * 0.02 + 0.02 * 0.02 / 16.0)));
+        CHECK(plan.predicted < plan.reading);
+        // The formula of the header at the q chosen.
+        const double x = in.more / (1.0 + in.probe_cost * (plan.q / in.probe - 1.0)), c2 = 0.04 * 0.04 - 0.02 * 0.02;
+        CHECK(plan.predicted ==
+              Approx(std::sqrt(0.02 * 0.02 / (1.0 + x) + c2 * (1.0 + x * in.probe / plan.q) / ((1.0 + x) * (1.0 + x)))));
+    }
+    SECTION("nothing to come: the rounds end as they are") {
+        in.bias = 0.02;
+        in.more = 0.0;
+        CHECK(render::choose_correction(in).q == 0.0);
+    }
+    SECTION("a bias the filter makes too: the correction does not remove it, and costs") {
+        in.bias = 0.02;
+        in.corrected_bias = 0.02;
+        in.tolerance = 0.0;
+        CHECK(render::choose_correction(in).q == 0.0);
+    }
+    SECTION("no bias seen, a cheap correction: taken within the tolerance, not beyond it") {
+        in.corrected_noise = 0.0201;
+        const auto plan = render::choose_correction(in);
+        CHECK(plan.q > 0.0);
+        CHECK(plan.predicted > plan.reading);
+        CHECK(plan.predicted <= 1.25 * plan.reading);
+        in.tolerance = 0.0;
+        CHECK(render::choose_correction(in).q == 0.0);
+    }
+    SECTION("corrections far noisier than the bias: go on reading the field") {
+        in.bias = 0.003;
+        in.corrected_noise = 0.5;
+        CHECK(render::choose_correction(in).q == 0.0);
+    }
+    SECTION("never below the probe's rate, nothing without a probe or a budget") {
+        in.bias = 0.05;
+        in.probe = 0.3;
+        CHECK(render::choose_correction(in).q >= 0.3);
+        in.probe = 0.0;
+        CHECK(render::choose_correction(in).q == 0.0);
+        in.probe = 0.3;
+        in.scale = 0.0;
+        CHECK(render::choose_correction(in).q == 0.0);
+    }
+}
+
+TEST_CASE("correction auto: a wrong field's image converges to the truth", "[render][progressive][correction]") {
+    // The field of 0.7 on the homogeneous box (the image about 14 % dark when it is read
+    // as the answer). With the correction "auto", one round shows the probe's corrected
+    // image, whose estimate is the lower; a target of 3 % switches the rounds to the
+    // correction, reaches it, and the truth follows.
+    sampling::RunOptions run;
+    run.threads = 2;
+    run.seed = 5;
+    render::Image one(32, 32);
+    one.rgb.assign(one.rgb.size(), 1.0f);
+    WrongFieldBox box(64, 4);
+    box.io.auto_correction = true;
+    const auto once = box.made({}, run);
+    INFO("one round: error " << render::relative_l1(once.image, one) << ", estimate " << once.rounds.estimate << ", "
+                             << once.rounds.correction_choice);
+    CHECK(once.rounds.corrected);
+    CHECK(once.rounds.correction == 0.0);
+    CHECK(render::relative_l1(once.image, one) < 0.06);
+    CHECK(once.rounds.estimate == Approx(render::relative_l1(once.image, one)).epsilon(0.5));
+
+    render::RoundOptions ro;
+    ro.target_error = 0.03;
+    WrongFieldBox small(16, 2);
+    small.io.auto_correction = true;
+    const auto made = small.made(ro, run);
+    const auto& r = made.rounds;
+    const double error = render::relative_l1(made.image, one);
+    INFO("target: rounds " << r.rounds.size() << ", q " << r.correction << ", estimate " << r.estimate << ", error "
+                           << error << ", stopped: " << r.stopped << "; " << r.correction_choice);
+    CHECK(r.correction > 0.0);
+    CHECK(r.corrected);
+    CHECK(r.stopped == "the estimate reached the target");
+    CHECK(error < 1.5 * ro.target_error);
+    CHECK(r.rounds.front().correction == 0.0);
+    CHECK(r.rounds.back().correction == r.correction);
+    // Without auto the same run stops at the bias (the test above).
+    small.io.auto_correction = false;
+    CHECK(small.made(ro, run).rounds.stopped ==
+          "the probed error, a bias, is at the target or above: more rounds do not lower it");
+}
+
+TEST_CASE("correction auto: a right field is read as the answer", "[render][progressive][correction]") {
+    // The exact field (1 everywhere): nothing to correct, and the corrections' noise
+    // would only add to the image's, so the rounds read the field.
+    sampling::RunOptions run;
+    run.threads = 2;
+    run.seed = 7;
+    WrongFieldBox box(16, 2);
+    box.field.radiance.assign(box.scene.patch_list().size(), scenes::Rgb::Constant(1.0));
+    box.io.auto_correction = true;
+    render::RoundOptions ro;
+    ro.target_error = 0.001;
+    const auto made = box.made(ro, run);
+    const auto& r = made.rounds;
+    INFO("rounds " << r.rounds.size() << ", estimate " << r.estimate << ", stopped: " << r.stopped << "; "
+                   << r.correction_choice);
+    CHECK(r.rounds.size() >= 2);
+    CHECK(r.correction == 0.0);
+    CHECK(!r.corrected);
+    CHECK(r.stopped == "the estimate reached the target");
 }
