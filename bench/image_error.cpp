@@ -11,7 +11,10 @@
 // relative error of the 16x16-pixel block, summed over its pixels and channels, whose
 // error is largest in magnitude; +0.05: 5 % too bright). Blocks cut by the image's
 // edge are left out (render/metrics.h). The files are read as linear RGB
-// (render::read_exr); their sizes must agree. With --map K it prints instead the signed
+// (render::read_exr); their sizes must agree, or the image's be k times the
+// reference's in both directions (k an integer): then the image's k x k means are
+// compared (a 512^2 image against a 128^2 reference, whose pixels cover the same area).
+// With --map K it prints instead the signed
 // relative error of every whole K x K block, in per cent, a row of blocks a line, top
 // first: where the error is.
 #include "render/image_io.h"
@@ -24,6 +27,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 using namespace raybundle;
 
@@ -35,7 +39,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     try {
-        const render::Image image = render::read_exr(argv[1]);
+        render::Image image = render::read_exr(argv[1]);
         render::Image reference;
         if (constant) {
             reference = render::Image(image.width, image.height);
@@ -50,6 +54,17 @@ int main(int argc, char** argv) {
             reference.rgb.assign(reference.rgb.size(), v);
         } else {
             reference = render::read_exr(argv[2]);
+        }
+        if (reference.width > 0 && reference.height > 0 && image.width % reference.width == 0 &&
+            image.height % reference.height == 0 && image.width / reference.width == image.height / reference.height &&
+            image.width > reference.width) {
+            // The image's k x k means.
+            const int k = image.width / reference.width;
+            render::Image means(reference.width, reference.height);
+            for (int y = 0; y < image.height; ++y)
+                for (int x = 0; x < image.width; ++x)
+                    for (int c = 0; c < 3; ++c) means.at(x / k, y / k)[c] += image.at(x, y)[c] / static_cast<float>(k * k);
+            image = std::move(means);
         }
         if (image.width != reference.width || image.height != reference.height)
             throw std::runtime_error(std::string(argv[1]) + " is " + std::to_string(image.width) + "x" +

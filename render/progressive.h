@@ -78,8 +78,9 @@
 // the bias probe on, a pass also comes as the correction at the probe's rate P would
 // make it (GatherResult::corrected: unbiased whatever the field, noisier), so every
 // round has two images: U, the field read as the answer, and C, corrected. The run
-// shows whichever of the two has the lower estimated error (the probed estimate of
-// each); and before each round, while the rounds read the field, it predicts the final
+// shows C where the bias the halves share (ErrorEstimate::shared) stands above the
+// noise the probe's corrections add (C's halves' rule less U's, in quadrature), else U;
+// and before each round, while the rounds read the field, it predicts the final
 // error of going on as now against going on with the correction at q (1/8, 1/4, 1/2,
 // 1: paths instead of the probe, at their cost) from what it has measured
 // (choose_correction), and switches to the best q for good: the image is then C, the

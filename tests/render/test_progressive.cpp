@@ -503,7 +503,7 @@ TEST_CASE("choose_correction: the correction where the bias outlasts the noise",
 TEST_CASE("correction auto: a wrong field's image converges to the truth", "[render][progressive][correction]") {
     // The field of 0.7 on the homogeneous box (the image about 14 % dark when it is read
     // as the answer). With the correction "auto", one round shows the probe's corrected
-    // image, whose estimate is the lower; a target of 3 % switches the rounds to the
+    // image (the bias stands far above its noise); a target of 3 % switches the rounds to the
     // correction, reaches it, and the truth follows.
     sampling::RunOptions run;
     run.threads = 2;
