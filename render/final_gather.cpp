@@ -189,8 +189,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                                           depth_scale, depth_scale, filter, run.threads);
     // With the probe: E with its corrections, filtered (for a linear filter that is
     // filtered E plus the filtered corrections); the image adds the difference below.
+    const bool corrected = probe && o.corrected_image;
     Image corrected_filtered, corrected_indirect;
-    if (probe) {
+    if (corrected) {
         corrected_indirect = r.indirect;
         for (std::size_t k = 0; k < corrected_indirect.rgb.size(); ++k) corrected_indirect.rgb[k] += field_error.rgb[k];
         corrected_filtered = filter_indirect(corrected_indirect, r.normal, r.depth, r.position, scene.bounds_center(),
@@ -207,15 +208,15 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             const Rgb albedo = scene.material_of(patch).albedo;
             put(r.bias, x, y,
                 albedo * (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
-            if (probe)
+            if (corrected)
                 put(r.corrected_bias, x, y,
                     albedo * (get(corrected_filtered, x, y) - get(corrected_indirect, x, y)));
         }
     // What the probe's corrections add to the guide's filtered E.
     auto added = [&](int x, int y) {
-        return probe ? Rgb(get(corrected_filtered, x, y) - get(r.indirect_filtered, x, y)) : Rgb(Rgb::Zero());
+        return corrected ? Rgb(get(corrected_filtered, x, y) - get(r.indirect_filtered, x, y)) : Rgb(Rgb::Zero());
     };
-    Image correction_added = probe ? Image(W, H) : Image();
+    Image correction_added = corrected ? Image(W, H) : Image();
     if (run.progress) run.progress({"filter", 1, 1, std::chrono::duration<double>(Clock::now() - t1).count()});
     const auto t2 = Clock::now();
 
@@ -307,7 +308,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                 more /= o.spp;
             }
             put(r.image, x, y, sum);
-            if (probe) put(correction_added, x, y, more);
+            if (corrected) put(correction_added, x, y, more);
         }
         camera_rays[y] += cam;
         shadow_rays[y] += shadow;
@@ -318,7 +319,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     });
     block.share(r.image);
     block.share(r.direct);
-    if (probe) {
+    if (corrected) {
         block.share(correction_added);
         r.corrected = r.image;
         for (std::size_t k = 0; k < r.corrected.rgb.size(); ++k) r.corrected.rgb[k] += correction_added.rgb[k];

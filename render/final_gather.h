@@ -84,9 +84,10 @@ struct GatherOptions {
     // and adds (path - field) / q: the field as a control variate, so the image
     // converges to the scene's true light whatever the field's bias (0: the field is
     // read as the answer, and its bias stays in the image). Past that vertex the path
-    // goes on by Russian roulette. Off by default: at 16 s it takes the contact bias out
-    // of the Cornell boxes but adds more noise than it removes bias in the rooms lit
-    // through a door or a window (docs/final-image.md section 10).
+    // goes on by Russian roulette. A fixed q is no default: at 16 s it takes the contact
+    // bias out of the Cornell boxes but adds more noise than it removes bias in the rooms
+    // lit through a door or a window (docs/final-image.md section 10); the run's
+    // correction "auto" (render/run.h) chooses it from the bias probe.
     double correction = 0.0;
     // With the correction off: the probability with which a gather ray is also followed
     // as the correction would follow it, apart from the image, to measure the field's
@@ -95,6 +96,10 @@ struct GatherOptions {
     // the final gather's rays (docs/final-image.md section 14); 0: no probe, and the
     // estimate is the halves' rule alone.
     double bias_probe = 1.0 / 16.0;
+    // With the probe: also make the image as the probe's corrections would correct it
+    // (GatherResult::corrected; a second filter pass), for the correction "auto" of
+    // render/progressive.h, which sets it.
+    bool corrected_image = false;
     int spp = 16;             // camera samples per pixel (the first is the guide)
     // With spp > 1: camera rays per pixel, besides the spp samples, for what the camera
     // sees unlit, emission and the sky (one ray each, no light computed); 0: the spp
@@ -123,11 +128,12 @@ struct GatherResult {
     // Whether it holds the field's error: the probe ran, or the correction took the
     // field's error out of the image (else it holds the filter's departure alone).
     bool bias_probed = false;
-    // With the probe on: the image as the correction at rate bias_probe would make it
-    // (the probe's corrections added to E before the filter, then composed as the
-    // image is), unbiased whatever the field, noisier; and its bias image (the
-    // filter's departure alone). Empty without a probe. render/progressive.h chooses
-    // between the two (GatherOptions::correction "auto").
+    // With the probe and corrected_image: the image as the correction at rate
+    // bias_probe would make it (the probe's corrections added to E before the filter,
+    // then composed as the image is), free of the field's bias in the gather rays'
+    // readings (not in the glossy rays'), noisier; and its bias image (the filter's
+    // departure alone). Else empty. render/progressive.h chooses between the two
+    // (the correction "auto").
     Image corrected, corrected_bias;
     long camera_rays = 0, shadow_rays = 0, gather_rays = 0, bias_rays = 0;
     int filter_radius = 0;  // the radius the filter used (of the last pass: rounds may vary)

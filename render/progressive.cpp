@@ -113,7 +113,7 @@ struct AutoCorrection {
 enum class Advanced { all, last, cut, nothing_new };
 
 // The rounds (see the header): `advance(steps_scale, run)` moves the solver on,
-// `render(h, scale, pass, run)` makes half h's Pass, `probe(scale, pass, run)` half
+// `render(h, scale, pass, q, run)` makes half h's Pass (q: the correction "auto"'s), `probe(scale, pass, run)` half
 // A's pass from chain B's field (or nothing), `after(round, image, estimate)` sees
 // each round's result. The runs passed on report progress with the round and the
 // estimate.
@@ -226,8 +226,8 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             return std::pair{std::move(halves), e};
         };
         auto [halves, parts] = estimated(sum, bias_sum);
-        // The correction "auto": C where its estimate is lower (always, once the rounds
-        // correct); U's figures kept for the choice of q below.
+        // The correction "auto": C or U (always C once the rounds correct); the figures
+        // of both kept for the choice of q below.
         CorrectionInputs weighed;
         double corrected_noise = -1.0;
         const bool weigh = automatic.on && q == 0.0 && !csum[0].rgb.empty() && probe_share > 0.0;
@@ -247,8 +247,11 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             // estimate alone would weigh that noise by the pixel, where the filter has
             // spread it over blocks (a 512^2 Cornell box: 0.53 % read, 0.75 % corrected
             // on 128^2 means).
+            // The field's part of U's shared bias is what C takes away (the filter's, C's
+            // shared bias, stays in both).
             const double added = std::sqrt(std::max(0.0, cparts.noise * cparts.noise - parts.noise * parts.noise));
-            use_corrected = q > 0.0 || parts.shared > added;
+            const double field_bias = std::sqrt(std::max(0.0, parts.shared * parts.shared - cparts.shared * cparts.shared));
+            use_corrected = q > 0.0 || field_bias > added;
             if (use_corrected) {
                 halves = std::move(chalves);
                 parts = cparts;
@@ -317,9 +320,7 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             return F * (field_sum + x / shape.steps) / std::pow(out.scale + x, 2) + G / (out.scale + x);
         };
         const double calibrate = shape.field >= 0.0 && model(0.0) > 0.0 ? estimate * estimate / model(0.0) : 0.0;
-        // While the correction "auto" is undecided, rounds at most double the budget so
-        // far: more moments to decide at, each with more of the bias seen.
-        double next = (weigh ? 1.0 : 8.0) * out.scale;
+        double next = 8.0 * out.scale;
         if (target) {
             const double want = std::pow(o.target_error / 1.05, 2);
             if (calibrate > 0.0) {
@@ -352,12 +353,17 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             }
             next = std::min(next, fits);
         }
+        // While the correction "auto" is undecided, the rounds of a time budget at most
+        // double the budget so far: more moments to decide at, each with more of the bias
+        // seen. (A target's rounds stay as its model sizes them: smaller ones would meet
+        // the bias stop above sooner, where the bias part is the probe's noise.)
+        if (weigh && timed) next = std::min(next, out.scale);
         if (weigh) {
             // The probe's share of the rounds' cost (of the render's rays, times the
             // render's share of the time; without a time budget the seconds are not used,
             // t_g = t_s as for the shape, so that the choice depends on the seed alone),
-            // and the budget to come at that cost: what fits in the time, else the
-            // target's largest next round.
+            // and the budget to come at that cost: what fits in the time, else (a target
+            // alone, whose end is not known) 8 times the budget so far.
             weighed.probe_cost = timed ? probe_share * t_g / (t_s * shape.steps + t_g) : probe_share / (shape.steps + 1.0);
             weighed.more = timed ? (o.time_budget - spent) / (t_s * shape.steps + t_g) : 8.0 * out.scale;
             const CorrectionPlan plan = choose_correction(weighed);
@@ -380,8 +386,11 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
     out.steps_share = shape.steps;
     out.field_share = shape.field;
     if (automatic.on) {
-        out.correction = q;
-        out.corrected = use_corrected;
+        // What the image is: the last round's (a switch whose round was interrupted
+        // before it ran did not happen).
+        out.correction = out.rounds.empty() ? 0.0 : out.rounds.back().correction;
+        out.corrected = !out.rounds.empty() && out.rounds.back().corrected;
+        if (q > 0.0 && out.correction == 0.0) out.correction_choice += ", interrupted before a round ran with it";
         if (out.correction_choice.empty())
             out.correction_choice = use_corrected ? "the probe's corrections: the field's bias is above the noise they add"
                                                   : "the field read as the answer: no bias above the noise the probe's corrections add";
@@ -659,9 +668,16 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         }
         return Advanced::all;
     };
+    // The correction "auto": on where it has a probe to decide from and no fixed q.
+    const AutoCorrection automatic{o.gather && o.auto_correction && o.gather_options.correction == 0.0 &&
+                                       o.gather_options.bias_probe > 0.0,
+                                   o.gather_options.bias_probe};
     auto pass_options = [&](double scale, std::uint64_t pass, double correction) {
         GatherOptions g = o.gather_options;
-        if (o.auto_correction) g.correction = correction;
+        if (automatic.on) {
+            g.correction = correction;
+            g.corrected_image = true;
+        }
         g.gather_rays = static_cast<int>(half_of(g.gather_rays, scale));
         // A pixel of one sample is its centre (spp = 1): passes of a pixel's area keep two.
         g.spp = static_cast<int>(half_of(g.spp, scale, g.spp > 1 ? 2 : 1));
@@ -686,7 +702,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         add_gather(gathered, result, scale);
         // Without the probe the bias image lacks the field's error: the halves' rule alone.
         Pass made{std::move(result.image), result.bias_probed ? std::move(result.bias) : Image()};
-        if (o.auto_correction && !result.corrected.rgb.empty()) {
+        if (automatic.on && !result.corrected.rgb.empty()) {
             made.corrected = std::move(result.corrected);
             made.corrected_bias = std::move(result.corrected_bias);
             const double rays = static_cast<double>(result.camera_rays + result.shadow_rays + result.gather_rays +
@@ -716,9 +732,6 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         s.round = round;
         observe(s);
     };
-    const AutoCorrection automatic{o.gather && o.auto_correction && o.gather_options.correction == 0.0 &&
-                                       o.gather_options.bias_probe > 0.0,
-                                   o.gather_options.bias_probe};
     out.rounds = run_rounds(rounds, run, advance, render, probe, after, automatic);
     if (o.gather) {
         // Both halves of every pass were added with their round's scale.

@@ -76,18 +76,22 @@
 //   - both: whichever stops first.
 // The correction, "auto" (FieldImageOptions::auto_correction; the run's default). With
 // the bias probe on, a pass also comes as the correction at the probe's rate P would
-// make it (GatherResult::corrected: unbiased whatever the field, noisier), so every
-// round has two images: U, the field read as the answer, and C, corrected. The run
-// shows C where the bias the halves share (ErrorEstimate::shared) stands above the
-// noise the probe's corrections add (C's halves' rule less U's, in quadrature), else U;
-// and before each round, while the rounds read the field, it predicts the final
-// error of going on as now against going on with the correction at q (1/8, 1/4, 1/2,
-// 1: paths instead of the probe, at their cost) from what it has measured
-// (choose_correction), and switches to the best q for good: the image is then C, the
-// probed rounds before counted with their corrections. As the budget grows, the halves'
-// noise falls and the field's bias does not, so the choice goes to C: the image
-// converges to the scene's true light whatever the field (docs/final-image.md
-// section 15).
+// make it (GatherResult::corrected: free of the field's bias in the gather rays'
+// readings, noisier), so every round has two images: U, the field read as the answer,
+// and C, corrected. The run shows C when the field's part of the bias the halves share
+// (U's ErrorEstimate::shared less C's, the filter's, in quadrature) stands above the
+// noise the probe's corrections add (C's halves' rule less U's, in quadrature), else U
+// (a root mean square against L1 measures: a rough rule); and after each round, while
+// the rounds read the field, it predicts the final error of going on as now against
+// going on with the correction at q (1/8, 1/4, 1/2, 1: paths instead of the probe, at
+// their cost) from what it has measured (choose_correction), and switches to the best
+// q for good where that is better or costs at most a quarter more: the image is then C,
+// the probed rounds before counted with their corrections. Until it switches, the
+// rounds of a time budget at most double the budget so far. As the budget grows, the halves' noise falls
+// and the field's bias does not, so the choice goes to C: the image converges to the
+// scene's light up to the filter's blur, whatever the field (docs/final-image.md
+// section 15). The AOVs other than the image (indirect, filtered, bias) stay those of
+// the passes as made: U's while the rounds probe.
 //
 // With a target or a time budget the first two rounds also measure how much of the
 // estimate is the field's noise (a probe: half A's samples again, on chain B's field)

@@ -57,7 +57,7 @@ check $? "--correction auto: not in the stats' final_gather and decisions: $(gre
 check $? "--correction 0 failed"
 grep -q '"correction": "the field read as the answer (--correction 0)"' read.json
 check $? "--correction 0: not in the stats' decisions: $(grep correction read.json)"
-for v in -0.1 1.5 nan abc Auto; do
+for v in -0.1 1.5 nan abc; do
   expect_bad "--bias-probe $v" "--bias-probe" solve --builtin homogeneous-box --bias-probe "$v"
 done
 expect_bad "--bias-probe with pathtrace" "--bias-probe" solve --builtin homogeneous-box --method pathtrace --bias-probe 0.1
@@ -94,7 +94,7 @@ check $? "--time-budget $budget: the command took $t s (the least it takes: $lea
 check $? "--correction 0.5 failed"
 grep -q '"correction": 0.5' corrected.json
 check $? "--correction 0.5: not in the stats' final_gather"
-for v in -0.1 1.5 nan abc; do
+for v in -0.1 1.5 nan abc Auto; do
   expect_bad "--correction $v" "--correction" solve --builtin homogeneous-box --correction "$v"
 done
 expect_bad "--csv-every with pathtrace" "--csv-every does not apply to --method pathtrace" \

@@ -594,6 +594,7 @@ TEST_CASE("final gather: the bias probe measures a wrong field's error and leave
     o.gather_rays = 256;
     o.filter.filter = render::Filter::none;
     o.bias_probe = 0.25;
+    o.corrected_image = true;
     for (const double level : {0.7, 1.0}) {
         solver::RadianceField field;
         field.radiance.assign(scene.patch_list().size(), Rgb::Constant(level));
