@@ -181,11 +181,13 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         for (int h = 0; h < 2; ++h) {
             const auto pass = static_cast<std::uint64_t>(2 * (round - 1) + h);
             Pass made = render(h, scale, pass, q, half_run(inner, h));
-            const bool probed_pass = !made.corrected.rgb.empty();
-            add_scaled(csum[h], probed_pass ? made.corrected : made.image, scale);
-            if (!made.bias.rgb.empty())
-                add_scaled(cbias_sum[h], probed_pass ? made.corrected_bias : made.bias, scale);
-            if (probed_pass) probe_share = made.probe_share;
+            if (automatic.on) {
+                const bool probed_pass = !made.corrected.rgb.empty();
+                add_scaled(csum[h], probed_pass ? made.corrected : made.image, scale);
+                if (!made.bias.rgb.empty())
+                    add_scaled(cbias_sum[h], probed_pass ? made.corrected_bias : made.bias, scale);
+                if (probed_pass) probe_share = made.probe_share;
+            }
             pass_image[h] = std::move(made.image);
             add_scaled(sum[h], pass_image[h], scale);
             if (!made.bias.rgb.empty()) add_scaled(bias_sum[h], made.bias, scale);
@@ -242,13 +244,12 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
                 weighed.corrected_bias = cparts.shared;
                 weighed.scale = out.scale;
             }
-            // While the rounds read the field, the probe's corrected image is shown where
-            // the bias both halves share stands above the noise its corrections add: its
-            // estimate alone would weigh that noise by the pixel, where the filter has
+            // While the rounds read the field, the probe's corrected image is shown when
+            // the field's part of the bias both halves share (U's less C's, the filter's,
+            // which stays in both) stands above the noise its corrections add. The
+            // estimates alone would weigh that noise by the pixel, where the filter has
             // spread it over blocks (a 512^2 Cornell box: 0.53 % read, 0.75 % corrected
             // on 128^2 means).
-            // The field's part of U's shared bias is what C takes away (the filter's, C's
-            // shared bias, stays in both).
             const double added = std::sqrt(std::max(0.0, cparts.noise * cparts.noise - parts.noise * parts.noise));
             const double field_bias = std::sqrt(std::max(0.0, parts.shared * parts.shared - cparts.shared * cparts.shared));
             use_corrected = q > 0.0 || field_bias > added;
