@@ -350,26 +350,26 @@ void ExactPainterBackend::finish_entries(GeometryMatrix& out) {
         sky_counts_[j] = 0;
     }
     sky_touched_.clear();
-    // Corrections, in pixels: each to its receiver's entry, or to a pair only the repairs
-    // made (few: searched linearly).
-    const std::size_t before = out.entries.size();
+    // Corrections, in pixels: each to its receiver's entry (a receiver's few sources,
+    // searched linearly), or to a pair only the repairs made (looked up by the pair: on
+    // a mesh of mixed sizes they run to thousands a direction).
     bool emptied = false;
+    repaired_.clear();
     for (const Correction& c : corrections_) {
         const auto r = static_cast<std::uint32_t>(c.pair >> 32), src = static_cast<std::uint32_t>(c.pair);
         auto* first = out.entries.data() + range_begin_[r];
         auto* last = out.entries.data() + range_end_[r];
         auto* e = std::find_if(first, last, [&](const TransferEntry& x) { return x.source == src; });
         if (e == last) {
-            first = out.entries.data() + before;
-            last = out.entries.data() + out.entries.size();
-            e = std::find_if(first, last, [&](const TransferEntry& x) { return x.receiver == r && x.source == src; });
+            const auto [at, added] = repaired_.try_emplace(c.pair, out.entries.size());
+            if (added) {
+                out.entries.push_back({r, src, static_cast<double>(c.delta)});
+                continue;
+            }
+            e = out.entries.data() + at->second;
         }
-        if (e != last) {
-            e->area += c.delta;
-            emptied |= e->area == 0.0;
-        } else {
-            out.entries.push_back({r, src, static_cast<double>(c.delta)});
-        }
+        e->area += c.delta;
+        emptied |= e->area == 0.0;
     }
     if (emptied)
         out.entries.erase(std::remove_if(out.entries.begin(), out.entries.end(),

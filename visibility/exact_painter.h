@@ -43,6 +43,7 @@
 #include "visibility/map_grid.h"
 
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 namespace raybundle::visibility {
@@ -132,6 +133,7 @@ private:
         int delta;
     };
     std::vector<Correction> corrections_;
+    std::unordered_map<std::uint64_t, std::size_t> repaired_;  // pairs only the repairs made -> their entry
     std::vector<std::uint32_t> marked_;  // pixels of the band
     struct Fragment {
         std::uint32_t pixel, id, key, order;
