@@ -3,6 +3,8 @@
 #include "scenes/errors.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <iomanip>
 #include <sstream>
 
@@ -95,6 +97,84 @@ std::size_t subdivide(Scene& scene, double max_edge) {
         }
     }
     scene.finalize();
+    return splits;
+}
+
+namespace {
+
+// The longest edge of face f, and its squared length.
+std::pair<TriMesh::EdgeHandle, double> longest_edge(const TriMesh& mesh, TriMesh::FaceHandle f) {
+    std::pair<TriMesh::EdgeHandle, double> best{TriMesh::EdgeHandle(), -1.0};
+    for (auto e : mesh.fe_range(f)) {
+        const double len2 = mesh.calc_edge_sqr_length(e);
+        // Ties broken by index, so that two triangles agree on which is the longest.
+        if (len2 > best.second || (len2 == best.second && e.idx() < best.first.idx())) best = {e, len2};
+    }
+    return best;
+}
+
+// One LEPP bisection of face f: its longest edge is split once it is the longest edge of
+// the triangle across it too (or on the boundary); until then that triangle is bisected
+// first. Along the path the longest edges grow, so it ends; `depth` bounds it anyway.
+std::size_t bisect(Scene& scene, TriMesh::FaceHandle f, int depth = 0) {
+    TriMesh& mesh = scene.mesh;
+    std::size_t splits = 0;
+    for (;;) {
+        const auto [e, len2] = longest_edge(mesh, f);
+        auto h = mesh.halfedge_handle(e, 0);
+        if (mesh.face_handle(h) != f) h = mesh.halfedge_handle(e, 1);
+        const auto g = mesh.opposite_face_handle(h);
+        if (!g.is_valid() || longest_edge(mesh, g).first == e || depth > 64) {
+            split_edge(scene, h, 0.5);
+            return splits + 1;
+        }
+        splits += bisect(scene, g, depth + 1);  // then f's longest edge is g's side's longest
+    }
+}
+
+}  // namespace
+
+std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin) {
+    TriMesh& mesh = scene.mesh;
+    if (max_edge.size() != mesh.n_faces())
+        throw std::invalid_argument("refine_patches: " + std::to_string(max_edge.size()) + " sizes for " +
+                                    std::to_string(mesh.n_faces()) + " patches");
+    // Per face, the size its pieces must reach and the patch it came from: face
+    // properties, which every split copies to the new faces.
+    OpenMesh::FPropHandleT<double> limit;
+    OpenMesh::FPropHandleT<int> from;
+    mesh.add_property(limit);
+    mesh.add_property(from);
+    for (auto f : mesh.faces()) {
+        const double m = max_edge[static_cast<std::size_t>(f.idx())];
+        if (!(m > 0.0))
+            throw std::invalid_argument("refine_patches: patch " + std::to_string(f.idx()) + " is given the size " +
+                                        std::to_string(m) + " (must be positive)");
+        mesh.property(limit, f) = m * m;
+        mesh.property(from, f) = f.idx();
+    }
+    std::size_t splits = 0;
+    std::vector<std::pair<double, TriMesh::FaceHandle>> due;
+    for (;;) {
+        due.clear();
+        for (auto f : mesh.faces()) {
+            const double len2 = longest_edge(mesh, f).second;
+            if (len2 > mesh.property(limit, f)) due.emplace_back(len2, f);
+        }
+        if (due.empty()) break;
+        std::stable_sort(due.begin(), due.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        for (const auto& [len2, f] : due)
+            // An earlier bisection in this pass may have cut this face already.
+            if (longest_edge(mesh, f).second > mesh.property(limit, f)) splits += bisect(scene, f);
+    }
+    scene.finalize();
+    if (origin) {
+        origin->clear();
+        origin->reserve(mesh.n_faces());
+        for (auto f : mesh.faces()) origin->push_back(static_cast<std::uint32_t>(mesh.property(from, f)));
+    }
+    mesh.remove_property(limit);
+    mesh.remove_property(from);
     return splits;
 }
 

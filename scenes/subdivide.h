@@ -1,7 +1,9 @@
 #pragma once
 #include "scenes/scene.h"
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace raybundle::scenes {
 
@@ -14,6 +16,20 @@ namespace raybundle::scenes {
 // missing ones on the coarse patches. Calls scene.finalize() at the end.
 // Returns the number of splits.
 std::size_t subdivide(Scene& scene, double max_edge);
+
+// Refines chosen patches: patch i (scene.patch_list() order) is cut until no piece of it
+// has an edge longer than max_edge[i] (infinity, or any value at least its longest edge:
+// left as it is). The cuts are conforming longest-edge bisections after Rivara's LEPP:
+// an edge is split only where it is the longest edge of both triangles on it, so where
+// it is not, the neighbour's longest edge is split first. The mesh stays watertight,
+// the angles stay bounded (the smallest at least half of the coarse mesh's), and the
+// neighbours of a cut patch are split only as far as conformity asks. Materials,
+// objects, corner normals and contact marks are carried as subdivide() carries them.
+// `origin`, when given, receives for every patch of the refined scene the index of the
+// patch it is part of. Calls scene.finalize(). Returns the number of splits.
+// Throws std::invalid_argument when max_edge has not one entry per patch, or one is not
+// a positive number.
+std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin = nullptr);
 
 // Splits the edge of halfedge h at from + t (to - from), 0 < t < 1, and the faces on
 // both sides of it (conforming), carrying the corner normals as subdivide() does (the
