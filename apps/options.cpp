@@ -172,6 +172,17 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     f.row("visibility", yes, value("--visibility", s.visibility, "visibility backend (see `raybundle backends`)"));
     f.row("resolution", yes, cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
                                  ->check(CLI::Range(1, 16384)));
+    f.row("refine", yes,
+          parsed("--refine",
+                 [&c](const std::string& v) {
+                     c.config.refine.on = v != "none";
+                     if (c.config.refine.on) c.config.refine.growth = std::stod(v);
+                 },
+                 "refinement driven by the solution: a short pilot solve, then the patches across which the radiance "
+                 "varies most are cut until G times the scene's patch count is added (e.g. 1: twice the patches), "
+                 "or none")
+              ->check(CLI::IsMember({"none"}) | (kFinite & CLI::Range(0.01, 8.0)))
+              ->default_str("none"));
     on_off("diffuse_shot", "--diffuse-shot", "--no-diffuse-shot", c.config.diffuse_shot,
            "area lights' direct light once, with shadow rays (004 9.1); default: on for diffuse scenes with area lights");
     f.row("seed", yes, value("--seed", c.config.run.seed, "random seed; the same seed gives bit-identical output")->check(kDigits));
@@ -280,7 +291,7 @@ void check_command(const CLI::App& cmd, Command& c) {
     if (r.solver.method == "pathtrace") {
         for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
                                  "--correction", "--bias-probe", "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
-                                 "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--diffuse-shot",
+                                 "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--refine", "--diffuse-shot",
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " does not apply to --method pathtrace (no radiance field)");

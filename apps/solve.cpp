@@ -102,8 +102,9 @@ int solve(const Command& c, Ranks& ranks) {
         const render::RunResult result = render::run(scene, config, hooks);
         bar.clear();
         if (!ranks.leader()) return result.signal != 0 ? 128 + result.signal : 0;
-        write_outputs(c, scene, result, seconds_scene);
-        if (!c.quiet) print_summary(c, scene, result);
+        // The scene as solved: refined where the run refined it (--refine).
+        write_outputs(c, result.scene(scene), result, seconds_scene);
+        if (!c.quiet) print_summary(c, result.scene(scene), result);
         // A signal that came while the outputs were written counts too.
         if (const int signal = result.signal != 0 ? result.signal : render::stop_requested(); signal != 0) {
             const bool cut = result.rounds.interrupted;

@@ -4,6 +4,8 @@
 // benchmarks all call it; the command line only parses, checks memory and writes.
 //
 //   run(scene, config, hooks):
+//     with config.refine on, a pilot solve and the scene refined where its radiance
+//     varies (render/adaptive.h; RunResult::refined), the rest on that scene;
 //     the scene's warnings (hooks.warn) and its summary (coplanar overlaps, windings);
 //     --method pathtrace: the reference path tracer in rounds (no field);
 //     else the decisions (the diffuse shot, per scene unless given), the transport
@@ -21,6 +23,7 @@
 // Errors: scenes::OptionError for an option a library refuses, CheckpointError for a
 // checkpoint that cannot be read or is another run's, RunError for a run the team
 // cannot do together, RunInterrupted where a stop came before there was any image.
+#include "render/adaptive.h"
 #include "render/checkpoint.h"
 #include "render/final_gather.h"
 #include "render/image.h"
@@ -56,6 +59,9 @@ struct RunConfig {
     // bias probe on, the rounds choose between reading the field and correcting it.
     // Off: gather.correction as given (0: the field read as the answer).
     bool auto_correction = true;
+    // Refinement driven by the solution (render/adaptive.h): a pilot solve of the scene
+    // as given, then the patches where the radiance varies most are cut before the solve.
+    RefineOptions refine;
     Shading shading = Shading::Smooth;       // the patch image
     PathTraceOptions path;                   // --method pathtrace
     RoundOptions rounds;                     // target error, time budget
@@ -105,6 +111,10 @@ void write_convergence_csv(const std::string& path, const std::vector<Convergenc
 
 
 struct RunResult {
+    // The scene as solved where the run refined it (RunConfig::refine): the field's
+    // patches are its patches. Empty: the scene given.
+    std::optional<scenes::Scene> refined;
+    const scenes::Scene& scene(const scenes::Scene& given) const { return refined ? *refined : given; }
     Image image;
     std::optional<solver::RadianceField> field;  // none for the path tracer
     std::optional<GatherResult> gather;          // the final gather's AOVs and figures

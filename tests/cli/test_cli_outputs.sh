@@ -185,6 +185,22 @@ check $? "--method pathtrace failed"
 grep -q '"method": "pathtrace"' pt.json && grep -q '"spp": 16' pt.json
 check $? "--method pathtrace: the stats lack the method or spp: $(head -c 300 pt.json)"
 expect_bad "pathtrace with --gather" "--gather does not apply to --method pathtrace" solve --builtin cornell-box --method pathtrace --gather 4
+
+# --refine G: the run refines by the solution; the stats say so, and the per-patch
+# outputs are the refined scene's patches. Bad values and the path tracer are refused.
+if "$bin" solve --builtin cornell-box --refine 0.5 --width 16 --height 16 --gather 0 --iterations 20 -o rf.exr \
+     --stats rf.json --patches rf-patches.csv -q 2>err.txt; then
+  patches=$(python3 -c "import json; print(json.load(open('rf.json'))['patches'])")
+  before=$(python3 -c "import json; print(json.load(open('rf.json'))['refinement']['patches_before'])")
+  rows=$(($(wc -l < rf-patches.csv) - 1))
+  grep -q '"refinement": "by the solution' rf.json && [ "$rows" -eq "$patches" ] && [ "$patches" -gt "$before" ]
+  check $? "--refine 0.5: decision, or $rows CSV rows for $patches patches (before: $before)"
+else
+  fail "--refine 0.5 failed: $(cat err.txt)"
+fi
+expect_bad "--refine with pathtrace" "--refine does not apply to --method pathtrace" solve --builtin cornell-box --method pathtrace --refine 1
+expect_bad "--refine auto" "--refine" solve --builtin cornell-box --refine auto
+expect_bad "--refine 0" "--refine" solve --builtin cornell-box --refine 0
 # --reference: the error against an image in the summary and the stats; bad ones refused.
 "$bin" solve --builtin homogeneous-box --method pathtrace --spp 4 --width 8 --height 8 -o ref8.exr -q
 "$bin" solve --builtin homogeneous-box --method pathtrace --spp 4 --seed 3 --width 8 --height 8 --reference ref8.exr \
