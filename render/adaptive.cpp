@@ -134,8 +134,9 @@ RefinePlan plan_refinement(const scenes::Scene& scene, const std::vector<double>
         if (level[i] == 0) continue;
         double longest = 0.0;
         for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[patches[i].v[k]] - pos[patches[i].v[(k + 1) % 3]]).norm());
-        // Two bisections halve a triangle's longest edge (the slack keeps round-off from
-        // asking a third).
+        // Two bisections halve a right isosceles triangle's longest edge; other shapes take
+        // more, which the run's second plan allows for (render/run.cpp). The slack keeps
+        // round-off from asking one more.
         plan.max_edge[i] = longest * std::ldexp(1.0, -level[i]) * (1.0 + 1e-9);
         ++plan.marked;
         plan.deepest = std::max(plan.deepest, level[i]);

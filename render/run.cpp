@@ -434,7 +434,10 @@ Refined refined_by_solution(const scenes::Scene& scene, const RunConfig& c) {
     }
     out.seconds = since(t0);
     const std::size_t after = out.scene.patch_count();
+    bool varies_somewhere = false;
+    for (const double v : varies) varies_somewhere = varies_somewhere || v > 0.0;
     out.record = {{"growth", c.refine.growth},
+                  {"growth_used", growth},
                   {"pilot_steps", options.steps},
                   {"patches_before", before},
                   {"patches_after", after},
@@ -444,10 +447,14 @@ Refined refined_by_solution(const scenes::Scene& scene, const RunConfig& c) {
                   {"splits", splits},
                   {"variation_covered", plan.covered},
                   {"seconds", out.seconds}};
-    out.decision = plan.marked == 0
+    out.decision = plan.marked == 0 && !varies_somewhere
                        ? strprintf("by the solution: a pilot of %ld steps per chain found no patch whose radiance varies "
                                    "beyond its noise; the %zu patches kept",
                                    options.steps, before)
+                   : plan.marked == 0
+                       ? strprintf("by the solution: a pilot of %ld steps per chain; no cut fits a growth of %g (the least "
+                                   "adds 3 patches); the %zu patches kept",
+                                   options.steps, growth, before)
                        : strprintf("by the solution: a pilot of %ld steps per chain; %zu of %zu patches cut (up to %d "
                                    "levels, %.0f %% of the area x variation), %zu patches (growth %g)",
                                    options.steps, plan.marked, before, plan.deepest, 100.0 * plan.covered, after,
@@ -462,7 +469,6 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
 RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& hooks) {
     if (!c.refine.on || c.solver.method == "pathtrace") return run_scene(scene, c, hooks);
     Refined refined = refined_by_solution(scene, c);
-    require_memory(c, refined.scene);
     RunConfig rest = c;
     rest.seconds_spent += refined.seconds;  // a time budget counts the pilot
     // The map keeps the resolution of the scene as given: the automatic one follows the
@@ -470,6 +476,7 @@ RunResult run(const scenes::Scene& scene, const RunConfig& c, const RunHooks& ho
     // for a quarter more patches (on the OBJ asset 528 -> 1,247: twice the time a step).
     // The pieces get fewer pixels each; the image reads them through many rays.
     if (rest.solver.map.resolution <= 0) rest.solver.map.resolution = visibility::default_resolution(scene);
+    require_memory(rest, refined.scene);  // at the map's resolution as it will be
     RunResult out = run_scene(refined.scene, rest, hooks);
     out.record["refinement"] = std::move(refined.record);
     out.record["decisions"]["refinement"] =

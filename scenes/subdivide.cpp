@@ -124,11 +124,13 @@ std::size_t bisect(Scene& scene, TriMesh::FaceHandle f, int depth = 0) {
         auto h = mesh.halfedge_handle(e, 0);
         if (mesh.face_handle(h) != f) h = mesh.halfedge_handle(e, 1);
         const auto g = mesh.opposite_face_handle(h);
+        // Past 64 levels (never seen: along the path the longest edges grow) the edge is
+        // split all the same, which gives up the angle bound for that cut.
         if (!g.is_valid() || longest_edge(mesh, g).first == e || depth > 64) {
             split_edge(scene, h, 0.5);
             return splits + 1;
         }
-        splits += bisect(scene, g, depth + 1);  // then f's longest edge is g's side's longest
+        splits += bisect(scene, g, depth + 1);  // g's cut edges rank above e: look again
     }
 }
 
@@ -141,15 +143,16 @@ std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, st
                                     std::to_string(mesh.n_faces()) + " patches");
     // Per face, the size its pieces must reach and the patch it came from: face
     // properties, which every split copies to the new faces.
+    for (std::size_t i = 0; i < max_edge.size(); ++i)
+        if (!(max_edge[i] * max_edge[i] > 0.0))  // also a size so small that its square is 0
+            throw std::invalid_argument("refine_patches: patch " + std::to_string(i) + " is given the size " +
+                                        std::to_string(max_edge[i]) + " (must be positive)");
     OpenMesh::FPropHandleT<double> limit;
     OpenMesh::FPropHandleT<int> from;
     mesh.add_property(limit);
     mesh.add_property(from);
     for (auto f : mesh.faces()) {
         const double m = max_edge[static_cast<std::size_t>(f.idx())];
-        if (!(m > 0.0))
-            throw std::invalid_argument("refine_patches: patch " + std::to_string(f.idx()) + " is given the size " +
-                                        std::to_string(m) + " (must be positive)");
         mesh.property(limit, f) = m * m;
         mesh.property(from, f) = f.idx();
     }
@@ -168,6 +171,9 @@ std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, st
             if (longest_edge(mesh, f).second > mesh.property(limit, f)) splits += bisect(scene, f);
     }
     scene.finalize();
+    // Both halves of a split contact edge keep the mark: the count the record shows.
+    scene.contact_edges = 0;
+    for (auto e : mesh.edges()) scene.contact_edges += mesh.property(scene.contact_edge_handle, e) ? 1 : 0;
     if (origin) {
         origin->clear();
         origin->reserve(mesh.n_faces());

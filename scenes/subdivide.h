@@ -19,7 +19,7 @@ std::size_t subdivide(Scene& scene, double max_edge);
 
 // Refines chosen patches: patch i (scene.patch_list() order) is cut until no piece of it
 // has an edge longer than max_edge[i] (infinity, or any value at least its longest edge:
-// left as it is). The cuts are conforming longest-edge bisections after Rivara's LEPP:
+// not cut for itself, only where conformity with a neighbour's cut asks). The cuts are conforming longest-edge bisections after Rivara's LEPP:
 // an edge is split only where it is the longest edge of both triangles on it, so where
 // it is not, the neighbour's longest edge is split first. The mesh stays watertight,
 // the angles stay bounded (the smallest at least half of the coarse mesh's), and the
