@@ -66,6 +66,14 @@ void name_the_dead(int rank, int size) {
     });
 }
 
+// Once the ranks know how the run ends (a failure agreed on, or the end of main), the
+// others exit as they please and mpirun may signal rank 0 for it: neither their deaths
+// nor that signal is news then, nor a request to stop.
+void end_the_watch() {
+    render::set_signal_reporter(nullptr);
+    render::set_stoppable(false);
+}
+
 }  // namespace
 
 Ranks::Ranks(int& argc, char**& argv) {
@@ -104,7 +112,9 @@ Ranks::Ranks(int& argc, char**& argv) {
 }
 
 Ranks::~Ranks() {
-    if (mpi_) MPI_Finalize();
+    if (!mpi_) return;
+    end_the_watch();
+    MPI_Finalize();
 }
 
 std::string Ranks::library() {
@@ -124,6 +134,7 @@ void Ranks::agree(const std::string* failure, int code) const {
     int lowest = size_;
     MPI_Allreduce(&mine, &lowest, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (lowest == size_) return;
+    end_the_watch();
     int header[2] = {code, failure ? static_cast<int>(failure->size()) : 0};
     MPI_Bcast(header, 2, MPI_INT, lowest, MPI_COMM_WORLD);
     std::string message(static_cast<std::size_t>(header[1]), '\0');
