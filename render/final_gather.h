@@ -20,8 +20,9 @@
 //    glossy surface `glossy_rays` directions drawn from the Phong lobe read the solved
 //    field at their hits (its emission excluded, the sky included), weighted by the
 //    lobe; not filtered, since it depends on the view.
-//  - Indirect light only at the guide sample of every pixel (the ray through its
-//    centre, 003 section 3.2): `gather_rays` cosine-weighted rays; each hit gives the
+//  - Indirect light only at the guide sample of every pixel (003 section 3.2; with
+//    spp = 1 the ray through its centre, with spp > 1 through a point drawn uniformly
+//    from the pixel, anew every pass): `gather_rays` cosine-weighted rays; each hit gives the
 //    radiance the solved field reflects there (interpolated smoothly across the
 //    patch; its emission excluded, since direct light is counted above; nothing from
 //    the back of a patch; the sky's radiance where a ray leaves the scene, so that
@@ -32,10 +33,19 @@
 //    bounding sphere).
 //  - With spp > 1 the pixel is the box average of spp camera samples (a jittered
 //    grid, sampling/strata.h), which compute their own direct light and take E from
-//    the most similar of the four guide pixels around them: similarity s = s_n s_d
-//    with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2 and s_d = 1 - |D_a - D_i| /
-//    max_j |D_a - D_j| (eq. 3-5; no thresholds). The guide sample serves the indirect
-//    light and the normal and depth AOVs only. With spp = 1 the guide sample is the
+//    their own pixel's guide where it lies on their surface (same normal, in their
+//    tangent plane): drawn as they are, its E has theirs as its mean, so the pixel
+//    converges to its box-filtered light. Where the pixel's guide met another surface,
+//    the nearest guide on theirs among the nine pixels around; where none is, the most
+//    similar of the four guide pixels around the sample point (003 eq. 3-5: similarity
+//    s = s_n s_d with s_n = 1 - |N_a - N_i|^2 / max_j |N_a - N_j|^2 and s_d = 1 -
+//    |D_a - D_i| / max_j |D_a - D_j|, no thresholds), and of the nine where that one
+//    lies across a depth discontinuity (a thin object whose guides all missed it).
+//    Guides at the pixels' centres, as 003 has them, leave a bias that no number of
+//    passes takes away where E changes within a pixel: rows along a contact line up to
+//    40 % too bright in the Cornell box at 256² (docs/final-image.md section 17). The
+//    guide sample serves the indirect light and the normal and depth AOVs only. With
+//    spp = 1 the guide sample is the
 //    pixel. With emission_samples > 0 what the camera sees unlit (emission, the sky)
 //    comes from that many rays of their own instead, on a jittered grid: rays that
 //    compute no light, so a light's or a window's edge gets many more of them.

@@ -1,11 +1,13 @@
 #include "render/gbuffer.h"
 
+#include "sampling/rng.h"
+#include "sampling/streams.h"
 #include "scenes/threads.h"
 
 namespace raybundle::render {
 
 GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
-                     int threads) {
+                     int threads, const PixelPoints& points) {
     GBuffer g;
     g.width = camera.width();
     g.height = camera.height();
@@ -13,7 +15,14 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
     const auto& patches = scene.patch_list();
     parallel_rows(g.height, threads, [&](int y) {
         for (int x = 0; x < g.width; ++x) {
-            const scenes::Vec3 d = camera.direction(x + 0.5, y + 0.5);
+            double fx = 0.5, fy = 0.5;
+            if (points.drawn) {
+                const auto p = static_cast<std::uint64_t>(y) * static_cast<std::uint64_t>(g.width) + x;
+                sampling::Rng rng(points.seed, sampling::streams::kGuidePoints(points.pass, p, 32));
+                fy = rng.uniform();  // y first: see sampling/rng.h
+                fx = rng.uniform();
+            }
+            const scenes::Vec3 d = camera.direction(x + fx, y + fy);
             const scenes::RayHit hit = caster.intersect(camera.eye(), d);
             GSample& s = g.samples[static_cast<std::size_t>(y) * g.width + x];
             s.direction = d;

@@ -1,9 +1,11 @@
 #pragma once
-// The G-buffer: for every pixel centre, the patch the camera sees there, the point,
-// the patch normal and the shading normal, the depth and the barycentric coordinates.
+// The G-buffer: for one point of every pixel (its centre, or one drawn uniformly from
+// it), the patch the camera sees there, the point, the patch normal and the shading
+// normal, the depth and the barycentric coordinates.
 #include "render/camera.h"
 #include "scenes/ray_caster.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace raybundle::render {
@@ -31,8 +33,15 @@ struct GBuffer {
     const GSample& at(int x, int y) const { return samples[static_cast<std::size_t>(y) * width + x]; }
 };
 
-// One ray through every pixel centre; rows split over `threads` (same result for any count).
+// Where in its pixel each ray goes: the centre, or (drawn) a point uniform over the
+// pixel from stream sampling::streams::kGuidePoints(pass, pixel) of `seed`.
+struct PixelPoints {
+    bool drawn = false;
+    std::uint64_t seed = 0, pass = 0;
+};
+
+// One ray through every pixel; rows split over `threads` (same result for any count).
 GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster, const PinholeCamera& camera,
-                     int threads = 1);
+                     int threads = 1, const PixelPoints& points = {});
 
 }  // namespace raybundle::render

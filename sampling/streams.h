@@ -45,9 +45,10 @@ inline constexpr Range kGuidePixels{"guide pixels", 1ull << 50, kMaxPasses << 32
 inline constexpr Range kSamplePixels{"sample pixels", 2ull << 50, kMaxPasses << 32};  // its further samples
 inline constexpr Range kPathPixels{"path pixels", 3ull << 50, kMaxPasses << 32};      // the path tracer's pixel p
 inline constexpr Range kBiasPixels{"bias pixels", 4ull << 50, kMaxPasses << 32};      // the bias probe at guide p
+inline constexpr Range kGuidePoints{"guide points", 5ull << 50, kMaxPasses << 32};     // where in pixel p its guide lies
 
 inline constexpr Range kAll[] = {kDirections,  kWalkShifts,   kAdaptiveWalks, kMapJitters, kWalks,
-                                 kGuidePixels, kSamplePixels, kPathPixels, kBiasPixels};
+                                 kGuidePixels, kSamplePixels, kPathPixels, kBiasPixels, kGuidePoints};
 
 constexpr bool disjoint() {
     for (const Range& a : kAll)
