@@ -10,8 +10,12 @@
 # RAYBUNDLE_BUDGETS (the whole command-line run timed), each image's relative L1 error,
 # MSE, relative L1 of 4x4-pixel means and worst 16x16 block against the reference
 # (build/bench/image_error), and raybundle's own estimate of its error (its stats'
-# image_estimated_error). Writes docs/bench-cycles.csv, docs/bench-cycles.png and
-# docs/bench-cycles.md.
+# image_estimated_error). Every reference is rendered twice, with two seeds: the two
+# differ by sqrt(2) times one's noise, so that pair gives the noise of the reference
+# the errors are taken against (per pixel, over 4x4 blocks, the worst 16x16 block),
+# and no time to an error below three times that noise is claimed (the table says
+# "below 3x the reference's noise" instead). Writes docs/bench-cycles.csv,
+# docs/bench-cycles.png and docs/bench-cycles.md.
 #
 # Usage: bench/run_cycles_bench.sh [--quick] [--threads N] [--no-build] [--out DIR]
 #                                   [--references-only] [--only NAME,...]
@@ -56,8 +60,10 @@ REF_SPP=16384
 # The timed runs' seed, and the reference's: another seed, so that the reference does
 # not share the timed Cycles runs' samples (with one seed, Cycles' progressive pattern
 # makes an N-spp image the first N samples of the reference, and its error too small).
+# The second reference, of its own seed, measures the first one's noise.
 SEED=1
 REF_SEED=2
+REF_SEED_2=3
 # ------------------------------------------------------------------------------------
 
 command_line="bench/run_cycles_bench.sh${*:+ $*}"
@@ -125,6 +131,24 @@ cycles_render() {
   [ -s "$exr" ] || { echo "run_cycles_bench: Cycles wrote no $exr" >&2; exit 1; }
 }
 seconds_of() { sed -n 's/.*"seconds_render": \([0-9.eE+-]*\).*/\1/p' "$1"; }
+# A reference and its notes: reference_render NAME SCENE_ARGS OUT.exr SEED
+reference_render() {
+  local name=$1 scene_args=$2 ref=$3 seed=$4 base
+  base=$(basename "${ref%.exr}")
+  echo "reference $ref: Cycles at $REF_SPP spp, seed $seed, $threads threads (long)"
+  cycles_render "$work/$name.json" "$work/images/$base-reference.exr" "$REF_SPP" "$seed" "$work/$base-reference.json" --half
+  cp "$work/images/$base-reference.exr" "$ref"
+  {
+    echo "scene: $name ($scene_args)"
+    echo "command: blender -b --factory-startup --python bench/cycles/import_scene.py -- --scene $name.json --output $base.exr --spp $REF_SPP -t $threads --seed $seed --half"
+    echo "scene.json: build/bench/export_scene $scene_args -o $name.json"
+    echo "seconds_render: $(seconds_of "$work/$base-reference.json")"
+    echo "blender: $blender_version"
+    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
+    echo "machine: $(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)"
+  } >"${ref%.exr}.txt"
+  echo "  $(seconds_of "$work/$base-reference.json") s"
+}
 error_of() {  # prints "relative_l1,mse,block4_l1,worst_block16"
   "$image_error" "$1" "$2" | awk '$1 == "relative_l1" { r = $2 } $1 == "mse" { m = $2 } $1 == "block4_l1" { b = $2 }
     $1 == "worst_block16" { w = $2 } END { print r "," m "," b "," w }'
@@ -135,24 +159,29 @@ for entry in "${SCENES[@]}"; do
   name=${entry%%|*}
   read -r -a args <<<"${entry#*|}"
   "$export_scene" "${args[@]}" -o "$work/$name.json"
-  ref=$refdir/$name.exr
-  if [ -s "$ref" ]; then
-    echo "reference $ref: present, kept"
-    continue
-  fi
-  echo "reference $ref: Cycles at $REF_SPP spp, $threads threads (long)"
-  cycles_render "$work/$name.json" "$work/images/$name-reference.exr" "$REF_SPP" "$REF_SEED" "$work/$name-reference.json" --half
-  cp "$work/images/$name-reference.exr" "$ref"
-  {
-    echo "scene: $name (${entry#*|})"
-    echo "command: blender -b --factory-startup --python bench/cycles/import_scene.py -- --scene $name.json --output $name.exr --spp $REF_SPP -t $threads --seed $REF_SEED --half"
-    echo "scene.json: build/bench/export_scene ${entry#*|} -o $name.json"
-    echo "seconds_render: $(seconds_of "$work/$name-reference.json")"
-    echo "blender: $blender_version"
-    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "machine: $(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)"
-  } >"${ref%.exr}.txt"
-  echo "  $(seconds_of "$work/$name-reference.json") s"
+  for pair in "$name.exr|$REF_SEED" "$name-seed$REF_SEED_2.exr|$REF_SEED_2"; do
+    ref=$refdir/${pair%|*}
+    if [ -s "$ref" ]; then
+      echo "reference $ref: present, kept"
+    else
+      reference_render "$name" "${entry#*|}" "$ref" "${pair#*|}"
+    fi
+  done
+done
+
+# The references' own noise: two renders of independent seeds differ by sqrt(2) times
+# the noise of one (independent errors add in quadrature), per pixel and over 4x4
+# blocks alike; the worst 16x16 block of their difference, as it is. Prints
+# "l1,block4_l1,worst_block16" of the first reference.
+reference_noise() {
+  "$image_error" "$refdir/$1-seed$REF_SEED_2.exr" "$refdir/$1.exr" | awk '$1 == "relative_l1" { r = $2 }
+    $1 == "block4_l1" { b = $2 } $1 == "worst_block16" { w = $2 } END { printf "%.6g,%.6g,%.6g\n", r / sqrt(2), b / sqrt(2), w }'
+}
+declare -A noise
+for entry in "${SCENES[@]}"; do
+  name=${entry%%|*}
+  noise[$name]=$(reference_noise "$name")
+  echo "reference $name: noise (relative L1 per pixel, of 4x4 blocks; worst 16x16 block apart) ${noise[$name]}"
 done
 
 [ "$refs_only" = 1 ] && { echo "run_cycles_bench: references done"; exit 0; }
@@ -160,7 +189,7 @@ done
 # --- timed runs ---------------------------------------------------------------------
 csv=$out/bench-cycles.csv
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
-echo "scene,renderer,setting,seconds,relative_l1,mse,block4_l1,worst_block16,estimated" >"$csv.partial"
+echo "scene,renderer,setting,seconds,relative_l1,mse,block4_l1,worst_block16,estimated,reference_noise_l1,reference_noise_block4_l1" >"$csv.partial"
 for entry in "${SCENES[@]}"; do
   name=${entry%%|*}
   read -r -a args <<<"${entry#*|}"
@@ -168,7 +197,7 @@ for entry in "${SCENES[@]}"; do
   for spp in "${CYCLES_SPP[@]}"; do
     img=$work/images/$name-cycles-$spp.exr
     cycles_render "$work/$name.json" "$img" "$spp" "$SEED" "$work/$name-cycles-$spp.json"
-    row="$name,cycles,$spp spp,$(seconds_of "$work/$name-cycles-$spp.json"),$(error_of "$img" "$ref"),"
+    row="$name,cycles,$spp spp,$(seconds_of "$work/$name-cycles-$spp.json"),$(error_of "$img" "$ref"),,${noise[$name]%,*}"
     echo "$row" | tee -a "$csv.partial"
   done
   k=0
@@ -180,7 +209,7 @@ for entry in "${SCENES[@]}"; do
     "$raybundle" solve "${args[@]}" "${b[@]}" --threads "$threads" --seed "$SEED" -q -o "$img" --stats "$work/stats.json"
     t1=$(date +%s.%N)
     estimated=$(sed -n 's/.*"image_estimated_error": \([0-9.eE+-]*\).*/\1/p' "$work/stats.json" | head -1)
-    row="$name,raybundle,$budget,$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'),$(error_of "$img" "$ref"),$estimated"
+    row="$name,raybundle,$budget,$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'),$(error_of "$img" "$ref"),$estimated,${noise[$name]%,*}"
     echo "$row" | tee -a "$csv.partial"
   done
 done
@@ -215,15 +244,17 @@ do for [s in "$names"] {
 unset multiplot
 GP
 
-# --- time to 2 %, 1 %, 0.5 % relative L1 ---------------------------------------------
+# --- time to an error: per pixel (2 %, 1 %, 0.5 %) and of 4x4 blocks ---------------
 # Per scene and renderer, the points in order of time; the first pair of consecutive
 # points whose errors bracket the target gives the time by log-log interpolation. A
 # target met by the first (fastest) point is reported as "<= its time"; one never met,
-# as "not reached".
-time_to() {  # scene renderer target
-  awk -F, -v s="$1" -v r="$2" -v e="$3" '
-    $1 == s && $2 == r { n++; t[n] = $4; err[n] = $5 }
+# as "not reached"; one below three times the reference's noise (of that error), not
+# at all: an error that small is the reference's as much as the image's.
+time_to() {  # scene renderer target [error column, its noise column: 5 and 10, or 7 and 11]
+  awk -F, -v s="$1" -v r="$2" -v e="$3" -v c="${4:-5}" -v nc="${5:-10}" '
+    $1 == s && $2 == r { n++; t[n] = $4; err[n] = $c; noise = $nc }
     END {
+      if (noise != "" && e < 3 * noise) { printf "below 3× the reference'"'"'s noise of %.2f %%", 100 * noise; exit }
       for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++)
         if (t[j] < t[i]) { x = t[i]; t[i] = t[j]; t[j] = x; x = err[i]; err[i] = err[j]; err[j] = x }
       for (i = 1; i <= n; i++) {
@@ -260,13 +291,25 @@ mem=$(awk '$1 == "MemTotal:" { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)
   echo "Log-log interpolation between the measured points; \"<=\" when the fastest point is"
   echo "already below the target."
   echo
-  echo "| scene | renderer | 2 % | 1 % | 0.5 % |"
-  echo "| --- | --- | --- | --- | --- |"
+  echo "| scene | renderer | 2 % | 1 % | 0.5 % | 4×4 blocks: 1 % | 0.5 % | 0.25 % |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
   for entry in "${SCENES[@]}"; do
     name=${entry%%|*}
     for r in cycles raybundle; do
-      echo "| $name | $r | $(time_to "$name" $r 0.02) | $(time_to "$name" $r 0.01) | $(time_to "$name" $r 0.005) |"
+      echo "| $name | $r | $(time_to "$name" $r 0.02) | $(time_to "$name" $r 0.01) | $(time_to "$name" $r 0.005) |" \
+        "$(time_to "$name" $r 0.01 7 11) | $(time_to "$name" $r 0.005 7 11) | $(time_to "$name" $r 0.0025 7 11) |"
     done
+  done
+  echo
+  echo "The references' own noise, from two renders of seeds $REF_SEED and $REF_SEED_2 (their"
+  echo "difference over √2; the worst 16×16 block of their difference as it is). No time"
+  echo "to an error below three times it is given."
+  echo
+  echo "| scene | per pixel | 4×4 blocks | worst 16×16 block of the difference |"
+  echo "| --- | --- | --- | --- |"
+  for entry in "${SCENES[@]}"; do
+    name=${entry%%|*}
+    echo "${noise[$name]}" | awk -F, -v s="$name" '{ printf "| %s | %.3f %% | %.3f %% | %+.2f %% |\n", s, 100 * $1, 100 * $2, 100 * $3 }'
   done
   echo
   echo "![relative L1 and MSE against seconds](bench-cycles.png)"
@@ -286,8 +329,11 @@ mem=$(awk '$1 == "MemTotal:" { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)
   echo
   for entry in "${SCENES[@]}"; do
     name=${entry%%|*}
-    echo "- \`$name\`: \`${entry#*|}\`; reference ($refdir/$name.txt): $(sed -n 's/^command: .*--spp \([0-9]*\).*--seed \([0-9]*\).*/\1 spp, seed \2/p' "$refdir/$name.txt"),"
-    echo "  $(awk '$1 == "seconds_render:" { printf "%.0f", $2 }' "$refdir/$name.txt") s of Cycles on $(sed -n 's/^date: //p' "$refdir/$name.txt")"
+    echo "- \`$name\`: \`${entry#*|}\`; references:"
+    for txt in "$refdir/$name.txt" "$refdir/$name-seed$REF_SEED_2.txt"; do
+      echo "  - $txt: $(sed -n 's/^command: .*--spp \([0-9]*\).*--seed \([0-9]*\).*/\1 spp, seed \2/p' "$txt"),"
+      echo "    $(awk '$1 == "seconds_render:" { printf "%.0f", $2 }' "$txt") s of Cycles on $(sed -n 's/^date: //p' "$txt")"
+    done
   done
   echo
   echo "raybundle budgets (\`raybundle solve SCENE BUDGET --threads $threads --seed $SEED\`):"
