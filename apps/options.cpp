@@ -204,6 +204,12 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     f.row("direct", yes, parsed("--direct", [&g](const std::string& v) { g.direct = render::parse_direct_light(v); },
                                 "final gather, area lights: analytic (exact unoccluded light x shadow ratio, default) | sampled")
                              ->check(choices(render::kDirectLightNames)));
+    f.row("direct_at_hits", yes,
+          parsed("--direct-at-hits", [&g](const std::string& v) { g.direct_at_hits = v == "on"; },
+                 "final gather: on patches across which the lights' direct light varies (shadows' edges, contacts), "
+                 "rays reading the field take the direct light at their hit point instead of the patch's: on | off")
+              ->check(CLI::IsMember({"on", "off"}))
+              ->default_str("on"));
     f.row("glossy_rays", yes, value("--glossy-rays", g.glossy_rays, "final gather: Phong-lobe rays per camera sample on glossy surfaces")
                                   ->check(CLI::Range(0, 1 << 16)));
     f.row("correction", yes,
@@ -289,7 +295,7 @@ void check_command(const CLI::App& cmd, Command& c) {
         }
     }
     if (r.solver.method == "pathtrace") {
-        for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
+        for (const char* flag : {"--gather", "--aov", "--direct-samples", "--direct", "--direct-at-hits", "--glossy-rays", "--filter", "--emission-samples",
                                  "--correction", "--bias-probe", "--filter-radius", "--eps-normal", "--eps-depth", "--iterations", "--depth",
                                  "--unbiased", "--sampler", "--basis", "--visibility", "--resolution", "--refine", "--diffuse-shot",
                                  "--no-diffuse-shot", "--one-way", "--both-ways", "--ambient", "--no-ambient", "--frame", "--no-frame", "--csv-every", "--patches", "--ply", "--shading"})
@@ -300,7 +306,7 @@ void check_command(const CLI::App& cmd, Command& c) {
                 throw UsageError("-o " + image + ": a baked asset needs a radiance field (not --method pathtrace)");
         r.path.spp = cmd.count("--spp") > 0 ? r.gather.spp : render::PathTraceOptions{}.spp;
     } else if (r.gather.gather_rays == 0) {
-        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--glossy-rays", "--filter", "--emission-samples",
+        for (const char* flag : {"--spp", "--aov", "--direct-samples", "--direct", "--direct-at-hits", "--glossy-rays", "--filter", "--emission-samples",
                                  "--correction", "--bias-probe", "--filter-radius", "--eps-normal", "--eps-depth"})
             if (cmd.count(flag) > 0)
                 throw UsageError(std::string(flag) + " needs the final gather (--gather N, N > 0)");

@@ -114,6 +114,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     const GatherEstimator g(scene, caster, field, o);
     const auto& patches = scene.patch_list();
     GatherResult r;
+    r.direct_at_hits = g.direct_at_hits();
     r.image = Image(W, H);
     r.direct = Image(W, H);
     r.indirect = Image(W, H);

@@ -90,6 +90,13 @@ struct GatherOptions {
     // Gather rays that hit closer than twice the size of the patch they meet go on
     // one more bounce instead of reading the field there (the contact bias).
     bool near_hits = true;
+    // Where a gather or glossy ray reads the field on a patch across which the shots'
+    // direct light varies (a shadow's edge, a contact: RadianceField::direct differs
+    // between the patch and its corners by more than a tenth of the patch's radiance),
+    // it reads the field less that direct light and samples the direct light at the hit
+    // point instead (render/gather_estimator.h): the field's patch averages no longer
+    // carry light into contact shadows. Needs a field that keeps the direct light apart.
+    bool direct_at_hits = true;
     // The probability q with which a secondary ray that reads the field goes on instead
     // and adds (path - field) / q: the field as a control variate, so the image
     // converges to the scene's true light whatever the field's bias (0: the field is
@@ -146,6 +153,10 @@ struct GatherResult {
     // (the correction "auto").
     Image corrected, corrected_bias;
     long camera_rays = 0, shadow_rays = 0, gather_rays = 0, bias_rays = 0;
+    // The patches whose direct light the gather samples at its hits (direct_at_hits),
+    // and -1 where it does not (off, or a field without its direct part); of the last
+    // pass, as the filter's radius.
+    long direct_at_hits = -1;
     int filter_radius = 0;  // the radius the filter used (of the last pass: rounds may vary)
     // Extra samples that took their indirect light from a guide (spp > 1), and those
     // of them whose guide's depth differs from theirs by more than 10 % (a lookup

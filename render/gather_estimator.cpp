@@ -5,6 +5,7 @@
 #include "sampling/strata.h"
 #include "scenes/brdf.h"
 #include "scenes/frame.h"
+#include "solver/radiance_field.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,6 +26,9 @@ constexpr double kNear = 2.0;
 // vertices' BRDF weights (below 1e-6 at an albedo of 0.8; 0.04 only where every vertex
 // reflects 0.95 or more).
 constexpr int kMostBounces = 64;
+// A patch takes its direct light at the hit point where the field's direct part at one
+// of its corners differs from the patch's own by more than this share of its radiance.
+constexpr double kDirectVaries = 0.1;
 
 // The mean over `count` directions of reading(u1, u2), the directions' points of the
 // unit square stratified (sampling/strata.h).
@@ -48,6 +52,31 @@ GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCa
       analytic_(options.direct == DirectLight::analytic), near_hits_(options.near_hits),
       correction_(options.correction) {
     corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
+    if (!options.direct_at_hits || field.direct.size() != field.radiance.size() || !field.corners.empty()) return;
+    const std::size_t n = patches_.size();
+    solver::RadianceField direct, rest;
+    direct.radiance = field.direct;
+    rest.radiance.resize(n);
+    for (std::size_t i = 0; i < n; ++i) rest.radiance[i] = field.radiance[i] - field.direct[i];
+    const auto direct_corners = corner_radiance(scene, direct);
+    const auto rest_corners = corner_radiance(scene, rest);
+    direct_at_.assign(n, 0);
+    direct_at_count_ = 0;
+    const AreaLights& lights = lighting_.lights();
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto& m = scene.material_of(i);
+        if (m.glossy() || m.emissive() || !(m.albedo > 0.0).any()) continue;
+        double spread = 0.0;
+        for (const Rgb& c : direct_corners[i]) spread = std::max(spread, (c - field.direct[i]).abs().maxCoeff());
+        if (!(spread > kDirectVaries * field.radiance[i].maxCoeff())) continue;
+        corners_[i] = rest_corners[i];
+        // Which estimate of the area lights: the one exact where all is seen if the
+        // patch's direct light is at least half the unoccluded light at its centroid.
+        const Vec3& c = patches_[i].centroid;
+        const double open = lights.empty() ? 0.0 : (m.albedo / M_PI * lights.irradiance(c, patches_[i].normal)).mean();
+        direct_at_[i] = open > 0.0 && field.direct[i].mean() >= 0.5 * open ? 1 : 2;
+        ++direct_at_count_;
+    }
 }
 
 Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int samples,
@@ -108,9 +137,10 @@ Rgb GatherEstimator::arriving(const scenes::RayHit& hit, const Vec3& from, const
                               (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
         return bounce_at(hit, y, -w, rng, rays, bounce + 1, corrected);
     const auto& c = corners_[hit.patch];
-    const Rgb field = ((1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] -
-                       scene_.material_of(hit.patch).emission)
-                          .max(0.0);
+    Rgb field = ((1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] -
+                 scene_.material_of(hit.patch).emission)
+                    .max(0.0);
+    if (!direct_at_.empty() && direct_at_[hit.patch]) field += direct_at_hit(hit, y, -w, rng, rays);
     // The field as a control variate: with probability go_on the path goes on and its
     // difference from the field, divided by go_on, corrects the reading.
     if (corrected && go_on > 0.0 && bounce < kMostBounces && rng.uniform() < go_on)
@@ -148,6 +178,36 @@ Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const V
     // (every diffuse surface; a glossy lobe's sample may weigh more).
     const double go_on = corrected ? std::min(0.95, f.maxCoeff()) : 0.0;
     return L + f * arriving(next, at.from, w, rng, rays, bounce, go_on, corrected);
+}
+
+Rgb GatherEstimator::direct_at_hit(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
+                                   long& rays) const {
+    const std::size_t q = static_cast<std::size_t>(hit.patch);
+    const auto& m = scene_.material_of(q);
+    const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
+    const DirectLighting::Surface at{m, n, lighting_.origin(y, patches_[q].normal, w_out), w_out};
+    Rgb L = Rgb::Zero();
+    lighting_.add_point_lights(at, Rgb::Ones(), L, rays);
+    const AreaLights& lights = lighting_.lights();
+    if (lights.empty()) return L;
+    const bool all_seen = direct_at_[q] == 1;
+    Rgb E = all_seen ? lights.irradiance(at.from, n) : Rgb::Zero();
+    const double pick = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    const auto s = lights.sample(pick, u1, u2);
+    const Vec3 d = s.point - at.from;
+    const double r = d.norm();
+    const Vec3 wl = d / r;
+    const double cos_x = n.dot(wl), cos_y = -patches_[s.patch].normal.dot(wl);
+    if (r > 0.0 && cos_x > 0.0 && cos_y > 0.0) {
+        // g / p: the light point's irradiance over its density in area.
+        const Rgb g = scene_.material_of(s.patch).emission *
+                      (cos_x * cos_y / (r * r) * patches_[s.patch].area / lights.probability(s.patch));
+        ++rays;
+        const bool seen = !caster_.intersect(at.from, wl, 0.0, r * (1.0 - 1e-5)).valid();
+        if (all_seen && !seen) E -= g;
+        if (!all_seen && seen) E += g;
+    }
+    return L + m.albedo / M_PI * E;
 }
 
 }  // namespace raybundle::render

@@ -19,6 +19,15 @@
 // whatever the field; single readings, and so single pixels of the indirect image, may
 // be negative.
 //
+// Direct light at the hits (GatherOptions::direct_at_hits): on the patches across which
+// the shots' direct light varies, a reading is the field less its direct part
+// (RadianceField::direct, both smoothed to the hit point as the field is) plus the
+// direct light at the hit point: every point light, and of the area lights an unbiased
+// one-ray estimate. Where most of a patch sees the lights, that estimate is the exact
+// unoccluded irradiance E0 (render/lights.h) less what a light point drawn by power
+// finds blocked, E0 - (1 - V) g / p; elsewhere V g / p. Each is exact where its
+// assumption holds (all seen, or all hidden), so the noise stays at the shadows' edges.
+//
 // The bias probe (GatherOptions::bias_probe): with the correction off, a gather ray is
 // also, with a small probability, followed as the correction would follow it, from a
 // generator of its own. The difference (corrected - read) / probability is an unbiased
@@ -52,6 +61,10 @@ public:
     // The scene, the caster and the field must outlive it.
     GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
                     const GatherOptions& options);
+
+    // How many patches take their direct light at the hit point (see above); -1 where
+    // none can (the option off, or a field without its direct part).
+    long direct_at_hits() const { return direct_at_count_; }
 
     scenes::Vec3 shading_normal(std::size_t p, double b1, double b2, const scenes::Vec3& to_eye) const {
         return lighting_.shading_normal(p, b1, b2, to_eye);
@@ -90,6 +103,10 @@ private:
     // the field (field_along).
     scenes::Rgb bounce_at(const scenes::RayHit& hit, const scenes::Vec3& y, const scenes::Vec3& w_out,
                           sampling::Rng& rng, long& rays, int bounce, bool corrected) const;
+    // The direct light a diffuse surface met by a secondary ray at y sends back along
+    // w_out (see above), its emission excluded.
+    scenes::Rgb direct_at_hit(const scenes::RayHit& hit, const scenes::Vec3& y, const scenes::Vec3& w_out,
+                              sampling::Rng& rng, long& rays) const;
 
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
@@ -98,7 +115,11 @@ private:
     bool analytic_;
     bool near_hits_;
     double correction_;
+    // Per patch, the field's corner values, less the direct light on the patches marked
+    // in direct_at_ (1: E0 less the blocked part, 2: the seen part).
     std::vector<std::array<scenes::Rgb, 3>> corners_;
+    std::vector<char> direct_at_;
+    long direct_at_count_ = -1;
 };
 
 }  // namespace raybundle::render

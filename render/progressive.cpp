@@ -445,6 +445,7 @@ void add_gather(GatherResult& sum, const GatherResult& pass, double w) {
     add_scaled(sum.indirect_filtered, pass.indirect_filtered, w);
     add_scaled(sum.bias, pass.bias, w);
     sum.filter_radius = pass.filter_radius;
+    sum.direct_at_hits = pass.direct_at_hits;
     sum.camera_rays += pass.camera_rays;
     sum.shadow_rays += pass.shadow_rays;
     sum.gather_rays += pass.gather_rays;

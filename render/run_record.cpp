@@ -122,6 +122,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
     return {{"gather_rays", o.gather_rays},
             {"direct_samples", o.direct_samples},
             {"direct", direct_light_name(o.direct)},
+            {"direct_at_hits", o.direct_at_hits},
             {"glossy_rays", o.glossy_rays},
             {"correction", c.auto_correction && o.correction == 0.0 && o.bias_probe > 0.0 ? json("auto") : json(o.correction)},
             {"bias_probe", o.correction > 0.0 ? 0.0 : o.bias_probe},
@@ -136,6 +137,7 @@ json gather_record(const RunConfig& c, const GatherResult& g) {
             {"shadow_rays", g.shadow_rays},
             {"gather_rays_total", g.gather_rays},
             {"bias_probe_rays", g.bias_rays},
+            {"direct_at_hits_patches", g.direct_at_hits},
             {"lookups", g.lookups},
             {"lookups_across_depth", g.lookups_across},
             {"seconds_guides", g.seconds_guides},
@@ -191,6 +193,14 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
         else
             line = "the field read as the answer (--correction 0)";
         stats["decisions"]["correction"] = line;
+        const long at = r.gather->direct_at_hits;
+        stats["decisions"]["gather_hits"] =
+            at > 0 ? "direct light sampled at the hit point on " + std::to_string(at) + " of " +
+                         std::to_string(scene.patch_count()) +
+                         " patches (the shots' light varies across them: shadows' edges, contacts); elsewhere the field is read"
+            : at == 0 ? std::string("the field is read: the shots' light varies across no patch")
+            : !g.direct_at_hits ? std::string("the field is read (direct_at_hits off)")
+                                : std::string("the field is read: it keeps no direct part apart (no shot, or the linear basis)");
         stats["estimate"]["correction"] = r.rounds.correction;
         stats["estimate"]["corrected"] = r.rounds.corrected || g.correction > 0.0;
     }

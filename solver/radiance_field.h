@@ -14,6 +14,12 @@ struct RadianceField {
     // With the linear basis: per patch, the radiance at its three corners (the
     // renderer interpolates them). Empty for the constant basis.
     std::vector<std::array<scenes::Rgb, 3>> corners;
+    // Per patch: the part of `radiance` that is the lights' direct light, reflected
+    // (the first shot's and the diffuse shot's: computed once, the same in every
+    // chain and round), so that a reader can put a point estimate of the direct light
+    // in the place of its patch average (render/gather_estimator.h). Zero for glossy
+    // patches; empty where the solver does not keep it apart (no shot, the linear basis).
+    std::vector<scenes::Rgb> direct;
 
     // Patch-area-weighted mean radiance, averaged over the channels.
     double mean_radiance(const scenes::Scene& scene) const;

@@ -33,6 +33,12 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
         // The diffuse shot: the emission moves no more; its diffuse reflection does.
         emitted_diffuse_[i] = shot_diffuse_[i] + (direct ? Rgb(m.albedo * (*direct)[i] / M_PI) : emission_[i]);
     }
+    if (shot || direct) {
+        direct_reflected_.assign(n_, Rgb::Zero());
+        for (std::size_t i = 0; i < n_; ++i)
+            if (!patch_glossy_[i])
+                direct_reflected_[i] = direct ? Rgb(emitted_diffuse_[i]) : shot_diffuse_[i];
+    }
     if (shot && glossy_) {
         hits_ = shot->glossy_hits;
         std::stable_sort(hits_.begin(), hits_.end(), [](const auto& a, const auto& b) { return a.patch < b.patch; });
@@ -129,6 +135,7 @@ RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, con
             f.radiance[i] = displayed(i, Vec3::Zero()) + reflect_[i] * sum[i] * inv;
         }
     }
+    f.direct = direct_reflected_;
     return f;
 }
 

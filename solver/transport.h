@@ -102,6 +102,7 @@ public:
     // The field from per-patch sums over `count` estimates: of irradiance in a
     // diffuse scene (L = shown + 4 albedo sum / count), of the radiance towards the
     // eye in a glossy one (L = shown towards the eye, front side only, + sum / count).
+    // With a shot, the field's `direct` holds the shots' part of it.
     RadianceField field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const;
 
     // Sets the two sky slots of an outgoing-radiance vector for direction w.
@@ -147,6 +148,9 @@ private:
     std::vector<double> inv_area_;  // slots(); zero at the sky slots
     std::vector<Vec3> normal_;
     std::vector<Rgb> emission_, shot_diffuse_, emitted_diffuse_, reflect_;
+    // Per patch, the shots' direct light it reflects diffusely (RadianceField::direct);
+    // empty without a shot.
+    std::vector<Rgb> direct_reflected_;
     std::vector<char> patch_glossy_;
     // Glossy patches lit by point lights: per patch, a range into hits_.
     std::vector<std::uint32_t> hit_begin_;
