@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 namespace raybundle::scenes {
@@ -49,8 +50,25 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     handles.reserve(vertices.size());
     for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
     std::size_t apart = 0;  // triangles kept apart from the others
+    // A triangle given twice, the same corners the same way round (an exporter's slip:
+    // the "bottom" faces of the boxes of the Cornell box OBJ in McGuire's archive
+    // repeat their right and back faces), would put two patches in one place facing
+    // one way, of which every visibility map sees one only: the other would stay dark
+    // in the solved field, and rays meeting it would read that. The copy is dropped.
+    // (The same corners the other way round are a two-sided sheet, and stay.)
+    std::set<std::array<std::array<double, 3>, 3>> given;
+    std::size_t twice = 0;
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
+        std::array<std::array<double, 3>, 3> key;
+        int first = 0;  // the corners from the least one on: one key for each rotation
+        for (int c = 1; c < 3; ++c)
+            if (to_array(vertices[t[c]]) < to_array(vertices[t[first]])) first = c;
+        for (int c = 0; c < 3; ++c) key[c] = to_array(vertices[t[(first + c) % 3]]);
+        if (!given.insert(key).second) {
+            ++twice;
+            continue;
+        }
         std::array<TriMesh::VertexHandle, 3> corner = {handles[t[0]], handles[t[1]], handles[t[2]]};
         // OpenMesh prints "complex edge" where it refuses a face: said once below instead.
         omerr().disable();
@@ -73,6 +91,9 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
             mesh.property(corner_normal_handle, h) = to_array(n);
         }
     }
+    if (twice > 0)
+        warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(twice) +
+                           " triangles given twice (the same corners, the same way round): the copies dropped");
     if (apart > 0)
         warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(apart) +
                            " triangles on edges two others already share (non-manifold, or a face given twice): "
