@@ -137,10 +137,14 @@ Rgb GatherEstimator::arriving(const scenes::RayHit& hit, const Vec3& from, const
                               (near_hits_ && hit.t < kNear * std::sqrt(patches_[hit.patch].area))))
         return bounce_at(hit, y, -w, rng, rays, bounce + 1, corrected);
     const auto& c = corners_[hit.patch];
-    Rgb field = ((1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] -
-                 scene_.material_of(hit.patch).emission)
-                    .max(0.0);
-    if (!direct_at_.empty() && direct_at_[hit.patch]) field += direct_at_hit(hit, y, -w, rng, rays);
+    Rgb field = (1.0 - hit.b1 - hit.b2) * c[0] + hit.b1 * c[1] + hit.b2 * c[2] - scene_.material_of(hit.patch).emission;
+    // A marked patch (not emissive) reads the rest of the field and the direct light at
+    // y, each unbiased, neither clamped: a round's segment of the field (render/
+    // progressive.h) may have a rest below zero, and clamping it would add light.
+    if (!direct_at_.empty() && direct_at_[hit.patch])
+        field += direct_at_hit(hit, y, -w, rng, rays);
+    else
+        field = field.max(0.0);
     // The field as a control variate: with probability go_on the path goes on and its
     // difference from the field, divided by go_on, corrects the reading.
     if (corrected && go_on > 0.0 && bounce < kMostBounces && rng.uniform() < go_on)

@@ -200,7 +200,8 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
                          " patches (the shots' light varies across them: shadows' edges, contacts); elsewhere the field is read"
             : at == 0 ? std::string("the field is read: the shots' light varies across no patch")
             : !g.direct_at_hits ? std::string("the field is read (direct_at_hits off)")
-                                : std::string("the field is read: it keeps no direct part apart (no shot, or the linear basis)");
+                                : std::string("the field is read: it keeps no direct part apart (no shot, area lights without "
+                                              "the diffuse shot, or the linear basis)");
         stats["estimate"]["correction"] = r.rounds.correction;
         stats["estimate"]["corrected"] = r.rounds.corrected || g.correction > 0.0;
     }

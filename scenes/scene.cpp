@@ -93,10 +93,12 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     }
     if (twice > 0)
         warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(twice) +
-                           " triangles given twice (the same corners, the same way round): the copies dropped");
+                           (twice == 1 ? " triangle" : " triangles") +
+                           " given twice (the same corners, the same way round): the copies dropped, the first "
+                           "one's material kept");
     if (apart > 0)
         warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(apart) +
-                           " triangles on edges two others already share (non-manifold, or a face given twice): "
+                           " triangles on edges two others already share (non-manifold): "
                            "kept as separate triangles");
     return object;
 }

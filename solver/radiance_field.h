@@ -17,8 +17,10 @@ struct RadianceField {
     // Per patch: the part of `radiance` that is the lights' direct light, reflected
     // (the first shot's and the diffuse shot's: computed once, the same in every
     // chain and round), so that a reader can put a point estimate of the direct light
-    // in the place of its patch average (render/gather_estimator.h). Zero for glossy
-    // patches; empty where the solver does not keep it apart (no shot, the linear basis).
+    // in the place of its patch average (render/gather_estimator.h). It is all of the
+    // lights' direct light or empty: empty where the solver does not keep it apart (no
+    // shot; area lights without the diffuse shot; the linear basis). Zero for glossy
+    // patches.
     std::vector<scenes::Rgb> direct;
 
     // Patch-area-weighted mean radiance, averaged over the channels.

@@ -33,7 +33,13 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
         // The diffuse shot: the emission moves no more; its diffuse reflection does.
         emitted_diffuse_[i] = shot_diffuse_[i] + (direct ? Rgb(m.albedo * (*direct)[i] / M_PI) : emission_[i]);
     }
-    if (shot || direct) {
+    // The field's direct part (RadianceField::direct) must be all the lights' direct
+    // light: with area lights that takes the diffuse shot (without it their light moves
+    // through the iteration, and a reader that put its own estimate in the place of the
+    // point lights' part would count theirs twice).
+    bool area_lights = false;
+    for (std::size_t i = 0; i < n_ && !area_lights; ++i) area_lights = (emission_[i] > 0.0).any();
+    if (direct || (shot && !area_lights)) {
         direct_reflected_.assign(n_, Rgb::Zero());
         for (std::size_t i = 0; i < n_; ++i)
             if (!patch_glossy_[i])

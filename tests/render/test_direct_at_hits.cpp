@@ -24,11 +24,11 @@ namespace {
 // faces the wall from z = 0.5, in front of the shadow's edge. Nothing but the wall reflects, and the wall cannot see
 // itself: its radiance is its direct light, reflected, and the receiver's incident
 // indirect light is that radiance's integral over the wall.
-scenes::Scene shadowed_wall(bool point_light) {
-    const std::string lamp = point_light
-                                 ? R"(], "point_lights": [{"position": [0, 2, 0.6], "intensity": [3, 3, 3]}],)"
-                                 : R"(, {"quad": [[-0.2, 2, 0.4], [0.2, 2, 0.4], [0.2, 2, 0.8], [-0.2, 2, 0.8]],
-                                        "material": "lamp"}],)";
+scenes::Scene shadowed_wall(bool point_light, bool both = false) {
+    const std::string area = R"(, {"quad": [[-0.2, 2, 0.4], [0.2, 2, 0.4], [0.2, 2, 0.8], [-0.2, 2, 0.8]],
+                                   "material": "lamp"})";
+    const std::string point = R"("point_lights": [{"position": [0, 2, 0.6], "intensity": [3, 3, 3]}],)";
+    const std::string lamp = both ? area + "], " + point : point_light ? "], " + point : area + "],";
     const std::string text = R"({
       "camera": {"eye": [0, 0.5, 3], "target": [0, 0.5, 0], "fov_y": 60, "width": 8, "height": 8},
       "materials": {"wall": {"albedo": [0.8, 0.8, 0.8]}, "black": {"albedo": [0, 0, 0]},
@@ -129,4 +129,26 @@ TEST_CASE("final gather: direct light taken at the hits keeps a hard shadow's ed
     CHECK(on == Approx(exact).epsilon(0.01));
     // The field's patch averages, smoothed to the corners, carry light into the shadow.
     CHECK(std::abs(off / exact - 1.0) > 0.03);
+}
+
+TEST_CASE("final gather: no direct light at the hits where the field does not keep all of it apart",
+          "[render][gather]") {
+    // Point lights and an area light: without the diffuse shot the area light's direct
+    // light moves through the iteration, and the first shot's part alone is no stand-in
+    // for what a hit point's estimate (of every light) replaces.
+    const scenes::Scene s = shadowed_wall(false, true);
+    const scenes::RayCaster caster(s);
+    for (const bool diffuse_shot : {false, true}) {
+        INFO("diffuse shot " << diffuse_shot);
+        const solver::Transport transport(s, solver::ShotOptions{diffuse_shot});
+        solver::SolverOptions so;
+        so.steps = 2;
+        auto solver = solver::make_solver(transport, so, {});
+        solver->run();
+        const solver::RadianceField field = solver->field();
+        CHECK(field.direct.size() == (diffuse_shot ? s.patch_count() : 0));
+        const render::GatherEstimator g(s, caster, field, render::GatherOptions{});
+        CHECK((g.direct_at_hits() > 0) == diffuse_shot);
+        CHECK((g.direct_at_hits() == -1) == !diffuse_shot);
+    }
 }

@@ -59,16 +59,17 @@ TEST_CASE("OBJ: a face given twice the same way round is kept once, the other wa
     // every visibility map sees one, so that the other stayed dark in the solved field
     // and the floor in front of it came out 8-10 % too dark where gather rays met it.
     TempDir dir;
-    dir.write("box.obj", "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\n"
-                         "usemtl w\nf 1 4 3 2\nf -3 -2 -1 -4\nf 2 3 4 1\n");
+    // A triangle, itself rotated twice (both dropped) and its back (kept).
+    dir.write("box.obj", "mtllib w.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\n"
+                         "usemtl w\nf 1 4 3\nf 4 3 1\nf 1 3 4\nf 3 1 4\n");
     dir.write("w.mtl", "newmtl w\nKd 0.5 0.5 0.5\n");
     const std::string head = R"({"camera": {"eye": [0.5, 3, 2], "target": [0.5, 0, 0.5]}, "patch_size": "none", )"
-                             R"("materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)";
-    const Scene s = parse_scene(head + R"({"mesh": "box.obj", "material": "w"}]})", "s.json", dir.path.string());
-    // The first quad, its copy rotated (dropped), and the sheet's back (kept).
-    CHECK(s.patch_count() == 4);
+                             R"("objects": [)";
+    const Scene s = parse_scene(head + R"({"mesh": "box.obj"}]})", "s.json", dir.path.string());
+    CHECK(s.patch_count() == 2);
     REQUIRE(s.warnings.size() == 1);
     CHECK_THAT(s.warnings[0], Contains("box.obj") && Contains("2 triangles given twice") && Contains("dropped"));
+    CHECK(s.patch_list()[0].normal.dot(s.patch_list()[1].normal) == Approx(-1.0));
     CHECK(coplanar_overlaps(s).pairs == 0);
 }
 
