@@ -40,15 +40,7 @@ void write_outputs(const Command& c, const scenes::Scene& scene, const render::R
         for (const auto& path : c.baked)
             outputs.stage(path, [&](const std::string& tmp) { render::write_patch_glb(tmp, scene, *r.field, c.exposure); });
     if (!c.csv.empty()) outputs.stage(c.csv, [&](const std::string& tmp) { render::write_convergence_csv(tmp, r.rows); });
-    nlohmann::json record = r.record;
-    // Reading and preparing the scene came first: the contact search on the run's
-    // threads, the rest (reading, refinement, normals) on one.
-    if (record.contains("phases"))
-        record["phases"].insert(record["phases"].begin(),
-                                nlohmann::json::object({{"phase", "scene"},
-                                                        {"seconds", seconds_scene},
-                                                        {"threads", c.config.run.threads}}));
-    if (r.signal != 0) record["interrupted_by"] = render::signal_name(r.signal);
+    const nlohmann::json record = render::stats_record(r, seconds_scene, c.config.run.threads);
     if (!c.stats.empty()) outputs.stage(c.stats, [&](const std::string& tmp) { render::write_json(tmp, record); });
     outputs.commit();
 }

@@ -2,6 +2,7 @@
 
 #include "render/filters.h"
 #include "render/image_io.h"
+#include "render/signals.h"
 #include "visibility/backend.h"
 #include "visibility/exact_spans.h"
 
@@ -246,6 +247,15 @@ void record_reference(json& record, const RunConfig& c, const std::optional<Imag
                                {"mse", against->mse},
                                {"block4_relative_l1", against->block4_l1},
                                {"worst_block16", against->worst_block16}};
+}
+
+json stats_record(const RunResult& r, double seconds_scene, int threads) {
+    json record = r.record;
+    if (record.contains("phases"))
+        record["phases"].insert(record["phases"].begin(),
+                                json::object({{"phase", "scene"}, {"seconds", seconds_scene}, {"threads", threads}}));
+    if (r.signal != 0) record["interrupted_by"] = signal_name(r.signal);
+    return record;
 }
 
 std::string contacts_line(const scenes::Scene& scene) {

@@ -32,6 +32,11 @@ nlohmann::json path_trace_record(const scenes::Scene& scene, const RunConfig& c,
 // The comparison with config.reference, where there is one.
 void record_reference(nlohmann::json& record, const RunConfig& c, const std::optional<ImageError>& against);
 
+// The record as the stats file holds it: the run's, with the reading and preparation
+// of the scene first among the phases (the contact search on the run's threads, the
+// rest on one), and the signal that interrupted it, if any.
+nlohmann::json stats_record(const RunResult& r, double seconds_scene, int threads);
+
 // What the contacts between surfaces did to the scene (scenes/contacts.h), in a line.
 std::string contacts_line(const scenes::Scene& scene);
 
