@@ -624,9 +624,11 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         long done = resume;
         long next_record = std::min(per_chain, (done / chunk + 1) * chunk);
         resume = 0;
+        long every = std::max(1L, o.pause_every);
         while (done < per_chain) {
             long count = next_record - done;
-            if (o.pause) count = std::min(count, std::max(1L, o.pause_every));
+            if (o.pause) count = std::min(count, every);
+            const auto t_interval = Clock::now();
             // Each chain's steps so far in this call, and the progress of both as one.
             long chain_done[2] = {0, 0};
             std::mutex progress_lock;
@@ -651,6 +653,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             }
             done += count;
             out.steps += 2 * count;
+            if (o.pause_seconds > 0.0 && count == every && since(t_interval) < 0.5 * o.pause_seconds) every *= 2;
             if (done == next_record) {
                 next_record = std::min(per_chain, next_record + chunk);
                 if (observe && o.record_every > 0 && a.averaged() > 0 && b.averaged() > 0) {

@@ -88,6 +88,9 @@ struct SolverReport {
     VisibilityUsed visibility;
     long steps = 0;       // steps or walks done
     long directions = 0;  // geometry matrices computed
+    // Wall seconds computing matrices and moving light along them. Where the two
+    // overlap (iteration on several threads), visibility is the wall time of the
+    // batches less the moving done beside them: the two add up to the solve's wall time.
     double seconds_visibility = 0.0, seconds_transport = 0.0;
     std::size_t entries_total = 0;    // geometry-matrix entries over all directions
     std::size_t bytes_per_patch = 0;  // the method's per-patch vectors

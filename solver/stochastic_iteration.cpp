@@ -221,42 +221,69 @@ void StochasticIteration::step(const Vec3* ws, const visibility::GeometryMatrix*
 }
 
 void StochasticIteration::advance(long total) {
-    // One direction at a time on one thread; batches of 4 per thread otherwise. The
-    // directions and jitters are drawn in the same order either way, and however the
-    // steps are split into calls.
+    // One direction at a time on one thread. With more, batches of 4 directions per
+    // thread: their matrices are computed side by side, and the light moves along one
+    // batch's matrices (in order, on the calling thread) while the other threads
+    // compute the next batch's. The directions and jitters are drawn in the same order
+    // either way, and however the steps are split into calls.
     const int threads = backends_.threads();
     const long batch = threads == 1 ? 1 : 4L * threads;
     const int per_step = *options_.frame ? 3 : 1;
-    std::vector<Vec3> ws;
-    std::vector<Eigen::Vector2d> offsets;
+    std::vector<Vec3> ws, next_ws;
+    std::vector<Eigen::Vector2d> offsets, next_offsets;
     const auto start = Clock::now();
-    for (long m = 0; m < total;) {
-        const long count = std::min(batch, total - m);
-        ws.clear();
-        offsets.clear();
+    const auto draw = [&](long count, std::vector<Vec3>& w, std::vector<Eigen::Vector2d>& o) {
+        w.clear();
+        o.clear();
         for (long b = 0; b < count; ++b) {
             if (*options_.frame) {
-                for (const Vec3& axis : directions_.next_frame()) ws.push_back(axis);
+                for (const Vec3& axis : directions_.next_frame()) w.push_back(axis);
             } else {
-                ws.push_back(directions_.next());
+                w.push_back(directions_.next());
             }
             for (int d = 0; d < per_step; ++d) {
                 const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
-                offsets.emplace_back(x, y);
+                o.emplace_back(x, y);
             }
         }
-        const auto t0 = Clock::now();
-        backends_.transfer_batch(ws, offsets, matrices_);
-        report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    double moved = 0.0;  // seconds of moving the light inside the last transfer_batch
+    long m = 0;          // steps done in this call
+    const auto move_light = [&](long count) {
+        const auto t1 = Clock::now();
         for (long b = 0; b < count; ++b, ++m) {
-            const auto t1 = Clock::now();
             step(&ws[b * per_step], &matrices_[b * per_step], per_step);
-            report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
             for (int d = 0; d < per_step; ++d) report_.entries_total += matrices_[b * per_step + d].entries.size();
             report_.directions += per_step;
             ++report_.steps;
             run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
         }
+        moved = std::chrono::duration<double>(Clock::now() - t1).count();
+        report_.seconds_transport += moved;
+    };
+    if (total <= 0) return;
+    long count = std::min(batch, total);
+    draw(count, ws, offsets);
+    auto t0 = Clock::now();
+    backends_.transfer_batch(ws, offsets, matrices_);
+    report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (long drawn = count;;) {
+        if (drawn == total) {
+            move_light(count);
+            break;
+        }
+        // The next batch's matrices beside this batch's steps.
+        const long next = std::min(batch, total - drawn);
+        draw(next, next_ws, next_offsets);
+        t0 = Clock::now();
+        moved = 0.0;
+        backends_.transfer_batch(next_ws, next_offsets, next_matrices_, [&] { move_light(count); });
+        report_.seconds_visibility += std::chrono::duration<double>(Clock::now() - t0).count() - moved;
+        ws.swap(next_ws);
+        offsets.swap(next_offsets);
+        matrices_.swap(next_matrices_);
+        count = next;
+        drawn += next;
     }
 }
 

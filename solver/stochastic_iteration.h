@@ -125,7 +125,7 @@ private:
     sampling::RandomDirections directions_;
     sampling::Rng jitter_;
     long steps_ = 0;
-    std::vector<visibility::GeometryMatrix> matrices_;  // one batch
+    std::vector<visibility::GeometryMatrix> matrices_, next_matrices_;  // a batch, and the one computed beside it
     SolverReport report_;
 };
 

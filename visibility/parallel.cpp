@@ -3,6 +3,7 @@
 #include "scenes/threads.h"
 
 #include <algorithm>
+#include <atomic>
 
 namespace raybundle::visibility {
 
@@ -18,22 +19,27 @@ BackendSet::BackendSet(const std::string& name, const scenes::Scene& scene, cons
 BackendSet::BackendSet(Backend& single) { all_.push_back(&single); }
 
 void BackendSet::transfer_batch(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
-                                std::vector<GeometryMatrix>& out) {
+                                std::vector<GeometryMatrix>& out, const std::function<void()>& alongside) {
     const std::size_t n = directions.size();
     out.resize(n);
-    const std::size_t T = std::min(all_.size(), n);
+    const std::size_t T = std::min(all_.size(), std::max<std::size_t>(n, 1));
     if (T <= 1) {
+        if (alongside) alongside();
         for (std::size_t k = 0; k < n; ++k) all_[0]->transfer(directions[k], jitters[k], out[k]);
         return;
     }
-    // Thread t takes the directions t, t + T, ...; the first runs here. Each fills a
-    // matrix of its own, on a cache line of its own, and swaps it into place: out[k] and
-    // out[k + 1] share a cache line, and a backend appending to them directly would
-    // have the threads write the same line at every entry.
+    // Each thread takes the next direction not yet taken. It fills a matrix of its own,
+    // on a cache line of its own, and swaps it into place: out[k] and out[k + 1] share a
+    // cache line, and a backend appending to them directly would have the threads
+    // write the same line at every entry. A matrix depends on its direction and jitter
+    // alone, so which thread computes it does not change the result.
     if (scratch_.size() < T) scratch_.resize(T);
+    std::atomic<std::size_t> next{0};
     run_threads(static_cast<int>(T), [&](int t) {
+        if (t == 0 && alongside) alongside();
         GeometryMatrix& mine = scratch_[static_cast<std::size_t>(t)].matrix;
-        for (std::size_t k = static_cast<std::size_t>(t); k < n; k += T) {
+        for (std::size_t k = next.fetch_add(1, std::memory_order_relaxed); k < n;
+             k = next.fetch_add(1, std::memory_order_relaxed)) {
             all_[static_cast<std::size_t>(t)]->transfer(directions[k], jitters[k], mine);
             std::swap(mine, out[k]);  // out[k]'s old storage is reused for the next one
         }

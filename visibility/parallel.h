@@ -9,6 +9,7 @@
 // factory), then transfer_batch() as often as needed.
 #include "visibility/backend.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,9 +28,16 @@ public:
     Backend& at(int t) { return *all_[static_cast<std::size_t>(t)]; }
     int threads() const { return static_cast<int>(all_.size()); }
 
-    // out[k] = A(directions[k]) with jitters[k]; out is resized to the batch.
+    // out[k] = A(directions[k]) with jitters[k]; out is resized to the batch. The
+    // threads take the directions in turn as they finish the one before (a direction's
+    // cost varies with how the scene lies along it), each with its own backend.
+    //
+    // alongside, when given, runs first on the calling thread while the others start
+    // on the batch; the calling thread then joins them. A solver moves the light along
+    // one batch's matrices this way while the next batch's are computed: its serial
+    // part overlaps the parallel one. alongside must not touch `out`.
     void transfer_batch(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
-                        std::vector<GeometryMatrix>& out);
+                        std::vector<GeometryMatrix>& out, const std::function<void()>& alongside = {});
 
 private:
     std::vector<std::unique_ptr<Backend>> owned_;

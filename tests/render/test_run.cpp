@@ -300,7 +300,7 @@ TEST_CASE("run: a stop asked for ends the solve at the next pause, the image mad
 
 TEST_CASE("run: a warning that repeats is passed on once, then with its count", "[render][run]") {
     const auto scene = small_box();
-    auto config = patch_image("iteration", 64);
+    auto config = patch_image("iteration", 256);  // 4 pauses of 32 steps per chain on 2 threads
     config.checkpoint = "/dev/null/c.ckpt";  // cannot be written: fails at every pause
     config.checkpoint_steps = 1;
     std::vector<std::string> warnings;
