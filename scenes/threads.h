@@ -9,10 +9,14 @@
 // parallel_bands(rows, threads, body): body(y0, y1) on contiguous bands of rows.
 // parallel_rows(rows, threads, body): body(y) for every row, rows dealt out in turn
 // (balances rows of uneven cost).
+// parallel_chunks(items, threads, body): body(i0, i1) on chunks of about items / (16
+// threads) items, each taken by the next thread free (balances items whose cost is
+// clustered in index order, e.g. the patches next to a light).
 //
 // Results must not depend on the number of threads: bodies write disjoint outputs and
 // draw random numbers from streams chosen by row or pixel, never by thread.
 #include <algorithm>
+#include <atomic>
 #include <exception>
 #include <thread>
 #include <vector>
@@ -61,6 +65,22 @@ void parallel_rows(int rows, int threads, const Body& body) {
     const int n = std::max(1, std::min(threads, rows));
     run_threads(n, [&](int t) {
         for (int y = t; y < rows; y += n) body(y);
+    });
+}
+
+template <class Body>
+void parallel_chunks(int items, int threads, const Body& body) {
+    const int n = std::max(1, std::min(threads, items));
+    if (n == 1) {
+        body(0, items);
+        return;
+    }
+    const int chunk = std::max(1, items / (16 * n));
+    std::atomic<int> next{0};
+    run_threads(n, [&](int) {
+        for (int i0 = next.fetch_add(chunk, std::memory_order_relaxed); i0 < items;
+             i0 = next.fetch_add(chunk, std::memory_order_relaxed))
+            body(i0, std::min(items, i0 + chunk));
     });
 }
 

@@ -156,8 +156,9 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     if (groups_out) *groups_out = groups.size();
     std::vector<Rgb> irradiance(n, Rgb::Zero());
     const double offset = 1e-6 * scene.bounds_radius();
-    // Receivers are independent: bands of them on the run's threads; every sum is made
-    // in the same order whatever the split. Spread over a team, each member computes
+    // Receivers are independent: chunks of them on the run's threads (those next to a
+    // light cost the most, and lie together in patch order); every sum is made in the
+    // same order whatever the split. Spread over a team, each member computes
     // receivers rank, rank + size, ... and the members share them (with the rays each
     // receiver cast), so that the shot is computed once, not once per member.
     const sampling::Team* team = run.team && run.team->size() > 1 ? run.team : nullptr;
@@ -243,7 +244,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
         });
         return scene.material_of(group.members.front()).emission * (sum / (static_cast<double>(Ni) * Ni));
     };
-    parallel_bands(mine, run.threads, [&](int k0, int k1) {
+    parallel_chunks(mine, run.threads, [&](int k0, int k1) {
         long rays = 0;
         std::vector<Vec3> targets;
         for (int k = k0; k < k1; ++k) {
@@ -301,7 +302,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                         // Every sample point lies behind a plane (a sliver in front): visible
                         // unless something blocks the line to the clipped polygon's centre.
                         Vec3 centre = Vec3::Zero();
-                        for (int k = 0; k < m; ++k) centre += poly[k] / m;
+                        for (int corner = 0; corner < m; ++corner) centre += poly[corner] / m;
                         const Vec3 d = centre - from;
                         const double r = d.norm();
                         ++rays;
