@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <stdexcept>
 
 namespace raybundle::solver {
@@ -134,10 +136,12 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     // backends, whole walks go side by side, one per thread, each with vectors of its
     // own. Otherwise a walk's D directions do (at most D threads busy).
     side_by_side_ = backends_.threads() > 1 && !source_->adapts() && !options.unbiased;
-    if (side_by_side_) vectors = vectors * static_cast<std::size_t>(backends_.threads()) - (backends_.threads() - 1);
+    const int under_way = walks_under_way(backends_.threads());
+    if (side_by_side_) vectors = vectors * static_cast<std::size_t>(under_way) - (under_way - 1);
     report_.decisions["walk_threads"] =
         backends_.threads() == 1 ? std::string("one walk at a time")
-        : side_by_side_          ? "whole walks side by side, " + std::to_string(backends_.threads()) + " at a time"
+        : side_by_side_          ? "whole walks side by side on " + std::to_string(backends_.threads()) + " threads, up to " +
+                              std::to_string(under_way) + " under way"
                                  : std::string("one walk at a time, its directions side by side (") +
                                        (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")";
     report_.bytes_per_patch = vectors * sizeof(Rgb);
@@ -354,29 +358,59 @@ void GlobalWalks::advance(long total) {
         }
         return;
     }
-    // Whole walks side by side, one per thread and backend: each proposed, its jitters
-    // drawn and its sum taken in walk order, so that the walks are those of one thread.
+    // Whole walks side by side, each on a thread and its backend. A walk is proposed and
+    // its jitters drawn in walk order, and its sum taken in walk order, so that the
+    // walks are those of one thread; a thread free takes the next walk, up to
+    // walks_under_way() walks past the oldest not yet summed (a slow walk does not hold
+    // the others up), and whichever thread finds the oldest walk done sums it.
     const int threads = backends_.threads();
-    if (work_.size() < static_cast<std::size_t>(threads)) {
+    const auto window = static_cast<std::size_t>(walks_under_way(threads));
+    if (work_.size() < window) {
         const Work first = work_.front();  // a copy: resize() may move the vector
-        work_.resize(static_cast<std::size_t>(threads), first);
+        work_.resize(window, first);
     }
-    for (long m = 0; m < total;) {
-        const int batch = static_cast<int>(std::min<long>(threads, total - m));
-        for (int k = 0; k < batch; ++k) {
-            source_->propose(walks_done_ + k, point_.data());
-            start_walk(work_[static_cast<std::size_t>(k)], point_.data());
+    const long base = walks_done_;
+    std::mutex lock_walks;
+    std::condition_variable changed;
+    long started = 0, summed = 0;
+    bool failed = false;
+    std::vector<char> done(window, 0);
+    run_threads(threads, [&](int t) {
+        std::unique_lock<std::mutex> lock(lock_walks);
+        try {
+            while (!failed && summed < total) {
+                const std::size_t oldest = static_cast<std::size_t>(summed) % window;
+                if (done[oldest]) {
+                    Work& work = work_[oldest];
+                    source_->accept(work.walk, 0.0, sum_);
+                    count(work);
+                    done[oldest] = 0;
+                    ++walks_done_;
+                    ++report_.steps;
+                    ++summed;
+                    run_.report("solve", summed, total, std::chrono::duration<double>(Clock::now() - start).count());
+                    changed.notify_all();
+                } else if (started < total && started < summed + static_cast<long>(window)) {
+                    const long k = started++;
+                    Work& work = work_[static_cast<std::size_t>(k) % window];
+                    source_->propose(base + k, point_.data());
+                    start_walk(work, point_.data());
+                    lock.unlock();
+                    evaluate(work, &backends_.at(t));
+                    lock.lock();
+                    done[static_cast<std::size_t>(k) % window] = 1;
+                    changed.notify_all();
+                } else {
+                    changed.wait(lock);
+                }
+            }
+        } catch (...) {
+            if (!lock.owns_lock()) lock.lock();
+            failed = true;  // the others stop too, rather than wait for this walk
+            changed.notify_all();
+            throw;
         }
-        run_threads(batch, [&](int k) { evaluate(work_[static_cast<std::size_t>(k)], &backends_.at(k)); });
-        for (int k = 0; k < batch; ++k, ++m) {
-            Work& work = work_[static_cast<std::size_t>(k)];
-            source_->accept(work.walk, 0.0, sum_);
-            count(work);
-            ++walks_done_;
-            ++report_.steps;
-            run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
-        }
-    }
+    });
 }
 
 // Between walks the sums, the jitters' generator, the correction and the source's

@@ -45,6 +45,7 @@
 #include "solver/walk_source.h"
 #include "visibility/parallel.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -136,7 +137,10 @@ private:
     std::vector<double> point_;  // the walk's 2 depth coordinates
     sampling::Rng jitter_;
     std::vector<Vec3> to_eye_;
-    std::vector<Work> work_;    // [0]: the walk under way; side by side, one per thread
+    std::vector<Work> work_;    // [0]: the walk under way; side by side, one per walk under way
+    // Walks under way at once side by side on `threads`: a half more than the threads,
+    // so that a walk slower than the others does not leave threads idle.
+    static int walks_under_way(int threads) { return threads + std::max(1, threads / 2); }
     bool side_by_side_ = false;  // whole walks on the threads (else a walk's directions)
     // The unbiased correction: the previous walk's last-bounce irradiance (per patch),
     // and the direction it arrived along (with both: +-, per patch by its normal).
