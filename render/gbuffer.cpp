@@ -11,7 +11,7 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
     GBuffer g;
     g.width = camera.width();
     g.height = camera.height();
-    g.samples.resize(static_cast<std::size_t>(g.width) * g.height);
+    g.samples.resize(static_cast<std::size_t>(g.width) * g.height);  // constructed below, row by row
     const auto& patches = scene.patch_list();
     parallel_rows(g.height, threads, [&](int y) {
         for (int x = 0; x < g.width; ++x) {
@@ -24,17 +24,17 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
             }
             const scenes::Vec3 d = camera.direction(x + fx, y + fy);
             const scenes::RayHit hit = caster.intersect(camera.eye(), d);
-            GSample& s = g.samples[static_cast<std::size_t>(y) * g.width + x];
-            s.direction = d;
+            GSample* s = ::new (static_cast<void*>(&g.samples[static_cast<std::size_t>(y) * g.width + x])) GSample;
+            s->direction = d;
             if (!hit.valid()) continue;
-            s.patch = hit.patch;
-            s.point = camera.eye() + hit.t * d;
-            s.normal = patches[hit.patch].normal;
-            s.shading_normal = scene.shading_normal(hit.patch, hit.b1, hit.b2);
-            s.depth = hit.t;
-            s.b1 = hit.b1;
-            s.b2 = hit.b2;
-            s.front = s.normal.dot(d) < 0.0;
+            s->patch = hit.patch;
+            s->point = camera.eye() + hit.t * d;
+            s->normal = patches[hit.patch].normal;
+            s->shading_normal = scene.shading_normal(hit.patch, hit.b1, hit.b2);
+            s->depth = hit.t;
+            s->b1 = hit.b1;
+            s->b2 = hit.b2;
+            s->front = s->normal.dot(d) < 0.0;
         }
     });
     return g;

@@ -6,6 +6,10 @@
 #include "scenes/ray_caster.h"
 
 #include <cstdint>
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace raybundle::render {
@@ -27,9 +31,32 @@ inline scenes::Rgb background(const scenes::Scene& scene, const scenes::Vec3& di
     return scene.sky ? scene.sky->arriving_along(-direction) : scenes::Rgb::Zero();
 }
 
+// A vector's allocator that leaves the elements' construction to their owner
+// (make_gbuffer constructs every sample in place on the threads: a 512^2 buffer's
+// 37 MB are first touched there, not zeroed by one thread beforehand). Only for
+// trivially destructible element types: one left unconstructed by an exception
+// needs no destructor.
+template <class T>
+struct ConstructedByOwner : std::allocator<T> {
+    static_assert(std::is_trivially_destructible_v<T>);
+    template <class U>
+    struct rebind {
+        using other = ConstructedByOwner<U>;
+    };
+    ConstructedByOwner() = default;
+    template <class U>
+    ConstructedByOwner(const ConstructedByOwner<U>&) noexcept {}
+    template <class U>
+    void construct(U*) noexcept {}
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
 struct GBuffer {
     int width = 0, height = 0;
-    std::vector<GSample> samples;
+    std::vector<GSample, ConstructedByOwner<GSample>> samples;  // every one constructed by make_gbuffer
     const GSample& at(int x, int y) const { return samples[static_cast<std::size_t>(y) * width + x]; }
 };
 

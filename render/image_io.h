@@ -35,18 +35,21 @@ Image read_exr(const std::string& path);
 void write_pfm(const std::string& path, const Image& image);
 
 // sRGB PNG, 8 bits. Tone map: v = clamp(2^exposure * L, 0, 1) per channel, then the
-// sRGB transfer curve. exposure in stops (0: radiance 1 maps to white).
-void write_png(const std::string& path, const Image& image, double exposure);
+// sRGB transfer curve. exposure in stops (0: radiance 1 maps to white). The tone map
+// runs on `threads` (the file is the same for any count).
+void write_png(const std::string& path, const Image& image, double exposure, int threads = 1);
 
 // The format a file name asks for, by its extension (case-insensitive): .exr, .png or
 // .pfm; throws OptionError("output") for any other.
 enum class ImageFormat { exr, png, pfm };
 ImageFormat image_format(const std::string& path);
-// Writes the image in the format its name asks for (exposure: PNG only).
-void write_image(const std::string& path, const Image& image, double exposure);
+// Writes the image in the format its name asks for (exposure and threads: PNG only).
+void write_image(const std::string& path, const Image& image, double exposure, int threads = 1);
 
 // The 8-bit sRGB code of a linear value after exposure (the PNG tone map, shared with
 // the PLY colours).
 unsigned char tone_map(double linear, double exposure);
+// The same of a value already scaled by 2^exposure.
+unsigned char to_srgb8(double scaled);
 
 }  // namespace raybundle::render
