@@ -700,7 +700,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                                    std::to_string(n) + "): give it SolverOptions::steps = chain_steps()");
         segment[h] = between(seen[h].field, seen[h].n, now, n);
         seen[h] = {std::move(now), n};
-        if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading)};
+        if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading, r.threads)};
         const GatherOptions g = pass_options(scale, pass, q);
         correction = g.correction;
         GatherResult result = final_gather(scene, caster, segment[h], camera, g, r);

@@ -23,10 +23,13 @@ const char* shading_name(Shading s);
 // patches around the corner's vertex that share the patch's material and its shading
 // normal there (within 1 degree: the same smooth surface, Scene::corner_normals), so
 // that walls meeting at a crease keep their own colours, and light does not bleed
-// across materials.
+// across materials. Patches split over `threads` (the same result for any count).
 std::vector<std::array<scenes::Rgb, 3>> corner_radiance(const scenes::Scene& scene,
-                                                        const solver::RadianceField& field);
+                                                        const solver::RadianceField& field, int threads = 1);
 
-Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& gbuffer, Shading mode);
+// The patch image: the field at each G-buffer sample (Flat: its patch's radiance;
+// Smooth: its corners' interpolated). Rows split over `threads`.
+Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& gbuffer, Shading mode,
+            int threads = 1);
 
 }  // namespace raybundle::render
