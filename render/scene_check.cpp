@@ -111,7 +111,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             object.unseen_area += p.area;
         }
     }
-    s.overlaps = scenes::coplanar_overlaps(scene);
+    s.overlaps = scenes::coplanar_overlaps(scene, threads);
     return s;
 }
 

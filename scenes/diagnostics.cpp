@@ -1,5 +1,7 @@
 #include "scenes/diagnostics.h"
 
+#include "scenes/threads.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -84,7 +86,7 @@ bool meets_square(const std::array<P2, 3>& t, const P2& corner, double side) {
 
 }  // namespace
 
-CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
+CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
     CoplanarOverlaps result;
     const auto& patches = scene.patch_list();
     const auto& pos = scene.vertex_positions();
@@ -115,7 +117,6 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
     std::vector<std::array<P2, 3>> tri;
     std::vector<std::pair<P2, P2>> box;
     std::vector<std::vector<long long>> listed;  // each triangle's cells
-    std::vector<std::uint32_t> stamp;
     std::unordered_map<long long, std::vector<std::uint32_t>> cells;
     for (std::size_t g0 = 0; g0 < n;) {
         std::size_t g1 = g0 + 1;
@@ -146,35 +147,48 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene) {
             // the plane meets a line of cells, its box a square of them), and each
             // pair is tested once (the stamp says which triangle last took it).
             const double cell = 2.0 * std::sqrt(area / static_cast<double>(group.size()));
-            box.clear();
+            const int m = static_cast<int>(group.size());
+            // Large groups (a wall of many patches) on the threads, small ones on this one.
+            const int T = m >= 4096 ? threads : 1;
+            box.assign(group.size(), {});
             listed.assign(group.size(), {});
-            for (std::uint32_t k = 0; k < group.size(); ++k) {
-                P2 lo = tri[k][0], hi = tri[k][0];
-                for (const P2& c : tri[k]) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
-                box.emplace_back(lo, hi);
-                const long long x0 = std::llround(std::floor(lo.x() / cell)), x1 = std::llround(std::floor(hi.x() / cell));
-                const long long y0 = std::llround(std::floor(lo.y() / cell)), y1 = std::llround(std::floor(hi.y() / cell));
-                for (long long x = x0; x <= x1; ++x)
-                    for (long long y = y0; y <= y1; ++y)
-                        if (meets_square(tri[k], P2(x * cell, y * cell), cell)) {
-                            cells[x * 1000003LL + y].push_back(k);
-                            listed[k].push_back(x * 1000003LL + y);
+            parallel_bands(m, T, [&](int k0, int k1) {
+                for (auto k = static_cast<std::uint32_t>(k0); k < static_cast<std::uint32_t>(k1); ++k) {
+                    P2 lo = tri[k][0], hi = tri[k][0];
+                    for (const P2& c : tri[k]) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+                    box[k] = {lo, hi};
+                    const long long x0 = std::llround(std::floor(lo.x() / cell)), x1 = std::llround(std::floor(hi.x() / cell));
+                    const long long y0 = std::llround(std::floor(lo.y() / cell)), y1 = std::llround(std::floor(hi.y() / cell));
+                    for (long long x = x0; x <= x1; ++x)
+                        for (long long y = y0; y <= y1; ++y)
+                            if (meets_square(tri[k], P2(x * cell, y * cell), cell)) listed[k].push_back(x * 1000003LL + y);
+                }
+            });
+            for (std::uint32_t k = 0; k < group.size(); ++k)
+                for (const long long c : listed[k]) cells[c].push_back(k);
+            // Bands of triangles on the threads, each with its own stamps; the pairs
+            // sorted below whatever the split.
+            const int bands = std::max(1, std::min(T, m));
+            std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> band_found(static_cast<std::size_t>(bands));
+            run_threads(bands, [&](int t) {
+                std::vector<std::uint32_t> stamp(group.size(), std::numeric_limits<std::uint32_t>::max());
+                auto& out = band_found[static_cast<std::size_t>(t)];
+                const auto ka0 = static_cast<std::uint32_t>(static_cast<long long>(m) * t / bands);
+                const auto ka1 = static_cast<std::uint32_t>(static_cast<long long>(m) * (t + 1) / bands);
+                for (std::uint32_t ka = ka0; ka < ka1; ++ka)
+                    for (const long long c : listed[ka])
+                        for (const std::uint32_t kb : cells.at(c)) {
+                            if (kb <= ka || stamp[kb] == ka) continue;
+                            stamp[kb] = ka;
+                            const P2 lo = box[ka].first.cwiseMax(box[kb].first), hi = box[ka].second.cwiseMin(box[kb].second);
+                            if (lo.x() > hi.x() || lo.y() > hi.y() || apart(tri[ka], tri[kb])) continue;
+                            const std::uint32_t i = group[ka], j = group[kb];
+                            const double smaller = std::min(patches[i].area, patches[j].area);
+                            if (overlap_area(tri[ka], tri[kb]) > 1e-6 * smaller) out.emplace_back(std::min(i, j), std::max(i, j));
                         }
-            }
+            });
             std::vector<std::pair<std::uint32_t, std::uint32_t>> found;
-            stamp.assign(group.size(), std::numeric_limits<std::uint32_t>::max());
-            for (std::uint32_t ka = 0; ka < group.size(); ++ka)
-                for (const long long c : listed[ka])
-                    for (const std::uint32_t kb : cells.at(c)) {
-                        if (kb <= ka || stamp[kb] == ka) continue;
-                        stamp[kb] = ka;
-                        const P2 lo = box[ka].first.cwiseMax(box[kb].first), hi = box[ka].second.cwiseMin(box[kb].second);
-                        if (lo.x() > hi.x() || lo.y() > hi.y() || apart(tri[ka], tri[kb])) continue;
-                        const std::uint32_t i = group[ka], j = group[kb];
-                        const double smaller = std::min(patches[i].area, patches[j].area);
-                        if (overlap_area(tri[ka], tri[kb]) > 1e-6 * smaller)
-                            found.emplace_back(std::min(i, j), std::max(i, j));
-                    }
+            for (const auto& band : band_found) found.insert(found.end(), band.begin(), band.end());
             std::sort(found.begin(), found.end());
             found.erase(std::unique(found.begin(), found.end()), found.end());
             if (!found.empty() && result.pairs == 0) std::tie(result.first, result.second) = found.front();

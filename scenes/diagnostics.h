@@ -17,7 +17,7 @@ struct CoplanarOverlaps {
     std::size_t pairs = 0;
     std::uint32_t first = 0, second = 0;  // one of them (patch indices), when pairs > 0
 };
-CoplanarOverlaps coplanar_overlaps(const Scene& scene);
+CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads = 1);  // the same for any thread count
 
 
 }  // namespace raybundle::scenes

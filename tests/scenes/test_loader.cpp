@@ -271,7 +271,7 @@ TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twic
     // millions of cells (8,000 of them: 2 minutes, then bad_alloc).
     TempDir dir;
     std::string obj;
-    const int n = 500;
+    const int n = 1100;  // twice: 4,400 patches in one plane, enough for the threads (diagnostics.cpp)
     const double pi = std::acos(-1.0);
     for (double offset : {0.0, 1e9}) {
         obj.clear();
@@ -295,6 +295,11 @@ TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twic
         REQUIRE(once.patch_count() == 2 * n);
         CHECK(coplanar_overlaps(once).pairs == 0);
         const Scene twice = parse_scene(head + mesh + ", " + mesh + "]}", "s.json", dir.path.string());
-        CHECK(coplanar_overlaps(twice).pairs == 2 * n);
+        const auto one = coplanar_overlaps(twice);
+        CHECK(one.pairs == 2 * n);
+        const auto three = coplanar_overlaps(twice, 3);
+        CHECK(three.pairs == one.pairs);
+        CHECK(three.first == one.first);
+        CHECK(three.second == one.second);
     }
 }
