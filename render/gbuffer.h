@@ -56,7 +56,10 @@ struct ConstructedByOwner : std::allocator<T> {
 
 struct GBuffer {
     int width = 0, height = 0;
-    std::vector<GSample, ConstructedByOwner<GSample>> samples;  // every one constructed by make_gbuffer
+    // Every sample is constructed by make_gbuffer: resize() and vector(n) leave new
+    // elements unconstructed here (ConstructedByOwner), so whoever grows it must
+    // construct them.
+    std::vector<GSample, ConstructedByOwner<GSample>> samples;
     const GSample& at(int x, int y) const { return samples[static_cast<std::size_t>(y) * width + x]; }
 };
 

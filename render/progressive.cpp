@@ -653,7 +653,13 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             }
             done += count;
             out.steps += 2 * count;
-            if (o.pause_seconds > 0.0 && count == every && since(t_interval) < 0.5 * o.pause_seconds) every *= 2;
+            if (o.pause_seconds > 0.0) {
+                const double took = since(t_interval);
+                if (count == every && took < 0.5 * o.pause_seconds)
+                    every *= 2;
+                else if (took > o.pause_seconds)
+                    every = std::max(std::max(1L, o.pause_every), every / 2);
+            }
             if (done == next_record) {
                 next_record = std::min(per_chain, next_record + chunk);
                 if (observe && o.record_every > 0 && a.averaged() > 0 && b.averaged() > 0) {

@@ -241,10 +241,12 @@ struct FieldImageOptions {
     std::function<bool(long done)> pause;
     long pause_every = 16;
     // With pause_seconds > 0, the steps between pauses double (from pause_every) while
-    // a pause interval takes less than half of it: a pause waits for both chains and
-    // refills the solver's pipeline of batches, so they should be rare where steps are
-    // quick, and a stop request is still answered within about pause_seconds. The
-    // result does not depend on where the pauses fall.
+    // a pause interval takes less than half of it, and halve (down to pause_every)
+    // while one takes longer: a pause waits for both chains and refills the solver's
+    // pipeline of batches, so they should be rare where steps are quick, and a stop
+    // request is still answered within about pause_seconds where steps are. The result
+    // does not depend on where the pauses fall. Off on a team: its members must pause
+    // at the same steps.
     double pause_seconds = 0.0;
     // A solve going on from a checkpoint: the chains, restored, have each done this many
     // steps of the first round (before any image).

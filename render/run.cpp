@@ -594,13 +594,14 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
     Pauses pauses(c, hooks, identity, {&chain_a.solver(), &chain_b.solver()}, rows, image_options.resume_steps,
                   seconds_before);
     image_options.pause = [&pauses](long done) { return pauses(done); };
-    // Pauses every 4 of the solver's batches of directions (4 per thread): the batches
-    // of a call to advance overlap (one's light moves while the next one's matrices
-    // are computed), and every pause waits for both chains and refills that pipeline.
-    image_options.pause_every = std::max(16L, 16L * c.run.threads);
-    // Longer where steps are quick (a quarter of a second at most between pauses),
-    // except where checkpoints fall at step counts.
-    if (c.checkpoint_steps <= 0) image_options.pause_seconds = 0.25;
+    // Pauses no shorter than the solver's batches of directions (4 per thread), and
+    // longer where steps are quick: every pause waits for both chains and refills the
+    // pipeline of batches (one batch's light moves while the next one's matrices are
+    // computed). The interval follows the clock (up to about a quarter of a second),
+    // except where checkpoints fall at step counts, and on a team, whose members must
+    // pause at the same steps whatever their clocks say.
+    image_options.pause_every = std::max(16L, 4L * c.run.threads);
+    if (c.checkpoint_steps <= 0 && !team) image_options.pause_seconds = 0.25;
     // From here a first stop request ends the solve and makes the image of the steps done.
     if (hooks.stoppable) hooks.stoppable();
     const PinholeCamera camera(scene.camera);

@@ -75,12 +75,12 @@ void parallel_chunks(int items, int threads, const Body& body) {
         body(0, items);
         return;
     }
-    const int chunk = std::max(1, items / (16 * n));
-    std::atomic<int> next{0};
+    const long long chunk = std::max(1, items / (16 * n));
+    std::atomic<long long> next{0};
     run_threads(n, [&](int) {
-        for (int i0 = next.fetch_add(chunk, std::memory_order_relaxed); i0 < items;
+        for (long long i0 = next.fetch_add(chunk, std::memory_order_relaxed); i0 < items;
              i0 = next.fetch_add(chunk, std::memory_order_relaxed))
-            body(i0, std::min(items, i0 + chunk));
+            body(static_cast<int>(i0), static_cast<int>(std::min<long long>(items, i0 + chunk)));
     });
 }
 

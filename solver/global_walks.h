@@ -60,9 +60,10 @@ const char* walk_method_name(WalkMethod m);
 class GlobalWalks final : public Solver {
 public:
     // The transport (patch constants, first shot) and the backends must outlive the
-    // solver. With several backends whole walks go side by side, one per backend, or,
-    // for a source that adapts and with `unbiased`, the D matrices of one walk
-    // (bit-identical results for any count). Throws OptionError for a depth the sampler
+    // solver. With several backends whole walks go side by side, each on a backend (a
+    // free thread takes the next walk; the walks are summed in order), or, for a source
+    // that adapts and with `unbiased`, the D matrices of one walk (bit-identical results
+    // for any count). Throws OptionError for a depth the sampler
     // cannot do or --unbiased with a QMC sampler.
     GlobalWalks(const Transport& transport, visibility::BackendSet& backends, WalkMethod method,
                 const SolverOptions& options, const sampling::RunOptions& run);
