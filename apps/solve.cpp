@@ -23,9 +23,7 @@ namespace {
 void write_outputs(const Command& c, const scenes::Scene& scene, const render::RunResult& r, double seconds_scene) {
     render::OutputSet outputs(render::signal_tracker());
     for (const auto& path : c.images)
-        outputs.stage(path, [&](const std::string& tmp) {
-            render::write_image(tmp, r.image, c.exposure, c.config.run.threads);
-        });
+        outputs.stage(path, [&](const std::string& tmp) { render::write_image(tmp, r.image, c.exposure, c.config.run.threads); });
     if (r.gather && !c.aov.empty()) {
         const auto& g = *r.gather;
         const render::Image* aovs[] = {&g.direct, &g.indirect, &g.indirect_filtered, &g.bias, &g.normal, &g.depth};
