@@ -133,8 +133,8 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     report_.visibility = describe(backends_);
     // Walks of a source that does not adapt are independent of each other (without the
     // unbiased correction, which carries one walk's light into the next): with several
-    // backends, whole walks go side by side, one per thread, each with vectors of its
-    // own. Otherwise a walk's D directions do (at most D threads busy).
+    // backends, whole walks go side by side, each walk under way with vectors of its
+    // own (walks_under_way). Otherwise a walk's D directions do (at most D threads busy).
     side_by_side_ = backends_.threads() > 1 && !source_->adapts() && !options.unbiased;
     const int under_way = walks_under_way(backends_.threads());
     if (side_by_side_) vectors = vectors * static_cast<std::size_t>(under_way) - (under_way - 1);
