@@ -1,10 +1,15 @@
 // EXR reading: what write_exr writes comes back bit for bit, the right way up; a file
-// that cannot be read is named in the error.
+// that cannot be read is named in the error. PNG: the tone map of every pixel, the same
+// file for any thread count.
 #include "render/image_io.h"
 
 #include <catch2/catch.hpp>
+#include <png.h>
 
 #include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <vector>
 #include <filesystem>
 #include <string>
 
@@ -39,4 +44,33 @@ TEST_CASE("EXR: a missing or malformed file throws, naming it", "[render][image_
     }
     REQUIRE_THROWS_WITH(render::read_exr(text), Catch::Contains(text) && Catch::Contains("cannot read EXR"));
     std::remove(text.c_str());
+}
+
+TEST_CASE("PNG: every pixel tone-mapped, rows in order, the same file for any thread count", "[render][image_io]") {
+    render::Image image(7, 37);  // more rows than threads, not a multiple of them
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = 0.013f * static_cast<float>(k % 97) - 0.1f;
+    const double exposure = 0.5;
+    const auto tmp = std::filesystem::temp_directory_path();
+    const std::string pid = std::to_string(::getpid());
+    std::vector<std::string> bytes;
+    for (const int threads : {1, 3}) {
+        const std::string path = (tmp / ("raybundle-test-" + pid + "-" + std::to_string(threads) + ".png")).string();
+        render::write_png(path, image, exposure, threads);
+        std::ifstream in(path, std::ios::binary);
+        bytes.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        std::remove(path.c_str());
+    }
+    REQUIRE(bytes[0] == bytes[1]);
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    REQUIRE(png_image_begin_read_from_memory(&png, bytes[0].data(), bytes[0].size()));
+    png.format = PNG_FORMAT_RGB;
+    REQUIRE(png.width == 7);
+    REQUIRE(png.height == 37);
+    std::vector<unsigned char> pixels(PNG_IMAGE_SIZE(png));
+    REQUIRE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr));
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) {
+        INFO("channel value " << k);
+        REQUIRE(pixels[k] == render::tone_map(image.rgb[k], exposure));
+    }
 }
