@@ -427,7 +427,7 @@ Refined refined_by_solution(const scenes::Scene& scene, const RunConfig& c) {
     for (int attempt = 0; attempt < 2; ++attempt) {
         plan = plan_refinement(scene, varies, growth);
         if (attempt > 0) out.scene = scene;
-        splits = plan.marked > 0 ? scenes::refine_patches(out.scene, plan.max_edge) : 0;
+        splits = plan.marked > 0 ? scenes::refine_patches(out.scene, plan.max_edge, nullptr, c.run.threads) : 0;
         const double added = static_cast<double>(out.scene.patch_count()) - static_cast<double>(before);
         if (added <= 1.2 * wanted) break;
         growth *= wanted / added;

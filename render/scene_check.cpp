@@ -5,6 +5,7 @@
 #include "render/run_record.h"
 #include "sampling/directions.h"
 #include "scenes/frame.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <cmath>
@@ -68,8 +69,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
     // A front within the contact distance of a surface that faces it lies on that
     // surface (scenes/contacts.h's 1e-3 of the bounding radius).
     const double near = 1e-3 * scene.bounds_radius();
-    std::vector<scenes::RayHit> hits;
-    const auto covered = [&](std::size_t i) {
+    const auto covered = [&](std::size_t i, std::vector<scenes::RayHit>& hits) {
         const auto& p = patches[i];
         caster.all_hits(p.centroid + near * p.normal, -p.normal, hits, 0.0, 2.0 * near);
         return std::any_of(hits.begin(), hits.end(), [&](const scenes::RayHit& h) {
@@ -77,6 +77,24 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             return h.patch != static_cast<int>(i) && other.normal.dot(p.normal) < 0.0;
         });
     };
+    // What each patch's front is (the rays on the threads), then the sums in patch order.
+    enum Front : char { visible, covered_front, unseen_front };
+    std::vector<char> front(patches.size(), visible);
+    std::vector<std::vector<scenes::RayHit>> scratch(static_cast<std::size_t>(std::max(1, threads)));
+    parallel_chunks(static_cast<int>(patches.size()), threads, [&](int i0, int i1, int t) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            if (seen[i] || scene.sky || in_view(i)) continue;  // open sky is something to see
+            const auto& p = patches[i];
+            scenes::Vec3 u, v;
+            scenes::orthonormal_basis(p.normal, u, v);
+            bool meets = false;
+            for (int k = 0; k < 16 && !meets; ++k)
+                meets = caster.intersect(p.centroid + offset * p.normal,
+                                         sampling::cosine_hemisphere((k % 4 + 0.5) / 4, (k / 4 + 0.5) / 4, p.normal, u, v))
+                            .valid();
+            if (!meets) front[i] = covered(i, scratch[static_cast<std::size_t>(t)]) ? covered_front : unseen_front;
+        }
+    });
     for (std::size_t i = 0; i < patches.size(); ++i) {
         const auto& p = patches[i];
         const auto& m = scene.materials[p.material];
@@ -89,24 +107,11 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         if (m.glossy()) ++s.glossy_patches;
         if (m.two_sided) ++s.two_sided_patches;
         if (p.normal.dot(scene.camera.eye - p.centroid) > 0.0) ++s.facing_camera;
-        if (seen[i]) {
-            ++s.seen_by_camera;
-            continue;
-        }
-        if (scene.sky) continue;  // open sky is something to see
-        if (in_view(i)) continue;
-        scenes::Vec3 u, v;
-        scenes::orthonormal_basis(p.normal, u, v);
-        bool meets = false;
-        for (int k = 0; k < 16 && !meets; ++k)
-            meets = caster.intersect(p.centroid + offset * p.normal,
-                                     sampling::cosine_hemisphere((k % 4 + 0.5) / 4, (k / 4 + 0.5) / 4, p.normal, u, v))
-                        .valid();
-        if (meets) continue;
-        if (covered(i)) {
+        if (seen[i]) ++s.seen_by_camera;
+        if (front[i] == covered_front) {
             ++s.covered;
             object.covered_area += p.area;
-        } else {
+        } else if (front[i] == unseen_front) {
             ++s.unseen;
             object.unseen_area += p.area;
         }

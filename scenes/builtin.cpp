@@ -350,7 +350,8 @@ std::vector<BuiltinInfo> builtin_scenes() {
     };
 }
 
-Scene make_builtin(const std::string& name, std::optional<double> patch_size, int threads) {
+Scene make_builtin(const std::string& name, std::optional<double> patch_size, int threads,
+                   const PreparationTeam* team) {
     Scene s;
     double default_size = 0.0;
     for (const auto& info : builtin_scenes())
@@ -375,11 +376,11 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
     }
-    s.finalize();
+    s.finalize(threads);
     check_refinement(s, size, name);
-    subdivide(s, size);
+    subdivide(s, size, threads);
     s.refinement = line.str();
-    cut_at_contacts(s, threads);
+    cut_at_contacts(s, threads, team);
     return s;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Built-in scenes, made by name.
 #include "scenes/scene.h"
+#include "scenes/team.h"
 
 #include <optional>
 #include <string>
@@ -18,9 +19,10 @@ struct BuiltinInfo {
 std::vector<BuiltinInfo> builtin_scenes();
 
 // Makes a built-in scene, refined to patch_size (its default when absent), finalized;
-// its contacts searched on `threads` threads. Throws SceneError for an unknown name or
-// a patch size <= 0.
-Scene make_builtin(const std::string& name, std::optional<double> patch_size = std::nullopt, int threads = 1);
+// prepared on `threads` threads, its contact search split among `team` where given
+// (scenes/team.h). Throws SceneError for an unknown name or a patch size <= 0.
+Scene make_builtin(const std::string& name, std::optional<double> patch_size = std::nullopt, int threads = 1,
+                   const PreparationTeam* team = nullptr);
 
 // Appends a convex planar quad as two triangles sharing an edge; the corners go
 // round the quad, and the front side faces `towards` (a point in front of it).

@@ -1,5 +1,6 @@
 #include "scenes/contacts.h"
 
+#include "scenes/errors.h"
 #include "scenes/subdivide.h"
 #include "scenes/threads.h"
 
@@ -7,6 +8,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
 #include <limits>
 #include <optional>
 #include <unordered_map>
@@ -144,15 +148,77 @@ void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, do
     list_cells(p, split, hi, cell, grow, out);
 }
 
-// Candidate pairs: triangles whose boxes, grown by `grow`, intersect, and that meet a
-// common cell of a hashed grid (each triangle listed in the cells it meets once they
-// are grown by `grow`, not in every cell of its box: a sliver across the scene meets a
-// line of cells, its box a block of them). The cells are the median triangle's size
-// (at least `grow`, at most 1/32 of the scene), or larger where the surface would
-// cover more than 4 of them per triangle. The pairs do not depend on the cells' size:
-// each once, in index order.
-std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::vector<Tri>& tris, double grow,
-                                                                     double radius, int threads) {
+// Bytes for PreparationTeam::gather_all: each of a member's items in turn, as its count
+// and its values (plain data: every member runs the same binary).
+template <class T>
+void pack(std::vector<char>& out, const std::vector<T>& values) {
+    const auto count = static_cast<std::uint32_t>(values.size());
+    const auto* c = reinterpret_cast<const char*>(&count);
+    out.insert(out.end(), c, c + sizeof count);
+    const auto* v = reinterpret_cast<const char*>(values.data());
+    out.insert(out.end(), v, v + values.size() * sizeof(T));
+}
+
+template <class T>
+void unpack(const std::vector<char>& in, std::size_t& at, std::vector<T>& values, const char* what) {
+    std::uint32_t count = 0;
+    if (in.size() - at < sizeof count) throw std::runtime_error(std::string("contact search: ") + what + " cut short");
+    std::memcpy(&count, in.data() + at, sizeof count);
+    at += sizeof count;
+    if ((in.size() - at) / sizeof(T) < count) throw std::runtime_error(std::string("contact search: ") + what + " cut short");
+    values.resize(count);
+    std::memcpy(static_cast<void*>(values.data()), in.data() + at, count * sizeof(T));
+    at += count * sizeof(T);
+}
+
+// Every member's share of per-triangle lists (member k: triangles k, k + R, ...) on every
+// member. The first bytes of a share are the triangle count, so that members whose
+// scenes differ (another file on another node) stop, each with the same line (SceneError
+// naming `shown`), not with wrong cuts.
+template <class T>
+void swap_shares(const PreparationTeam& team, std::vector<std::vector<T>>& lists, const char* what,
+                 const std::string& shown) {
+    const auto n = static_cast<std::uint32_t>(lists.size());
+    const auto R = static_cast<std::size_t>(team.size());
+    std::vector<char> mine(reinterpret_cast<const char*>(&n), reinterpret_cast<const char*>(&n) + sizeof n);
+    for (std::size_t i = static_cast<std::size_t>(team.rank()); i < lists.size(); i += R) pack(mine, lists[i]);
+    const auto all = team.gather_all(mine);
+    auto count = [&all](std::size_t k) {
+        std::uint32_t c = 0;
+        if (all[k].size() >= sizeof c) std::memcpy(&c, all[k].data(), sizeof c);
+        return c;
+    };
+    for (std::size_t k = 1; k < all.size(); ++k)
+        if (count(k) != count(0))
+            throw SceneError(shown, "", "the ranks' scenes differ: rank " + std::to_string(k) + " has " +
+                                            std::to_string(count(k)) + " triangles to search for contacts, rank 0 " +
+                                            std::to_string(count(0)) +
+                                            "; every node must read the same scene file and be given the same options");
+    for (std::size_t k = 0; k < all.size(); ++k) {
+        if (static_cast<int>(k) == team.rank()) continue;
+        std::size_t at = sizeof(std::uint32_t);
+        for (std::size_t i = k; i < lists.size(); i += R) unpack(all[k], at, lists[i], what);
+    }
+}
+
+// The contact lines of every triangle (see the header), surfaces nearer than `widest`
+// (and 1e-2 of the smaller triangle's size) touching.
+//
+// Partners: triangles whose boxes, grown by `widest`, intersect, and that meet a common
+// cell of a hashed grid (each triangle listed in the cells it meets once they are grown,
+// not in every cell of its box: a sliver across the scene meets a line of cells, its box
+// a block of them). The cells are the median triangle's size (at least `widest`, at
+// most 1/32 of the scene), or larger where the surface would cover more than 4 of them
+// per triangle. A triangle's lines come from its partners in index order, whatever the
+// cells' size. Triangles on the threads; on a team, each member lists the cells of its
+// share of the triangles and finds their lines, and the shares are swapped.
+std::vector<std::vector<Line>> contact_lines(const std::vector<Tri>& tris, double widest, double radius, double tol,
+                                             int threads, const PreparationTeam* team, const std::string& shown) {
+    const int n = static_cast<int>(tris.size());
+    const int members = team ? team->size() : 1, me = team ? team->rank() : 0;
+    const int mine = (n - me + members - 1) / members;  // my triangles: me + k members
+    auto triangle = [&](int k) { return static_cast<std::size_t>(me) + static_cast<std::size_t>(k) * members; };
+
     std::vector<double> sizes;
     sizes.reserve(tris.size());
     for (const auto& t : tris) sizes.push_back(t.size);
@@ -163,116 +229,109 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> candidate_pairs(const std::
     double area = 0.0;
     for (const auto& t : tris) area += 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
     const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));
-    const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(grow, 1e-12 * radius), radius / 32.0),
+    const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(widest, 1e-12 * radius), radius / 32.0),
                                  std::min(by_area, radius));
     auto key = [](const Cell& c) {
         return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
                static_cast<std::uint64_t>(c.z() & 0x1fffff);
     };
-    // Each triangle's cells, on the threads (bands of triangles); the grid filled in
-    // triangle order.
-    const int n = static_cast<int>(tris.size());
-    std::vector<std::vector<std::uint64_t>> listed(tris.size());  // each triangle's cells
     std::vector<Eigen::AlignedBox3d> boxes(tris.size());
-    parallel_bands(n, threads, [&](int i0, int i1) {
-        std::vector<Cell> met;
+    parallel_chunks(n, threads, [&](int i0, int i1) {
         for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
             for (const auto& p : tris[i].p) boxes[i].extend(p);
-            boxes[i].min().array() -= grow;
-            boxes[i].max().array() += grow;
+            boxes[i].min().array() -= widest;
+            boxes[i].max().array() += widest;
+        }
+    });
+    // Each triangle's cells; the grid filled in triangle order.
+    std::vector<std::vector<std::uint64_t>> listed(tris.size());
+    parallel_chunks(mine, threads, [&](int k0, int k1) {
+        std::vector<Cell> met;
+        for (int k = k0; k < k1; ++k) {
+            const std::size_t i = triangle(k);
             const Cell lo = (boxes[i].min().array() / cell).floor().cast<long>();
             const Cell hi = (boxes[i].max().array() / cell).floor().cast<long>();
             met.clear();
-            list_cells(tris[i].p, lo, hi, cell, grow, met);
+            list_cells(tris[i].p, lo, hi, cell, widest, met);
             for (const auto& c : met) listed[i].push_back(key(c));
         }
     });
+    if (members > 1) swap_shares(*team, listed, "cells", shown);
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
     for (std::size_t i = 0; i < tris.size(); ++i)
         for (const std::uint64_t k : listed[i]) cells[k].push_back(static_cast<std::uint32_t>(i));
-    // Each triangle's partners: the later triangles of its cells, each once (the stamp
-    // says which triangle last took it), in index order; bands of triangles on the
-    // threads, their pairs joined in band order.
-    const int bands = std::max(1, std::min(threads, n));
-    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found(static_cast<std::size_t>(bands));
-    run_threads(bands, [&](int t) {
-        const auto a0 = static_cast<std::uint32_t>(static_cast<long long>(n) * t / bands);
-        const auto a1 = static_cast<std::uint32_t>(static_cast<long long>(n) * (t + 1) / bands);
-        std::vector<std::uint32_t> stamp(tris.size(), std::numeric_limits<std::uint32_t>::max()), partners;
-        auto& pairs = found[static_cast<std::size_t>(t)];
-        for (std::uint32_t a = a0; a < a1; ++a) {
+
+    std::vector<std::vector<Line>> lines(tris.size());
+    // Per thread, which triangle last took each partner (each pair tested once a side).
+    std::vector<std::vector<std::uint32_t>> stamps(static_cast<std::size_t>(std::max(1, std::min(threads, mine))));
+    parallel_chunks(mine, threads, [&](int k0, int k1, int t) {
+        auto& stamp = stamps[static_cast<std::size_t>(t)];
+        if (stamp.empty()) stamp.assign(tris.size(), std::numeric_limits<std::uint32_t>::max());
+        std::vector<std::uint32_t> partners;
+        for (int k = k0; k < k1; ++k) {
+            const auto u = static_cast<std::uint32_t>(triangle(k));
             partners.clear();
-            for (const std::uint64_t k : listed[a])
-                for (const std::uint32_t b : cells.at(k))
-                    if (b > a && stamp[b] != a) {
-                        stamp[b] = a;
-                        if (boxes[a].intersects(boxes[b])) partners.push_back(b);
+            for (const std::uint64_t c : listed[u])
+                for (const std::uint32_t v : cells.at(c))
+                    if (v != u && stamp[v] != u) {
+                        stamp[v] = u;
+                        if (boxes[u].intersects(boxes[v])) partners.push_back(v);
                     }
             std::sort(partners.begin(), partners.end());
-            for (const std::uint32_t b : partners) pairs.emplace_back(a, b);
+            const Tri& a = tris[u];
+            for (const std::uint32_t v : partners) {
+                const Tri& b = tris[v];
+                const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
+                contacts(a, b, contact, tol, lines[u]);
+            }
         }
     });
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    for (const auto& band : found) pairs.insert(pairs.end(), band.begin(), band.end());
-    return pairs;
+    if (members > 1) swap_shares(*team, lines, "lines", shown);
+    return lines;
 }
 
 }  // namespace
 
-ContactCuts cut_at_contacts(Scene& scene, int threads) {
+ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* team) {
     TriMesh& mesh = scene.mesh;
     const double radius = scene.bounds_radius();
     const double tol = 1e-7 * radius;
 
-    // The triangles, and which of their edges end a planar region.
-    std::vector<Tri> tris;
-    tris.reserve(mesh.n_faces());
-    for (auto f : mesh.faces()) {
-        Tri t;
-        int k = 0;
-        std::array<TriMesh::HalfedgeHandle, 3> hs;
-        for (auto h : mesh.fh_range(f)) {
-            hs[k] = h;
-            t.p[k++] = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
-        }
-        t.n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalized();
-        t.offset = t.n.dot(t.p[0]);
-        t.size = std::max({(t.p[1] - t.p[0]).norm(), (t.p[2] - t.p[1]).norm(), (t.p[0] - t.p[2]).norm()});
-        for (int e = 0; e < 3; ++e) {
-            const auto g = mesh.opposite_face_handle(hs[e]);
-            bool coplanar = false;
-            if (g.is_valid()) {
-                auto it = mesh.cfv_iter(g);
-                const Vec3 a = to_eigen(mesh.point(*it++)), b = to_eigen(mesh.point(*it++)), c = to_eigen(mesh.point(*it));
-                const Vec3 n = (b - a).cross(c - a).normalized();
-                // Within 1.4e-4 rad and 1e-6 of the scene: float meshes' flat floors stay one region.
-                coplanar = n.dot(t.n) > 1.0 - 1e-8 && std::abs(n.dot(a) - t.offset) <= 10.0 * tol;
+    // The triangles, and which of their edges end a planar region (faces on the threads;
+    // finalize() leaves them 0 .. n_faces() - 1).
+    std::vector<Tri> tris(mesh.n_faces());
+    parallel_chunks(static_cast<int>(mesh.n_faces()), threads, [&](int f0, int f1) {
+        for (int i = f0; i < f1; ++i) {
+            Tri& t = tris[static_cast<std::size_t>(i)];
+            int k = 0;
+            std::array<TriMesh::HalfedgeHandle, 3> hs;
+            for (auto h : mesh.fh_range(TriMesh::FaceHandle(i))) {
+                hs[k] = h;
+                t.p[k++] = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
             }
-            t.region_edge[e] = !coplanar;
+            t.n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalized();
+            t.offset = t.n.dot(t.p[0]);
+            t.size = std::max({(t.p[1] - t.p[0]).norm(), (t.p[2] - t.p[1]).norm(), (t.p[0] - t.p[2]).norm()});
+            for (int e = 0; e < 3; ++e) {
+                const auto g = mesh.opposite_face_handle(hs[e]);
+                bool coplanar = false;
+                if (g.is_valid()) {
+                    auto it = mesh.cfv_iter(g);
+                    const Vec3 a = to_eigen(mesh.point(*it++)), b = to_eigen(mesh.point(*it++)), c = to_eigen(mesh.point(*it));
+                    const Vec3 n = (b - a).cross(c - a).normalized();
+                    // Within 1.4e-4 rad and 1e-6 of the scene: float meshes' flat floors stay one region.
+                    coplanar = n.dot(t.n) > 1.0 - 1e-8 && std::abs(n.dot(a) - t.offset) <= 10.0 * tol;
+                }
+                t.region_edge[e] = !coplanar;
+            }
         }
-        tris.push_back(t);
-    }
+    });
 
     // The contact lines of every triangle. Surfaces touch when nearer than 1e-3 of the
     // scene's radius and 1e-2 of the smaller triangle's size: a table top 0.75 above a
     // large ground plane does not, a light panel 1e-4 under a ceiling does.
-    // Each triangle's lines from its partners in pair order (as one thread going down
-    // the pairs would add them), triangles on the threads.
-    std::vector<std::vector<Line>> lines(tris.size());
-    const double widest = 1e-3 * radius;
-    std::vector<std::vector<std::uint32_t>> partners(tris.size());
-    for (const auto& [i, j] : candidate_pairs(tris, widest, radius, threads)) {
-        partners[i].push_back(j);
-        partners[j].push_back(i);
-    }
-    parallel_rows(static_cast<int>(tris.size()), threads, [&](int u) {
-        const Tri& a = tris[static_cast<std::size_t>(u)];
-        for (const std::uint32_t v : partners[static_cast<std::size_t>(u)]) {
-            const Tri& b = tris[v];
-            const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
-            contacts(a, b, contact, tol, lines[static_cast<std::size_t>(u)]);
-        }
-    });
+    const std::vector<std::vector<Line>> lines =
+        contact_lines(tris, 1e-3 * radius, radius, tol, threads, team && team->size() > 1 ? team : nullptr, scene.name);
 
     // Cut each triangle along its lines, then split the cut edges where the contacts
     // end and mark the edges on the contacts. A vertex nearer a line than 1e-3 of its
@@ -382,7 +441,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads) {
         }
     }
     mesh.remove_property(origin);
-    if (cuts.splits > 0 || cuts.edges > 0) scene.finalize();
+    if (cuts.splits > 0 || cuts.edges > 0) scene.finalize(threads);
     scene.contact_lines += cuts.lines;
     scene.contact_splits += cuts.splits;
     scene.contact_edges += cuts.edges;

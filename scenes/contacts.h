@@ -34,6 +34,7 @@
 // patches a contact crosses), so the patch count grows with the contacts' length over
 // the patch size.
 #include "scenes/scene.h"
+#include "scenes/team.h"
 
 #include <cstddef>
 
@@ -48,7 +49,9 @@ struct ContactCuts {
 // Cuts the scene's patches along their contact lines and marks the contact edges;
 // calls scene.finalize() when it changed anything. The scene must be finalized
 // before (bounds), and refined if it is to be (the loaders cut after subdivide()).
-// The contact search runs on `threads` threads (the same cuts for any count).
-ContactCuts cut_at_contacts(Scene& scene, int threads = 1);
+// The contact search runs on `threads` threads and, given a team of more than one, is
+// split among its members (scenes/team.h), who must all call it at the same point with
+// the same scene: the same cuts for any count of either.
+ContactCuts cut_at_contacts(Scene& scene, int threads = 1, const PreparationTeam* team = nullptr);
 
 }  // namespace raybundle::scenes

@@ -430,7 +430,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
                                                       ": set \"patch_size\" to a larger number or \"none\"");
         }
     }
-    subdivide(scene, size);
+    subdivide(scene, size, limits.threads);
 }
 
 }  // namespace
@@ -602,9 +602,9 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
-    scene.finalize();
+    scene.finalize(limits.threads);
     refine(scene, root, shown, limits);
-    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene, limits.threads);
+    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene, limits.threads, limits.team);
     return scene;
 }
 
@@ -621,7 +621,7 @@ std::string extension_of(const std::string& path) {
 
 // A model file alone as a scene: the document parse_scene would read, with the file's
 // camera (glTF) or one that frames it from +z, and the automatic patch size.
-Scene load_model(const std::string& path, const Overrides& overrides, int threads) {
+Scene load_model(const std::string& path, const Overrides& overrides, int threads, const PreparationTeam* team) {
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
     Vec3 lo = data.vertices.front(), hi = lo;
@@ -637,6 +637,7 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}};
     LoadLimits limits;
     limits.threads = threads;
+    limits.team = team;
     Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides, limits);
     scene.files.insert(scene.files.begin(), path);
     return scene;
@@ -644,26 +645,27 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
 
 }  // namespace
 
-Scene load_scene(const std::string& path, const Overrides& overrides, int threads) {
+Scene load_scene(const std::string& path, const Overrides& overrides, int threads, const PreparationTeam* team) {
     const std::string ext = extension_of(path);
-    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides, threads);
+    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides, threads, team);
     std::error_code ec;
     if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
         throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
     LoadLimits limits;
     limits.threads = threads;
+    limits.team = team;
     Scene scene =
         parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides, limits);
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }
 
-Scene load_builtin(const std::string& name, const Overrides& overrides, int threads) {
+Scene load_builtin(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
     std::optional<double> default_size;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
     if (!default_size) make_builtin(name);  // throws: unknown, listing the known ones
-    if (overrides.empty()) return make_builtin(name, std::nullopt, threads);
+    if (overrides.empty()) return make_builtin(name, std::nullopt, threads, team);
     // The overridable settings as documents, checked like a file's: the patch size
     // first (it makes the scene), then the camera.
     json sizes = {{"patch_size", *default_size}}, camera = json::object();
@@ -673,7 +675,7 @@ Scene load_builtin(const std::string& name, const Overrides& overrides, int thre
             throw SceneError(name, o.key, "a built-in scene takes overrides of camera.* and patch_size only");
         if (root_key == "patch_size") apply_override(sizes, o, name);
     }
-    Scene scene = make_builtin(name, Node(sizes, name, "").number("patch_size"), threads);
+    Scene scene = make_builtin(name, Node(sizes, name, "").number("patch_size"), threads, team);
     camera["camera"] = camera_json(scene.camera);
     for (const Override& o : overrides)
         if (o.key.rfind("camera", 0) == 0) apply_override(camera, o, name);

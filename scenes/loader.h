@@ -2,6 +2,7 @@
 // The JSON scene loader (format: docs/scene-format.md).
 #include "scenes/scene.h"
 #include "scenes/subdivide.h"
+#include "scenes/team.h"
 
 #include <string>
 #include <vector>
@@ -24,16 +25,18 @@ using Overrides = std::vector<Override>;
 // side of its bounds looking at their centre and framing their x and y extents in 40°,
 // and a patch size of 1/25 of their largest extent; the overrides apply to that
 // document ("camera.eye", "patch_size", "materials.NAME" to replace an MTL material).
-// Its preparation (the contact search) runs on `threads` threads: the same scene for
-// any count.
-Scene load_scene(const std::string& path, const Overrides& overrides = {}, int threads = 1);
+// Its preparation runs on `threads` threads and, given a team (scenes/team.h), splits
+// the contact search among its members: the same scene for any count of either.
+Scene load_scene(const std::string& path, const Overrides& overrides = {}, int threads = 1,
+                 const PreparationTeam* team = nullptr);
 
 // Bounds on what a scene may grow to on load (the fuzzing harnesses lower them so that
 // every input stays within their memory and time limits: tests/fuzz/), and the threads
 // that prepare it.
 struct LoadLimits {
     double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
-    int threads = 1;                   // the contact search (scenes/contacts.h)
+    int threads = 1;                   // the preparation (refinement, contacts)
+    const PreparationTeam* team = nullptr;  // the processes sharing the contact search
 };
 
 // The same from JSON text; mesh paths resolve against base_dir, errors name `shown`.
@@ -42,6 +45,7 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
 // A built-in scene (scenes/builtin.h) with overrides of its camera ("camera.*") and
 // "patch_size", validated as in a file.
-Scene load_builtin(const std::string& name, const Overrides& overrides = {}, int threads = 1);
+Scene load_builtin(const std::string& name, const Overrides& overrides = {}, int threads = 1,
+                   const PreparationTeam* team = nullptr);
 
 }  // namespace raybundle::scenes

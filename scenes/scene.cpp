@@ -1,6 +1,7 @@
 #include "scenes/scene.h"
 
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 #include <OpenMesh/Core/System/omstream.hh>
 
@@ -109,44 +110,50 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
 // and Wuethrich) do not depend on how a surface is cut into triangles: a quad split in
 // two gives its vertex the same normal as the quad. Face normals come from the corners
 // in the order finalize() reads them, so that a flat patch gets its patch normal to the
-// bit.
-void Scene::compute_missing_normals() {
+// bit. Faces on the threads: each writes its own corners only.
+void Scene::compute_missing_normals(int threads) {
+    const int faces = static_cast<int>(mesh.n_faces());
     std::vector<Vec3> face_normal(mesh.n_faces());
-    for (auto f : mesh.faces()) {
-        auto it = mesh.cfv_iter(f);
-        const Vec3 a = to_eigen(mesh.point(*it++));
-        const Vec3 b = to_eigen(mesh.point(*it++));
-        const Vec3 c = to_eigen(mesh.point(*it));
-        face_normal[f.idx()] = (b - a).cross(c - a).normalized();
-    }
-    for (auto f : mesh.faces()) {
-        const int object = mesh.property(object_handle, f);
-        const double crease =
-            object >= 0 && static_cast<std::size_t>(object) < crease_angles.size() ? crease_angles[object]
-                                                                                    : default_crease_angle;
-        const double min_cos = std::cos(crease * M_PI / 180.0);
-        const Vec3& own = face_normal[f.idx()];
-        for (auto h : mesh.fh_range(f)) {
-            auto& n = mesh.property(corner_normal_handle, h);
-            if (n != std::array<double, 3>{0, 0, 0}) continue;
-            if (!(crease > 0.0)) {
-                n = to_array(own);
-                continue;
-            }
-            // The patches around the vertex: each incoming halfedge ends there in its face.
-            const auto v = mesh.to_vertex_handle(h);
-            const Vec3 at = to_eigen(mesh.point(v));
-            Vec3 sum = Vec3::Zero();
-            for (auto in : mesh.vih_range(v)) {
-                const auto g = mesh.face_handle(in);
-                if (!g.is_valid() || face_normal[g.idx()].dot(own) < min_cos) continue;
-                const Vec3 e1 = to_eigen(mesh.point(mesh.from_vertex_handle(in))) - at;
-                const Vec3 e2 = to_eigen(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in)))) - at;
-                sum += std::atan2(e1.cross(e2).norm(), e1.dot(e2)) * face_normal[g.idx()];
-            }
-            n = to_array(sum.norm() > 0.0 ? Vec3(sum.normalized()) : own);
+    parallel_chunks(faces, threads, [&](int f0, int f1) {
+        for (int i = f0; i < f1; ++i) {
+            auto it = mesh.cfv_iter(TriMesh::FaceHandle(i));
+            const Vec3 a = to_eigen(mesh.point(*it++));
+            const Vec3 b = to_eigen(mesh.point(*it++));
+            const Vec3 c = to_eigen(mesh.point(*it));
+            face_normal[static_cast<std::size_t>(i)] = (b - a).cross(c - a).normalized();
         }
-    }
+    });
+    parallel_chunks(faces, threads, [&](int f0, int f1) {
+        for (int i = f0; i < f1; ++i) {
+            const TriMesh::FaceHandle f(i);
+            const int object = mesh.property(object_handle, f);
+            const double crease =
+                object >= 0 && static_cast<std::size_t>(object) < crease_angles.size() ? crease_angles[object]
+                                                                                        : default_crease_angle;
+            const double min_cos = std::cos(crease * M_PI / 180.0);
+            const Vec3& own = face_normal[static_cast<std::size_t>(i)];
+            for (auto h : mesh.fh_range(f)) {
+                auto& n = mesh.property(corner_normal_handle, h);
+                if (n != std::array<double, 3>{0, 0, 0}) continue;
+                if (!(crease > 0.0)) {
+                    n = to_array(own);
+                    continue;
+                }
+                // The patches around the vertex: each incoming halfedge ends there in its face.
+                const auto v = mesh.to_vertex_handle(h);
+                const Vec3 at = to_eigen(mesh.point(v));
+                Vec3 sum = Vec3::Zero();
+                for (auto in : mesh.vih_range(v)) {
+                    const auto g = mesh.face_handle(in);
+                    if (!g.is_valid() || face_normal[g.idx()].dot(own) < min_cos) continue;
+                    const Vec3 e1 = to_eigen(mesh.point(mesh.from_vertex_handle(in))) - at;
+                    const Vec3 e2 = to_eigen(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in)))) - at;
+                    sum += std::atan2(e1.cross(e2).norm(), e1.dot(e2)) * face_normal[g.idx()];
+                }
+                n = to_array(sum.norm() > 0.0 ? Vec3(sum.normalized()) : own);
+            }
+        }
+    });
 }
 
 Vec3 Scene::shading_normal(std::size_t patch, double b1, double b2) const {
@@ -165,27 +172,34 @@ Vec3 Scene::shading_normal(std::size_t patch, double b1, double b2) const {
     return n.dot(front) < 0.0 ? Vec3(-n) : n;
 }
 
-void Scene::finalize() {
-    // Drop zero-area triangles (they carry no light and break normals).
-    std::size_t dropped = 0;
+void Scene::finalize(int threads) {
+    // Drop zero-area triangles (they carry no light and break normals): found on the
+    // threads, deleted in face order. Only this function deletes, and it collects the
+    // garbage, so the faces are 0 .. n_faces() - 1 here and after.
     mesh.request_face_status();
     mesh.request_edge_status();
     mesh.request_vertex_status();
-    for (auto f : mesh.faces()) {
-        auto it = mesh.cfv_iter(f);
-        const Vec3 a = to_eigen(mesh.point(*it++));
-        const Vec3 b = to_eigen(mesh.point(*it++));
-        const Vec3 c = to_eigen(mesh.point(*it));
-        const double area2 = (b - a).cross(c - a).norm();
-        const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
-        if (!(area2 > 1e-12 * scale)) {
-            mesh.delete_face(f, true);
+    std::vector<char> degenerate(mesh.n_faces(), 0);
+    parallel_chunks(static_cast<int>(mesh.n_faces()), threads, [&](int f0, int f1) {
+        for (int i = f0; i < f1; ++i) {
+            auto it = mesh.cfv_iter(TriMesh::FaceHandle(i));
+            const Vec3 a = to_eigen(mesh.point(*it++));
+            const Vec3 b = to_eigen(mesh.point(*it++));
+            const Vec3 c = to_eigen(mesh.point(*it));
+            const double area2 = (b - a).cross(c - a).norm();
+            const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
+            degenerate[static_cast<std::size_t>(i)] = !(area2 > 1e-12 * scale);
+        }
+    });
+    std::size_t dropped = 0;
+    for (std::size_t i = 0; i < degenerate.size(); ++i)
+        if (degenerate[i]) {
+            mesh.delete_face(TriMesh::FaceHandle(static_cast<int>(i)), true);
             ++dropped;
         }
-    }
-    mesh.garbage_collection();
+    if (dropped > 0) mesh.garbage_collection();  // with nothing deleted it only copies
     dropped_degenerate += dropped;
-    compute_missing_normals();
+    compute_missing_normals(threads);
 
     // The flat vertices: one per mesh vertex, or, around a vertex on a contact edge, one
     // per set of patch corners that meet across edges that are not contact edges.
@@ -195,7 +209,11 @@ void Scene::finalize() {
     const bool contacts = std::any_of(mesh.edges_begin(), mesh.edges_end(),
                                       [&](TriMesh::EdgeHandle e) { return mesh.property(contact_edge_handle, e); });
     if (!contacts) {
-        for (auto v : mesh.vertices()) positions.push_back(to_eigen(mesh.point(v)));
+        positions.resize(mesh.n_vertices());
+        parallel_chunks(static_cast<int>(mesh.n_vertices()), threads, [&](int v0, int v1) {
+            for (int v = v0; v < v1; ++v)
+                positions[static_cast<std::size_t>(v)] = to_eigen(mesh.point(TriMesh::VertexHandle(v)));
+        });
         for (auto h : mesh.halfedges()) flat[h.idx()] = mesh.to_vertex_handle(h).idx();
     } else {
         // Union-find over the corners (the halfedges inside faces, by the vertex they end at).
@@ -239,37 +257,37 @@ void Scene::finalize() {
             }
     }
 
-    patches.clear();
-    patches.reserve(mesh.n_faces());
-    shading_normals.clear();
-    shading_normals.reserve(mesh.n_faces());
-    area_sum = 0.0;
-    for (auto f : mesh.faces()) {
-        Patch p{};
-        int k = 0;
-        for (auto h : mesh.fh_range(f)) p.v[k++] = flat[h.idx()];  // the order of fv_range: each halfedge's head
-        const Vec3& a = positions[p.v[0]];
-        const Vec3& b = positions[p.v[1]];
-        const Vec3& c = positions[p.v[2]];
-        const Vec3 cross = (b - a).cross(c - a);
-        p.area = 0.5 * cross.norm();
-        p.normal = cross.normalized();
-        p.centroid = (a + b + c) / 3.0;
-        p.material = mesh.property(material_handle, f);
-        p.object = mesh.property(object_handle, f);
-        area_sum += p.area;
-        patches.push_back(p);
-        // The corner normals in the order of p.v; one within 1.4e-6 rad of the patch
-        // normal (cos > 1 - 1e-12) is the patch normal.
-        std::array<Vec3, 3> corner;
-        for (auto h : mesh.fh_range(f)) {
-            const int v = flat[h.idx()];
-            const int slot = v == p.v[0] ? 0 : v == p.v[1] ? 1 : 2;
-            const Vec3 n = to_eigen(mesh.property(corner_normal_handle, h));
-            corner[slot] = n.dot(p.normal) > 1.0 - 1e-12 ? p.normal : n;
+    // The patches on the threads, each from its own face; their area summed in order.
+    patches.assign(mesh.n_faces(), Patch{});
+    shading_normals.assign(mesh.n_faces(), {});
+    parallel_chunks(static_cast<int>(mesh.n_faces()), threads, [&](int f0, int f1) {
+        for (int i = f0; i < f1; ++i) {
+            const TriMesh::FaceHandle f(i);
+            Patch& p = patches[static_cast<std::size_t>(i)];
+            int k = 0;
+            for (auto h : mesh.fh_range(f)) p.v[k++] = flat[h.idx()];  // the order of fv_range: each halfedge's head
+            const Vec3& a = positions[p.v[0]];
+            const Vec3& b = positions[p.v[1]];
+            const Vec3& c = positions[p.v[2]];
+            const Vec3 cross = (b - a).cross(c - a);
+            p.area = 0.5 * cross.norm();
+            p.normal = cross.normalized();
+            p.centroid = (a + b + c) / 3.0;
+            p.material = mesh.property(material_handle, f);
+            p.object = mesh.property(object_handle, f);
+            // The corner normals in the order of p.v; one within 1.4e-6 rad of the patch
+            // normal (cos > 1 - 1e-12) is the patch normal.
+            auto& corner = shading_normals[static_cast<std::size_t>(i)];
+            for (auto h : mesh.fh_range(f)) {
+                const int v = flat[h.idx()];
+                const int slot = v == p.v[0] ? 0 : v == p.v[1] ? 1 : 2;
+                const Vec3 n = to_eigen(mesh.property(corner_normal_handle, h));
+                corner[slot] = n.dot(p.normal) > 1.0 - 1e-12 ? p.normal : n;
+            }
         }
-        shading_normals.push_back(corner);
-    }
+    });
+    area_sum = 0.0;
+    for (const Patch& p : patches) area_sum += p.area;
     if (patches.empty()) throw SceneError(name, "", "the scene has no patches");
 
     // Bounding sphere of the patches (vertices no patch uses do not count): centre of

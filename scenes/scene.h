@@ -158,8 +158,9 @@ public:
 
     // Derives the flat arrays below from the mesh (drops zero-area triangles first, then
     // computes the corner normals that are missing). Call after the mesh changes;
-    // everything downstream reads only the flat arrays.
-    void finalize();
+    // everything downstream reads only the flat arrays. Faces on `threads` threads; the
+    // same result for any count.
+    void finalize(int threads = 1);
 
     std::size_t patch_count() const { return patches.size(); }
     const std::vector<Patch>& patch_list() const { return patches; }
@@ -193,7 +194,7 @@ private:
     double radius = 0.0;
     double area_sum = 0.0;
 
-    void compute_missing_normals();
+    void compute_missing_normals(int threads);
 };
 
 // The patch corners around every vertex, as a compressed row list: the corners

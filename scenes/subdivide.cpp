@@ -74,7 +74,7 @@ TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double
     return m;
 }
 
-std::size_t subdivide(Scene& scene, double max_edge) {
+std::size_t subdivide(Scene& scene, double max_edge, int threads) {
     TriMesh& mesh = scene.mesh;
     const double limit2 = max_edge * max_edge;
     std::size_t splits = 0;
@@ -96,7 +96,7 @@ std::size_t subdivide(Scene& scene, double max_edge) {
             ++splits;
         }
     }
-    scene.finalize();
+    scene.finalize(threads);
     return splits;
 }
 
@@ -136,7 +136,8 @@ std::size_t bisect(Scene& scene, TriMesh::FaceHandle f, int depth = 0) {
 
 }  // namespace
 
-std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin) {
+std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin,
+                           int threads) {
     TriMesh& mesh = scene.mesh;
     if (max_edge.size() != mesh.n_faces())
         throw std::invalid_argument("refine_patches: " + std::to_string(max_edge.size()) + " sizes for " +
@@ -170,7 +171,7 @@ std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, st
             // An earlier bisection in this pass may have cut this face already.
             if (longest_edge(mesh, f).second > mesh.property(limit, f)) splits += bisect(scene, f);
     }
-    scene.finalize();
+    scene.finalize(threads);
     // Both halves of a split contact edge keep the mark: the count the record shows.
     scene.contact_edges = 0;
     for (auto e : mesh.edges()) scene.contact_edges += mesh.property(scene.contact_edge_handle, e) ? 1 : 0;

@@ -13,9 +13,9 @@ namespace raybundle::scenes {
 // class. Materials are copied to the new faces; the corner normals are carried (the
 // new vertex of a split edge gets, in each face, the normalised mean of that face's
 // normals at the edge's ends), so call scene.finalize() first, which computes the
-// missing ones on the coarse patches. Calls scene.finalize() at the end.
-// Returns the number of splits.
-std::size_t subdivide(Scene& scene, double max_edge);
+// missing ones on the coarse patches. Calls scene.finalize(threads) at the end (the
+// splits themselves are serial). Returns the number of splits.
+std::size_t subdivide(Scene& scene, double max_edge, int threads = 1);
 
 // Refines chosen patches: patch i (scene.patch_list() order) is cut until no piece of it
 // has an edge longer than max_edge[i] (infinity, or any value at least its longest edge:
@@ -26,10 +26,11 @@ std::size_t subdivide(Scene& scene, double max_edge);
 // neighbours of a cut patch are split only as far as conformity asks. Materials,
 // objects, corner normals and contact marks are carried as subdivide() carries them.
 // `origin`, when given, receives for every patch of the refined scene the index of the
-// patch it is part of. Calls scene.finalize(). Returns the number of splits.
+// patch it is part of. Calls scene.finalize(threads). Returns the number of splits.
 // Throws std::invalid_argument when max_edge has not one entry per patch, or one is not
 // a positive number.
-std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin = nullptr);
+std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, std::vector<std::uint32_t>* origin = nullptr,
+                           int threads = 1);
 
 // Splits the edge of halfedge h at from + t (to - from), 0 < t < 1, and the faces on
 // both sides of it (conforming), carrying the corner normals as subdivide() does (the

@@ -11,7 +11,9 @@
 // (balances rows of uneven cost).
 // parallel_chunks(items, threads, body): body(i0, i1) on chunks of about items / (16
 // threads) items, each taken by the next thread free (balances items whose cost is
-// clustered in index order, e.g. the patches next to a light).
+// clustered in index order, e.g. the patches next to a light). A body that takes a third
+// argument gets the thread's index t < min(threads, items) too (for scratch space of
+// its own, never for what it computes).
 //
 // Results must not depend on the number of threads: bodies write disjoint outputs and
 // draw random numbers from streams chosen by row or pixel, never by thread.
@@ -19,6 +21,7 @@
 #include <atomic>
 #include <exception>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace raybundle {
@@ -70,17 +73,23 @@ void parallel_rows(int rows, int threads, const Body& body) {
 
 template <class Body>
 void parallel_chunks(int items, int threads, const Body& body) {
+    auto call = [&body](int i0, int i1, int t) {
+        if constexpr (std::is_invocable_v<const Body&, int, int, int>)
+            body(i0, i1, t);
+        else
+            body(i0, i1);
+    };
     const int n = std::max(1, std::min(threads, items));
     if (n == 1) {
-        body(0, items);
+        call(0, items, 0);
         return;
     }
     const long long chunk = std::max(1, items / (16 * n));
     std::atomic<long long> next{0};
-    run_threads(n, [&](int) {
+    run_threads(n, [&](int t) {
         for (long long i0 = next.fetch_add(chunk, std::memory_order_relaxed); i0 < items;
              i0 = next.fetch_add(chunk, std::memory_order_relaxed))
-            body(static_cast<int>(i0), static_cast<int>(std::min<long long>(items, i0 + chunk)));
+            call(static_cast<int>(i0), static_cast<int>(std::min<long long>(items, i0 + chunk)), t);
     });
 }
 

@@ -7,13 +7,78 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <condition_variable>
 #include <functional>
+#include <mutex>
+#include <stdexcept>
 #include <string>
+#include <thread>
+#include <vector>
 
 using namespace raybundle;
 using scenes::Vec3;
 
 namespace {
+
+// A team of threads in one process, standing in for MPI ranks (apps/ranks.h): every
+// member's bytes reach every member when the last one arrives.
+class ThreadTeam {
+public:
+    explicit ThreadTeam(int size) : size_(size), slots_(static_cast<std::size_t>(size)) {}
+
+    struct Member final : scenes::PreparationTeam {
+        Member(ThreadTeam& team, int rank) : team_(team), rank_(rank) {}
+        int rank() const override { return rank_; }
+        int size() const override { return team_.size_; }
+        std::vector<std::vector<char>> gather_all(const std::vector<char>& mine) const override {
+            return team_.exchange(rank_, mine);
+        }
+        ThreadTeam& team_;
+        int rank_;
+    };
+
+private:
+    std::vector<std::vector<char>> exchange(int rank, const std::vector<char>& mine) {
+        std::unique_lock<std::mutex> lock(mutex_);
+        const int round = round_;
+        slots_[static_cast<std::size_t>(rank)] = mine;
+        if (++arrived_ == size_) {
+            arrived_ = 0;
+            ++round_;
+            done_.notify_all();
+        } else {
+            done_.wait(lock, [&] { return round_ != round; });
+        }
+        return slots_;  // not overwritten before every member has copied it: the next round needs all
+    }
+
+    int size_;
+    std::vector<std::vector<char>> slots_;
+    std::mutex mutex_;
+    std::condition_variable done_;
+    int arrived_ = 0, round_ = 0;
+};
+
+// make_builtin on every member of a team of `size` threads, each with its own patch size.
+std::vector<scenes::Scene> prepare_together(const std::vector<double>& patch_sizes, std::vector<std::string>& errors) {
+    const int size = static_cast<int>(patch_sizes.size());
+    ThreadTeam team(size);
+    std::vector<scenes::Scene> scenes(patch_sizes.size());
+    errors.assign(patch_sizes.size(), "");
+    std::vector<std::thread> members;
+    for (int r = 0; r < size; ++r)
+        members.emplace_back([&, r] {
+            const ThreadTeam::Member me(team, r);
+            try {
+                scenes[static_cast<std::size_t>(r)] =
+                    scenes::make_builtin("cornell-box", patch_sizes[static_cast<std::size_t>(r)], 2, &me);
+            } catch (const std::exception& e) {
+                errors[static_cast<std::size_t>(r)] = e.what();
+            }
+        });
+    for (auto& m : members) m.join();
+    return scenes;
+}
 
 // Patches of `object` whose inside the contact segment a-b runs through: a point of
 // it (of 199 along it, ends excluded) strictly inside the patch (every barycentric
@@ -220,4 +285,37 @@ TEST_CASE("contacts: the search on several threads cuts the scene as one thread 
             for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
         CHECK(same);
     }
+}
+
+TEST_CASE("contacts: a team's members each search a share and make the scene one process makes", "[scenes][contacts]") {
+    // Ranks split the contact search (scenes/team.h) and swap their lines: every member
+    // must end with the scene one process makes, vertex for vertex.
+    const auto one = scenes::make_builtin("cornell-box", 40.0, 1);
+    for (const int size : {2, 3}) {
+        INFO(size << " members");
+        std::vector<std::string> errors;
+        const auto all = prepare_together(std::vector<double>(static_cast<std::size_t>(size), 40.0), errors);
+        for (int r = 0; r < size; ++r) {
+            INFO("member " << r);
+            const auto& many = all[static_cast<std::size_t>(r)];
+            REQUIRE(errors[static_cast<std::size_t>(r)].empty());
+            CHECK(many.contact_lines == one.contact_lines);
+            CHECK(many.contact_splits == one.contact_splits);
+            CHECK(many.contact_edges == one.contact_edges);
+            REQUIRE(many.patch_count() == one.patch_count());
+            REQUIRE(many.vertex_positions().size() == one.vertex_positions().size());
+            bool same = true;
+            for (std::size_t v = 0; v < one.vertex_positions().size(); ++v)
+                same = same && many.vertex_positions()[v] == one.vertex_positions()[v];
+            for (std::size_t p = 0; p < one.patch_count(); ++p)
+                for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
+            CHECK(same);
+        }
+    }
+    // Members whose scenes differ (another file on another node) stop, each with a line
+    // that says so, instead of cutting with another member's lines.
+    std::vector<std::string> errors;
+    prepare_together({40.0, 60.0}, errors);
+    for (const auto& e : errors)
+        CHECK_THAT(e, Catch::Contains("the ranks' scenes differ: rank 1 has") && Catch::Contains("rank 0"));
 }
