@@ -82,7 +82,7 @@ void add_solve_options(CLI::App& cmd, Command& c);
 // can be written, flags that need others. Throws UsageError.
 void check_command(const CLI::App& cmd, Command& c);
 
-scenes::Scene load_scene(const Command& c);
+scenes::Scene load_scene(const Command& c, const scenes::PreparationTeam* team = nullptr);
 // `raybundle solve` (on every rank of `ranks`) and `raybundle check`: exit codes.
 int solve(const Command& c, Ranks& ranks);
 int check_scene(const Command& c);

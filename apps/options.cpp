@@ -372,10 +372,10 @@ void check_command(const CLI::App& cmd, Command& c) {
     render::check_outputs(outputs, inputs);  // OutputError: exit 2
 }
 
-scenes::Scene load_scene(const Command& c) {
+scenes::Scene load_scene(const Command& c, const scenes::PreparationTeam* team) {
     const int threads = c.config.run.threads;
-    return c.builtin.empty() ? scenes::load_scene(c.scene_file, c.overrides, threads)
-                             : scenes::load_builtin(c.builtin, c.overrides, threads);
+    return c.builtin.empty() ? scenes::load_scene(c.scene_file, c.overrides, threads, team)
+                             : scenes::load_builtin(c.builtin, c.overrides, threads, team);
 }
 
 }  // namespace raybundle::apps

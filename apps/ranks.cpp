@@ -4,13 +4,17 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
 #include <functional>
 #include <iostream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
 #ifdef RAYBUNDLE_WITH_MPI
@@ -170,6 +174,34 @@ void Ranks::share_rows(void* data, std::size_t row_bytes, int rows) const {
                         &all[row_bytes * static_cast<std::size_t>(firsts[static_cast<std::size_t>(k)] + i)], row_bytes);
 }
 
+std::vector<std::vector<char>> Ranks::gather_all(const std::vector<char>& mine) const {
+    agree(nullptr, 0);
+    if (!spread()) return {mine};
+    // The sizes first, as 64-bit counts: every rank sees them all and refuses the same
+    // exchange (MPI counts bytes in an int) before anything else is sent.
+    const auto size = static_cast<std::size_t>(size_);
+    const auto count = static_cast<long long>(mine.size());
+    std::vector<long long> counts(size);
+    MPI_Allgather(&count, 1, MPI_LONG_LONG, counts.data(), 1, MPI_LONG_LONG, MPI_COMM_WORLD);
+    long long total = 0;
+    std::vector<int> sizes(size), firsts(size);
+    for (std::size_t k = 0; k < size; ++k) {
+        firsts[k] = static_cast<int>(std::min<long long>(total, INT_MAX));
+        sizes[k] = static_cast<int>(std::min<long long>(counts[k], INT_MAX));
+        total += counts[k];
+    }
+    if (total > INT_MAX)
+        throw std::runtime_error("the ranks' exchange of the scene's preparation would move " + std::to_string(total) +
+                                 " bytes, more than MPI's 2 GiB: run fewer ranks or a coarser scene");
+    std::vector<char> all(static_cast<std::size_t>(total));
+    MPI_Allgatherv(mine.data(), sizes[static_cast<std::size_t>(rank_)], MPI_BYTE, all.data(), sizes.data(), firsts.data(),
+                   MPI_BYTE, MPI_COMM_WORLD);
+    std::vector<std::vector<char>> out(size);
+    for (std::size_t k = 0; k < size; ++k)
+        out[k].assign(all.begin() + firsts[k], all.begin() + firsts[k] + sizes[k]);
+    return out;
+}
+
 void Ranks::finish() const {
     agree(nullptr, 0);
     finished_ = true;
@@ -237,6 +269,7 @@ void Ranks::agree(const std::string* failure, int code) const {
     if (failure) throw RankFailed(*failure, code);
 }
 void Ranks::share_rows(void*, std::size_t, int) const {}
+std::vector<std::vector<char>> Ranks::gather_all(const std::vector<char>& mine) const { return {mine}; }
 void Ranks::finish() const { finished_ = true; }
 long Ranks::sum(long value) const { return value; }
 double Ranks::sum(double value) const { return value; }

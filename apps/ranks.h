@@ -8,6 +8,9 @@
 //     chain h of the run is the mean of chain h of every rank, weighted by the steps
 //     each averages (weighted_mean(): gathered on rank 0, summed in rank order,
 //     broadcast), so the result depends on the seed and the rank count only.
+//   - scene: every rank prepares it, the contact search split among them
+//     (scenes::PreparationTeam: rank r searches triangles r, r + R, ...; the lines
+//     are swapped, so every rank makes the same cuts);
 //   - final gather: rank r computes rows r, r + R, ... (sampling::Team), they are
 //     shared, every rank filters the whole image.
 //   - outputs, stats, messages: rank 0 alone. The other ranks' standard output and
@@ -23,6 +26,7 @@
 // Without mpirun in the environment (or in a build without MPI) there is one rank and
 // no MPI call at all: the run is the single-process one, bit for bit.
 #include "sampling/run.h"
+#include "scenes/team.h"
 
 #include <cstdint>
 #include <stdexcept>
@@ -37,7 +41,7 @@ struct RankFailed : std::runtime_error {
     int code;
 };
 
-class Ranks final : public sampling::Team {
+class Ranks final : public sampling::Team, public scenes::PreparationTeam {
 public:
     // MPI_Init where mpirun started the process (its environment says so); throws
     // std::runtime_error where mpirun started a build without MPI with more than one, and
@@ -56,6 +60,8 @@ public:
     static std::string library();
 
     void share_rows(void* data, std::size_t row_bytes, int rows) const override;
+    // Every rank's bytes on every rank, in rank order (MPI_Allgatherv).
+    std::vector<std::vector<char>> gather_all(const std::vector<char>& mine) const override;
     // The last exchange of a run (every rank gets there; throws RankFailed where one
     // failed): after it the leader writes, the others return.
     void finish() const override;

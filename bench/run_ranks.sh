@@ -11,17 +11,18 @@
 #           iterations with the gather rays in proportion; error: the pipeline's own
 #           estimate (render/progressive.h: two independent halves).
 #   100k:   the Cornell box at --patch-size 10 (121,324 patches), 100 steps, no gather,
-#           where the scene's preparation and the diffuse shot are most of a run (each
-#           rank prepares the scene; the diffuse shot is shared out between ranks);
-#           error: the field's own estimate.
+#           where the scene's preparation and the diffuse shot are a large part of a
+#           run (each rank prepares the scene, its contact search and the diffuse shot
+#           shared out between ranks); error: the field's own estimate.
+# Each row also has rank 0's seconds of the scene's preparation (the stats' phase).
 # PARTS="field image 100k" (the default) chooses the parts; the field part's reference
-# is computed only when it runs.
+# is computed only when it runs. RAYBUNDLE=path runs another binary.
 # Usage: bench/run_ranks.sh [OUT.csv]   (default docs/bench-ranks.csv; the build with
 # MPI first: scripts/setup-deps.sh --tests, scripts/build.sh -DRAYBUNDLE_REQUIRE_MPI=ON)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-docs/bench-ranks.csv}
-raybundle=$PWD/build/apps/raybundle
+raybundle=${RAYBUNDLE:-$PWD/build/apps/raybundle}
 [ -x "$raybundle" ] || { echo "run_ranks: $raybundle missing (build first)" >&2; exit 1; }
 "$raybundle" --version | grep -q "ranks *MPI" || { echo "run_ranks: $raybundle was built without MPI" >&2; exit 1; }
 mpi=(mpirun -q --allow-run-as-root --oversubscribe)
@@ -47,7 +48,7 @@ EOF
 }
 json() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2], {}, {'d': d}))" "$@"; }
 
-echo "pipeline,config,ranks,threads,iterations,gather_rays,wall_seconds,seconds_solve,seconds_render,error,error_kind" >"$out"
+echo "pipeline,config,ranks,threads,iterations,gather_rays,wall_seconds,seconds_solve,seconds_render,error,error_kind,seconds_scene" >"$out"
 run() {  # pipeline config ranks threads iterations gather_rays
   local pipeline=$1 config=$2 ranks=$3 threads=$4 iterations=$5 rays=$6 launch=()
   [ "$config" = "2 ranks" ] && launch=("${mpi[@]}" -np 2)
@@ -66,9 +67,10 @@ run() {  # pipeline config ranks threads iterations gather_rays
   else
     error=$(json "$work/s.json" "d['estimate']['image_estimated_error']") kind="image estimate"
   fi
-  printf '%s,%s,%s,%s,%s,%s,%.3f,%.3f,%.3f,%s,%s\n' "$pipeline" "$config" "$ranks" "$threads" "$iterations" "$rays" \
+  printf '%s,"%s",%s,%s,%s,%s,%.3f,%.3f,%.3f,%s,"%s",%.3f\n' "$pipeline" "$config" "$ranks" "$threads" "$iterations" "$rays" \
     "$(awk -v a="$t0" -v b="$t1" 'BEGIN { print b - a }')" "$(json "$work/s.json" "d['seconds_solve']")" \
-    "$(json "$work/s.json" "d['seconds_render']")" "$error" "$kind" | tee -a "$out"
+    "$(json "$work/s.json" "d['seconds_render']")" "$error" "$kind" \
+    "$(json "$work/s.json" "[p['seconds'] for p in d['phases'] if p['phase'] == 'scene'][0]")" | tee -a "$out"
 }
 if [[ $parts == *" field "* ]]; then
   for iterations in 2000 8000 32000; do

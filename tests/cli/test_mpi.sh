@@ -102,6 +102,17 @@ for a, b in ((1, 2), (1, 3), (2, 3)):
     bad |= diff / total > allowed or abs(means[a] - means[b]) > allowed * means[a]
 sys.exit(bad)
 EOF
+# The ranks split the contact search and swap its lines: the scene they solve is the
+# one a single process prepares (its patches' areas to the last digit, its contacts).
+python3 - <<'EOF' && ok || fail "the scene prepared on 2 or 3 ranks differs from one rank's"
+import csv, json, sys
+def scene(n):
+    stats = json.load(open(f"cb{n}.json"))
+    return stats["patches"], stats["contacts"], [r["area"] for r in csv.DictReader(open(f"cb{n}.csv"))]
+one = scene(1)
+print("contacts on 1 rank:", one[1])
+sys.exit(any(scene(n) != one for n in (2, 3)) or one[1]["lines"] == 0)
+EOF
 
 # A rank that fails: its scene file is missing on its node (the same command in another
 # working directory, where the file is not). One line naming the rank, exit 2 on every
@@ -116,6 +127,21 @@ rc=$?
 if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "rank 1 of 2: s.json" err.txt &&
    [ ! -e node0/out ] && [ ! -e node1/out ]; then ok; else
   fail "a failing rank: exit $rc, outputs '$(ls node0 node1)', stderr: $(cat err.txt)"
+fi
+
+# Nodes whose scene files differ: the contact search, split among the ranks, finds it
+# before any cut. One line, exit 2 on every rank, nothing written.
+mkdir -p diff0 diff1
+for k in 0 1; do
+  printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "width": 16, "height": 16}, %s, %s, %s}\n' \
+    '"materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}}' "\"patch_size\": 0.$((k + 2))" \
+    '"objects": [{"quad": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "material": "w"}]' >diff$k/s.json
+done
+mpi 1 --wdir diff0 "$bin" "${node[@]}" : -np 1 --wdir diff1 "$bin" "${node[@]}" >stdout.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "s.json: the ranks' scenes differ: rank 1 has" err.txt &&
+   [ ! -e diff0/out ] && [ ! -e diff1/out ]; then ok; else
+  fail "scenes that differ between nodes: exit $rc, stderr: $(cat err.txt)"
 fi
 
 # Bad input on every rank: one line, not one per rank.
