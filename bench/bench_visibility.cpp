@@ -8,6 +8,10 @@
 //   bench_visibility [--backend exact-painter painter ...] [--scene cornell-box]
 //                    [--patch-size 53 ...] [--resolution 256 512 1024]
 //                    [--directions 200] [--repeat 5] [--csv out.csv]
+//                    [--batch 16 [--threads 4]]
+// --batch N hands the backends N directions at a time (Backend::transfer_many, what the
+// solvers call: a GPU backend submits them together and prepares and sorts them on
+// --threads threads; the CPU backends compute them in turn).
 #include "sampling/directions.h"
 #include "scenes/builtin.h"
 #include "visibility/backend.h"
@@ -27,15 +31,31 @@ namespace rb = raybundle;
 namespace {
 
 // Seconds per direction over `directions` directions (the same for every backend).
-double measure(rb::visibility::Backend& backend, int directions, std::size_t& entries) {
+double measure(rb::visibility::Backend& backend, int directions, int batch, int threads, std::size_t& entries) {
     rb::sampling::RandomDirections dirs(7);
     rb::sampling::Rng jitter(7, 1);
     rb::visibility::GeometryMatrix m;
+    std::vector<rb::visibility::GeometryMatrix> many;
+    std::vector<rb::scenes::Vec3> ws;
+    std::vector<Eigen::Vector2d> jitters;
     entries = 0;
     const auto t0 = std::chrono::steady_clock::now();
-    for (int d = 0; d < directions; ++d) {
-        backend.transfer(dirs.next(), {jitter.uniform(), jitter.uniform()}, m);
-        entries += m.entries.size();
+    for (int d = 0; d < directions;) {
+        if (batch <= 1) {
+            backend.transfer(dirs.next(), {jitter.uniform(), jitter.uniform()}, m);
+            entries += m.entries.size();
+            ++d;
+            continue;
+        }
+        ws.clear();
+        jitters.clear();
+        for (; d < directions && static_cast<int>(ws.size()) < batch; ++d) {
+            ws.push_back(dirs.next());
+            const double x = jitter.uniform(), y = jitter.uniform();
+            jitters.emplace_back(x, y);
+        }
+        backend.transfer_many(ws, jitters, many, threads, {});
+        for (const auto& g : many) entries += g.entries.size();
     }
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / directions;
 }
@@ -51,6 +71,7 @@ int main(int argc, char** argv) {
     int directions = 200;
     int repeat = 1;
     std::string csv;
+    int batch = 1, threads = 1;
     app.add_option("--backend", backends, "backends to measure (ratios are to the first)")->capture_default_str();
     app.add_option("--scene", scene_name, "built-in scene")->capture_default_str();
     app.add_option("--patch-size", patch_sizes, "patch sizes (scene units), one scene each (default: the scene's)");
@@ -58,13 +79,16 @@ int main(int argc, char** argv) {
     app.add_option("--directions", directions, "directions per measurement")->capture_default_str()->check(CLI::Range(1, 1 << 30));
     app.add_option("--repeat", repeat, "rounds per configuration, backends interleaved")->capture_default_str()->check(CLI::Range(1, 1000));
     app.add_option("--csv", csv, "write rows to this CSV");
+    app.add_option("--batch", batch, "directions per transfer_many call (1: transfer, one at a time)")
+        ->capture_default_str()->check(CLI::Range(1, 4096));
+    app.add_option("--threads", threads, "threads a batch's CPU work may use")->capture_default_str()->check(CLI::Range(1, 1024));
     CLI11_PARSE(app, argc, argv);
 
     std::ofstream out;
     if (!csv.empty()) {
         out.open(csv);
         out << "backend,scene,patches,resolution,directions,repeat,seconds_per_direction,seconds_median,"
-               "ratio_to_first,entries_per_direction\n";
+               "ratio_to_first,entries_per_direction,batch,threads\n";
     }
     std::printf("%-15s %-16s %8s %6s %12s %12s %8s %10s\n", "backend", "scene", "patches", "res", "ms (min)",
                 "ms (median)", "ratio", "entries");
@@ -88,7 +112,7 @@ int main(int argc, char** argv) {
             std::vector<std::size_t> entries(backends.size());
             for (int r = 0; r < repeat; ++r)
                 for (std::size_t b = 0; b < backends.size(); ++b)
-                    times[b].push_back(measure(*made[b], directions, entries[b]));
+                    times[b].push_back(measure(*made[b], directions, batch, threads, entries[b]));
             double first = 0.0;
             for (std::size_t b = 0; b < backends.size(); ++b) {
                 auto t = times[b];
@@ -102,7 +126,7 @@ int main(int argc, char** argv) {
                 if (out)
                     out << backends[b] << ',' << scene_name << ',' << scene.patch_count() << ',' << res << ','
                         << directions << ',' << repeat << ',' << best << ',' << median << ',' << best / first << ','
-                        << epd << '\n';
+                        << epd << ',' << batch << ',' << threads << '\n';
             }
         }
     }

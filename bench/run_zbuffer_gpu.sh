@@ -16,7 +16,11 @@
 # with BIN_DIR holding both programs. It writes OUT_DIR/zbuffer-gpu.csv (Cornell box at
 # 512², 1024², 2048²) and OUT_DIR/zbuffer-gpu-121k.csv (121,324 patches at 1024²): ms
 # per direction, the exact painter on one core against the zbuffer, 100 (30) directions,
-# 3 rounds interleaved; the zbuffer's stage profile (RAYBUNDLE_ZBUFFER_PROFILE) on
+# 3 rounds interleaved; the same with the directions handed over 16 at a time
+# (Backend::transfer_many, as the solvers do: one submission, the CPU's part on all the
+# cores) in OUT_DIR/zbuffer-gpu-batch.csv and zbuffer-gpu-121k-batch.csv (the exact
+# painter still on one core: it computes a batch's directions in turn); the zbuffer's
+# stage profile (RAYBUNDLE_ZBUFFER_PROFILE) on
 # stderr; how far the zbuffer's solved field is from the global z-buffer's (the Cornell
 # box and scenes/examples/contact.json); and whole solves with each on all the cores.
 set -euo pipefail
@@ -36,6 +40,10 @@ export RAYBUNDLE_ZBUFFER_PROFILE=1
     --directions 100 --repeat 3 --csv "$out/zbuffer-gpu.csv"
 "$bin/bench_visibility" --backend exact-painter --backend zbuffer --scene cornell-box --patch-size 10 \
     --resolution 1024 --directions 30 --repeat 3 --csv "$out/zbuffer-gpu-121k.csv"
+"$bin/bench_visibility" --backend exact-painter --backend zbuffer --scene cornell-box --resolution 512 1024 2048 \
+    --directions 96 --repeat 3 --batch 16 --threads "$threads" --csv "$out/zbuffer-gpu-batch.csv"
+"$bin/bench_visibility" --backend exact-painter --backend zbuffer --scene cornell-box --patch-size 10 \
+    --resolution 1024 --directions 32 --repeat 3 --batch 16 --threads "$threads" --csv "$out/zbuffer-gpu-121k-batch.csv"
 # The same seed, the same directions: the fields differ only where the matrices do.
 for v in zbuffer global-zbuffer; do
     "$bin/raybundle" solve --builtin cornell-box --iterations 300 --gather 0 --visibility $v --seed 1 \

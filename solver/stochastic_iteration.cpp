@@ -224,11 +224,12 @@ void StochasticIteration::advance(long total) {
     // One direction at a time on one thread. With more, batches of 4 directions per
     // thread: their matrices are computed side by side, and the light moves along one
     // batch's matrices (in order, on the calling thread) while the other threads
-    // compute the next batch's. The directions and jitters are drawn in the same order
-    // either way, and however the steps are split into calls.
-    const int threads = backends_.threads();
-    const long batch = threads == 1 ? 1 : 4L * threads;
+    // compute the next batch's (or a GPU backend's submission runs). The directions and
+    // jitters are drawn in the same order either way, and however the steps are split
+    // into calls.
     const int per_step = *options_.frame ? 3 : 1;
+    const long batch = backends_.threads() > 1 ? 4L * backends_.threads()
+                                               : std::max(1L, static_cast<long>(backends_.batch_directions() / per_step));
     std::vector<Vec3> ws, next_ws;
     std::vector<Eigen::Vector2d> offsets, next_offsets;
     const auto start = Clock::now();

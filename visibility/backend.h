@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +61,22 @@ public:
     // continuous backends); a fresh uniform jitter per direction makes pixel-count
     // areas unbiased estimates of the exact projected areas.
     virtual void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) = 0;
+
+    // A batch: out[k] = A(directions[k]) with jitters[k], the matrix transfer() gives
+    // (out is resized to the batch). A backend on a GPU submits many directions at once
+    // (one wait for the GPU per submission, its CPU work on up to `threads` threads of
+    // the caller's, which must not call this backend meanwhile); the default computes
+    // them in turn. `alongside`, when given, runs once on the calling thread, where the
+    // backend can, while its work is in flight. It must not touch `out`.
+    virtual void transfer_many(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
+                               std::vector<GeometryMatrix>& out, int threads, const std::function<void()>& alongside) {
+        (void)threads;
+        out.resize(directions.size());
+        if (alongside) alongside();
+        for (std::size_t k = 0; k < directions.size(); ++k) transfer(directions[k], jitters[k], out[k]);
+    }
+    // How many directions transfer_many() takes at once to good effect (1: no gain).
+    virtual int batch_directions() const { return 1; }
 };
 
 // What a backend can do: one row per backend this build has, the default first.

@@ -8,7 +8,8 @@
 namespace raybundle::visibility {
 
 BackendSet::BackendSet(const std::string& name, const scenes::Scene& scene, const BackendOptions& options,
-                       int threads) {
+                       int threads)
+    : threads_(std::max(1, threads)) {
     // Made side by side too: each holds vectors the size of the scene (at 121k
     // patches, 16 backends made one after another took a quarter of a second).
     const int n = backend_info(name).side_by_side ? std::max(1, threads) : 1;
@@ -25,8 +26,7 @@ void BackendSet::transfer_batch(const std::vector<Vec3>& directions, const std::
     out.resize(n);
     const std::size_t T = std::min(all_.size(), std::max<std::size_t>(n, 1));
     if (T <= 1) {
-        if (alongside) alongside();
-        for (std::size_t k = 0; k < n; ++k) all_[0]->transfer(directions[k], jitters[k], out[k]);
+        all_[0]->transfer_many(directions, jitters, out, all_.size() == 1 ? threads_ : 1, alongside);
         return;
     }
     // Each thread takes the next direction not yet taken. It fills a matrix of its own,

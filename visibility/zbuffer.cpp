@@ -4,6 +4,7 @@
 #include "visibility/gl_context.h"
 #include "visibility/map_grid.h"
 #include "visibility/pixel_pairs.h"
+#include "scenes/threads.h"
 
 #include <GL/glcorearb.h>
 
@@ -68,6 +69,7 @@ namespace {
     X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                                              \
     X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                                                  \
     X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                                                \
+    X(PFNGLBINDBUFFERRANGEPROC, BindBufferRange)                                                              \
     X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                                  \
     X(PFNGLUNIFORM1UIPROC, Uniform1ui)                                                                        \
     X(PFNGLUNIFORM1FPROC, Uniform1f)                                                                          \
@@ -141,6 +143,8 @@ void main() {
 // thread with the same receiver to get there; a thread that finds either word taken by
 // another value probes on. Every claimed global slot is listed once in `used`.
 constexpr int kMaxLayers = 64;
+// Directions per submission of transfer_many(): one wait for the GPU for all of them.
+constexpr int kBatch = 16;
 constexpr std::uint32_t kMaxTable = 1u << 28;  // slots: 4 words each on the GPU, 3 to read back
 const char* kPairShader = "#version 450 core\n" RAYBUNDLE_ZBUFFER_BUFFERS R"(
 layout(local_size_x = 16, local_size_y = 16) in;
@@ -387,6 +391,21 @@ struct ZBufferBackend::Impl {
     GLuint layer_buffer = 0, depth_count = 0, patch_buffer = 0, key_r = 0, key_s = 0, slot_count = 0, counters = 0,
            used = 0, readback = 0, args = 0;
     std::vector<std::uint32_t> entry_words;  // from the read-back buffer: 3 words per entry
+    // Batches (transfer_many): per direction of a submission a slot of vertices, of
+    // depth records and of the read-back buffer, each at an offset the GPU can bind.
+    GLuint batch_vertices = 0, batch_records = 0, batch_readback = 0;
+    int batch_slots = 0;                     // directions one submission holds
+    std::uint32_t batch_table = 0;           // the table size its read-back slots are for
+    GLintptr vertex_slot = 0, record_slot = 0, back_slot = 0;  // bytes per slot
+    std::vector<float> stage_vertices;       // the batch's vertices and records, slot by slot
+    std::vector<double> stage_records;
+    std::vector<MapGrid> grids;              // one per thread of the CPU's preparation
+    struct Scratch {
+        std::vector<std::uint64_t> keys, key_tmp;
+        std::vector<std::uint32_t> counts, count_tmp;
+        std::vector<std::uint32_t> words;
+    };
+    std::vector<Scratch> scratch;            // one per direction of a submission
     GLint draw_capacity = -1;
     GLint pair_width = -1, pair_layers = -1, pair_mask = -1, pair_patches = -1, pair_sky = -1, pair_tie = -1;
     GLsizei index_count = 0;
@@ -402,6 +421,8 @@ struct ZBufferBackend::Impl {
     bool profile = false;
     GLuint stamps[4] = {0, 0, 0, 0};
     double cpu_prepare = 0, cpu_submit = 0, cpu_wait = 0, cpu_finish = 0, gpu_draw = 0, gpu_pair = 0, gpu_compact = 0;
+    long batches = 0;  // submissions of transfer_many()
+    long timed = 0;    // directions with GPU timestamps (those run alone)
 
     Impl(const scenes::Scene& scene, const BackendOptions& options)
         : grid(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
@@ -489,12 +510,31 @@ struct ZBufferBackend::Impl {
     GLuint tiles() const { return static_cast<GLuint>((grid.width() + 7) / 8); }
     std::size_t cells() const { return static_cast<std::size_t>(tiles()) * tiles() * 64; }
 
+    // Where one direction's data lie on the GPU: its vertices, its patches' depth
+    // records and its part of a read-back buffer (4 counters, then 3 words per entry).
+    struct Slot {
+        GLuint vertices;
+        GLintptr vertex_offset;
+        GLuint records;
+        GLintptr record_offset;
+        GLsizeiptr record_bytes;
+        GLuint back;
+        GLintptr back_offset;
+        GLsizeiptr back_bytes;
+    };
+    Slot single_slot() const {
+        return {vertex_buffer, 0, patch_buffer, 0, static_cast<GLsizeiptr>(std::max<std::size_t>(records.size(), 4) * sizeof(double)),
+                readback, 0, static_cast<GLsizeiptr>(16 + 12 * static_cast<std::size_t>(table_size))};
+    }
+
     // Every fragment of every patch into its pixel's list.
-    void draw() {
-        if (profile) gl->QueryCounter(stamps[0], GL_TIMESTAMP);
+    void draw(const Slot& slot, bool stamp) {
+        if (stamp) gl->QueryCounter(stamps[0], GL_TIMESTAMP);
         gl->UseProgram(draw_program);
+        gl->BindBuffer(GL_ARRAY_BUFFER, slot.vertices);
+        gl->VertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, reinterpret_cast<const void*>(slot.vertex_offset));
         gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, layer_buffer);
-        gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, patch_buffer);
+        gl->BindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, slot.records, slot.record_offset, slot.record_bytes);
         gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, depth_count);
         gl->Uniform1ui(draw_capacity, static_cast<GLuint>(layer_capacity));
         gl->DrawElements(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr);
@@ -504,22 +544,24 @@ struct ZBufferBackend::Impl {
         std::uint32_t count, overflow, layers;
     };
 
-    // The drawn surfaces paired and counted, compacted into the read-back buffer, the
-    // lists and the table cleared, all on the GPU; then one wait for it, and the
-    // entries copied back.
-    Back pair() {
+    // The drawn surfaces paired and counted, compacted into the slot's read-back part,
+    // the lists and the table cleared, all on the GPU (no wait).
+    void submit_pair(const Slot& slot, bool stamp) {
         const GLsizei W = grid.width();
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        const GLuint bound[] = {layer_buffer, patch_buffer, key_r, key_s, slot_count, counters, used, readback, args, depth_count};
-        for (GLuint b = 0; b < 10; ++b) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
+        const GLuint bound[] = {layer_buffer, 0, key_r, key_s, slot_count, counters, used, 0, args, depth_count};
+        for (GLuint b = 0; b < 10; ++b)
+            if (b != 1 && b != 7) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]);
+        gl->BindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, slot.records, slot.record_offset, slot.record_bytes);
+        gl->BindBufferRange(GL_SHADER_STORAGE_BUFFER, 7, slot.back, slot.back_offset, slot.back_bytes);
         gl->UseProgram(pair_program);
         gl->Uniform1ui(pair_layers, static_cast<GLuint>(layer_capacity));
         gl->Uniform1ui(pair_mask, table_size - 1);
         const GLuint groups = static_cast<GLuint>((W + 15) / 16);
-        if (profile) gl->QueryCounter(stamps[1], GL_TIMESTAMP);
+        if (stamp) gl->QueryCounter(stamps[1], GL_TIMESTAMP);
         gl->DispatchCompute(groups, groups, 1);
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        if (profile) gl->QueryCounter(stamps[2], GL_TIMESTAMP);
+        if (stamp) gl->QueryCounter(stamps[2], GL_TIMESTAMP);
         gl->UseProgram(args_program);
         gl->DispatchCompute(1, 1, 1);
         gl->MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
@@ -527,11 +569,29 @@ struct ZBufferBackend::Impl {
         gl->BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args);
         gl->DispatchComputeIndirect(0);
         gl->MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        if (profile) gl->QueryCounter(stamps[3], GL_TIMESTAMP);
-        const auto submitted = std::chrono::steady_clock::now();
+        if (stamp) gl->QueryCounter(stamps[3], GL_TIMESTAMP);
+    }
+
+    // The slot's counters and, where the direction is complete, its entries (the first
+    // read of a submission waits for the GPU).
+    Back read(const Slot& slot, std::vector<std::uint32_t>& words) {
         std::uint32_t header[4];
-        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, readback);
-        gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof header, header);  // waits for the GPU
+        gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.back);
+        gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, slot.back_offset, sizeof header, header);
+        words.resize(3 * static_cast<std::size_t>(header[0]));
+        if (header[0] > 0 && header[1] == 0 && header[2] <= static_cast<std::uint32_t>(layer_capacity))
+            gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, slot.back_offset + 16, static_cast<GLsizeiptr>(words.size() * 4),
+                                 words.data());
+        return {header[0], header[1], header[2]};
+    }
+
+    // One direction, alone: one draw and one wait for the GPU.
+    Back pair() {
+        const Slot slot = single_slot();
+        draw(slot, profile);
+        submit_pair(slot, profile);
+        const auto submitted = std::chrono::steady_clock::now();
+        const Back back = read(slot, entry_words);  // waits for the GPU
         if (profile) {
             cpu_wait += std::chrono::duration<double>(std::chrono::steady_clock::now() - submitted).count();
             GLuint64 t[4];
@@ -539,12 +599,120 @@ struct ZBufferBackend::Impl {
             gpu_draw += 1e-9 * static_cast<double>(t[1] - t[0]);
             gpu_pair += 1e-9 * static_cast<double>(t[2] - t[1]);
             gpu_compact += 1e-9 * static_cast<double>(t[3] - t[2]);
+            ++timed;
         }
-        entry_words.resize(3 * static_cast<std::size_t>(header[0]));
-        if (header[0] > 0 && header[1] == 0 && header[2] <= static_cast<std::uint32_t>(layer_capacity))
-            gl->GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 16, static_cast<GLsizeiptr>(entry_words.size() * 4),
-                                 entry_words.data());
-        return {header[0], header[1], header[2]};
+        return back;
+    }
+
+    // A direction the GPU did not finish (more surfaces over a pixel than the layer
+    // buffer holds, or a crowded table): the buffers grown, or an error past their
+    // limits. Returns whether it must run again.
+    bool grow(const Back& back) {
+        const bool deeper = static_cast<int>(back.layers) > layer_capacity;
+        if (back.layers > static_cast<std::uint32_t>(kMaxLayers))
+            throw std::runtime_error("zbuffer: " + std::to_string(back.layers) + " surfaces over one pixel (at most " +
+                                     std::to_string(kMaxLayers) + "); use exact-painter");
+        if (deeper) reserve_layers(static_cast<int>(back.layers), std::min(kMaxLayers, static_cast<int>(back.layers) + 2));
+        if (back.overflow != 0) {
+            if (table_size >= kMaxTable)
+                throw std::runtime_error("zbuffer: the pairs of one direction overflow a table of " +
+                                         std::to_string(kMaxTable) + " slots; use exact-painter");
+            make_table(std::min(8 * table_size, kMaxTable));
+        }
+        return deeper || back.overflow != 0;
+    }
+
+    // Direction w's vertices (x, y per vertex) and depth records (t0, tx, ty, kind per
+    // patch) through `g`, projected for w and jitter.
+    void prepare(MapGrid& g, const Vec3& w, const Eigen::Vector2d& jitter, float* xy, double* record) const {
+        g.project(w, jitter);
+        const auto& X = g.projected_x();
+        const auto& Y = g.projected_y();
+        for (std::size_t k = 0; k < X.size(); ++k) {
+            xy[2 * k] = static_cast<float>(X[k]);
+            xy[2 * k + 1] = static_cast<float>(Y[k]);
+        }
+        // Each patch's depth at pixel (x, y): t0 + tx x + ty y, as the global z-buffer's.
+        const Vec3 origin = g.pixel_point(0, 0);
+        const Vec3 du = g.pixel_point(1, 0) - origin, dv = g.pixel_point(0, 1) - origin;
+        for (std::size_t i = 0; i < normals.size(); ++i) {
+            const double nw = normals[i].dot(w);
+            double* r = &record[4 * i];
+            if (nw == 0.0) {
+                r[0] = r[1] = r[2] = r[3] = 0.0;
+                continue;
+            }
+            r[0] = (plane[i] - normals[i].dot(origin)) / nw;
+            r[1] = -normals[i].dot(du) / nw;
+            r[2] = -normals[i].dot(dv) / nw;
+            r[3] = nw > 0.0 ? 1.0 : -1.0;
+        }
+    }
+
+    // One entry per (receiver, source) from the read-back words, in that order whatever
+    // the GPU's scheduling.
+    void store(const std::vector<std::uint32_t>& words, std::uint32_t m, std::vector<std::uint64_t>& keys_,
+               std::vector<std::uint32_t>& counts_, std::vector<std::uint64_t>& key_tmp_,
+               std::vector<std::uint32_t>& count_tmp_, GeometryMatrix& out) const {
+        keys_.resize(m);
+        counts_.resize(m);
+        const std::uint32_t* e = words.data();
+        for (std::uint32_t j = 0; j < m; ++j) {
+            keys_[j] = pixel_pair(e[3 * j], e[3 * j + 1]);
+            counts_[j] = e[3 * j + 2];
+        }
+        radix_sort(keys_, counts_, key_tmp_, count_tmp_);
+        const double area = grid.pixel_area();
+        out.entries.clear();
+        out.entries.reserve(m);
+        for (std::uint32_t j = 0; j < m; ++j)
+            out.entries.push_back({static_cast<std::uint32_t>(keys_[j] >> 32), static_cast<std::uint32_t>(keys_[j]),
+                                   static_cast<double>(counts_[j]) * area});
+    }
+
+    // Directions one submission takes: kBatch, fewer where their slots would pass
+    // 256 MiB (a large scene's read-back parts are 12 bytes per slot of its table).
+    int batch_capacity() const {
+        const std::size_t bytes = 64 + 12 * static_cast<std::size_t>(table_size) + records.size() * sizeof(double) +
+                                  vertices.size() * sizeof(float);
+        return static_cast<int>(std::clamp<std::size_t>((std::size_t{256} << 20) / bytes, 1, kBatch));
+    }
+
+    // Slots for `slots` directions at once, their read-back parts sized for the table.
+    void reserve_batch(int slots) {
+        if (slots <= batch_slots && batch_table == table_size) return;
+        if (batch_table == table_size) slots = std::max(slots, batch_slots);
+        GLint64 align = 0;
+        gl->GetInteger64v(GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT, &align);
+        const auto round_up = [a = std::max<GLint64>(align, 16)](std::size_t bytes) {
+            return static_cast<GLintptr>((bytes + static_cast<std::size_t>(a) - 1) / static_cast<std::size_t>(a) *
+                                         static_cast<std::size_t>(a));
+        };
+        vertex_slot = round_up(std::max<std::size_t>(vertices.size(), 2) * sizeof(float));
+        record_slot = round_up(std::max<std::size_t>(records.size(), 4) * sizeof(double));
+        back_slot = round_up(16 + 12 * static_cast<std::size_t>(table_size));
+        const GLuint old[] = {batch_vertices, batch_records, batch_readback};
+        gl->DeleteBuffers(3, old);
+        auto storage = [&](GLenum kind, GLintptr bytes) {
+            GLuint b = 0;
+            gl->GenBuffers(1, &b);
+            gl->BindBuffer(kind, b);
+            gl->BufferStorage(kind, bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+            return b;
+        };
+        batch_vertices = storage(GL_ARRAY_BUFFER, vertex_slot * slots);
+        batch_records = storage(GL_SHADER_STORAGE_BUFFER, record_slot * slots);
+        batch_readback = buffer(back_slot * slots, nullptr, GL_DYNAMIC_COPY);
+        batch_slots = slots;
+        batch_table = table_size;
+        stage_vertices.resize(static_cast<std::size_t>(vertex_slot) / sizeof(float) * static_cast<std::size_t>(slots));
+        stage_records.resize(static_cast<std::size_t>(record_slot) / sizeof(double) * static_cast<std::size_t>(slots));
+    }
+
+    Slot batch_slot(int k) const {
+        return {batch_vertices, vertex_slot * k, batch_records, record_slot * k,
+                static_cast<GLsizeiptr>(std::max<std::size_t>(records.size(), 4) * sizeof(double)),
+                batch_readback, back_slot * k, static_cast<GLsizeiptr>(16 + 12 * static_cast<std::size_t>(table_size))};
     }
 
     void check(const char* where) {
@@ -662,18 +830,21 @@ ZBufferBackend::~ZBufferBackend() {
         return;  // destroying the context frees them anyway
     }
     if (s.profile && s.directions > 0) {
-        const double d = 1e3 / static_cast<double>(s.directions);
+        const double d = 1e3 / static_cast<double>(s.directions), g = 1e3 / static_cast<double>(std::max(1L, s.timed));
         std::fprintf(stderr,
-                     "zbuffer profile, ms per direction over %ld: CPU prepare %.3f, submit %.3f, wait %.3f, finish %.3f; "
-                     "GPU draw %.3f, pair %.3f, compact %.3f; %.2f surfaces at the deepest pixel\n",
-                     s.directions, s.cpu_prepare * d, s.cpu_submit * d, s.cpu_wait * d, s.cpu_finish * d, s.gpu_draw * d,
-                     s.gpu_pair * d, s.gpu_compact * d, static_cast<double>(s.layers) / static_cast<double>(s.directions));
+                     "zbuffer profile, ms per direction over %ld (%ld submissions of several): CPU prepare %.3f, "
+                     "submit %.3f, wait %.3f, finish %.3f (wall, all threads together); GPU over the %ld run alone: "
+                     "draw %.3f, pair %.3f, compact %.3f; %.2f surfaces at the deepest pixel\n",
+                     s.directions, s.batches, s.cpu_prepare * d, s.cpu_submit * d, s.cpu_wait * d, s.cpu_finish * d,
+                     s.timed, s.gpu_draw * g, s.gpu_pair * g, s.gpu_compact * g,
+                     static_cast<double>(s.layers) / static_cast<double>(s.directions));
     }
     if (s.profile) gl.DeleteQueries(4, s.stamps);
     gl.DeleteFramebuffers(1, &s.framebuffer);
     gl.DeleteTextures(1, &s.target);
-    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.depth_count, s.patch_buffer, s.key_r,
-                              s.key_s,         s.slot_count,   s.counters,     s.used,        s.readback,     s.args};
+    const GLuint buffers[] = {s.vertex_buffer, s.index_buffer, s.layer_buffer, s.depth_count, s.patch_buffer,
+                              s.key_r,         s.key_s,        s.slot_count,   s.counters,    s.used,
+                              s.readback,      s.args,         s.batch_vertices, s.batch_records, s.batch_readback};
     gl.DeleteBuffers(static_cast<GLsizei>(std::size(buffers)), buffers);
     gl.DeleteVertexArrays(1, &s.vao);
     for (GLuint p : {s.draw_program, s.pair_program, s.args_program, s.compact_program})
@@ -701,35 +872,9 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     out.direction = w;
     out.entries.clear();
     const auto start = std::chrono::steady_clock::now();
-    MapGrid& grid = s.grid;
-    grid.project(w, jitter);
-    const std::size_t n = s.normals.size();
-
-    // Vertices: the grid's snapped positions.
-    const auto& X = grid.projected_x();
-    const auto& Y = grid.projected_y();
-    for (std::size_t k = 0; k < X.size(); ++k) {
-        s.vertices[2 * k] = static_cast<float>(X[k]);
-        s.vertices[2 * k + 1] = static_cast<float>(Y[k]);
-    }
+    s.prepare(s.grid, w, jitter, s.vertices.data(), s.records.data());
     gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
     gl.BufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)), s.vertices.data());
-
-    // Each patch's depth at pixel (x, y): t0 + tx x + ty y, as the global z-buffer's.
-    const Vec3 origin = grid.pixel_point(0, 0);
-    const Vec3 du = grid.pixel_point(1, 0) - origin, dv = grid.pixel_point(0, 1) - origin;
-    for (std::size_t i = 0; i < n; ++i) {
-        const double nw = s.normals[i].dot(w);
-        double* r = &s.records[4 * i];
-        if (nw == 0.0) {
-            r[0] = r[1] = r[2] = r[3] = 0.0;
-            continue;
-        }
-        r[0] = (s.plane[i] - s.normals[i].dot(origin)) / nw;
-        r[1] = -s.normals[i].dot(du) / nw;
-        r[2] = -s.normals[i].dot(dv) / nw;
-        r[3] = nw > 0.0 ? 1.0 : -1.0;
-    }
     gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.patch_buffer);
     gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.records.size() * sizeof(double)),
                      s.records.data());
@@ -739,51 +884,123 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
     const auto prepared = std::chrono::steady_clock::now();
     const double wait_before = s.cpu_wait;
     Impl::Back back{};
-    for (;;) {
-        s.draw();
-        back = s.pair();
-        const bool deeper = static_cast<int>(back.layers) > s.layer_capacity;
-        if (back.layers > static_cast<std::uint32_t>(kMaxLayers))
-            throw std::runtime_error("zbuffer: " + std::to_string(back.layers) +
-                                     " surfaces over one pixel (at most " + std::to_string(kMaxLayers) +
-                                     "); use exact-painter");
-        if (deeper) s.reserve_layers(static_cast<int>(back.layers), std::min(kMaxLayers, static_cast<int>(back.layers) + 2));
-        if (back.overflow != 0) {
-            if (s.table_size >= kMaxTable)
-                throw std::runtime_error("zbuffer: the pairs of one direction overflow a table of " +
-                                         std::to_string(kMaxTable) + " slots; use exact-painter");
-            s.make_table(std::min(8 * s.table_size, kMaxTable));
-        }
-        if (!deeper && back.overflow == 0) break;
-    }
+    do back = s.pair();
+    while (s.grow(back));
     s.layers += back.layers;
     ++s.directions;
     s.check("transfer");
     const auto paired = std::chrono::steady_clock::now();
 
-    // One entry per (receiver, source), in that order whatever the GPU's scheduling.
-    const std::uint32_t m = back.count;
-    s.keys.resize(m);
-    s.counts.resize(m);
-    const std::uint32_t* e = s.entry_words.data();
-    for (std::uint32_t j = 0; j < m; ++j) {
-        s.keys[j] = pixel_pair(e[3 * j], e[3 * j + 1]);
-        s.counts[j] = e[3 * j + 2];
-    }
     // A table more than half full is grown for the next direction.
-    if (m > s.table_size / 2 && s.table_size < kMaxTable) s.make_table(std::min(4 * s.table_size, kMaxTable));
-    radix_sort(s.keys, s.counts, s.key_tmp, s.count_tmp);
-    const double area = grid.pixel_area();
-    out.entries.reserve(m);
-    for (std::uint32_t j = 0; j < m; ++j)
-        out.entries.push_back({static_cast<std::uint32_t>(s.keys[j] >> 32), static_cast<std::uint32_t>(s.keys[j]),
-                               static_cast<double>(s.counts[j]) * area});
+    if (back.count > s.table_size / 2 && s.table_size < kMaxTable) s.make_table(std::min(4 * s.table_size, kMaxTable));
+    s.store(s.entry_words, back.count, s.keys, s.counts, s.key_tmp, s.count_tmp, out);
     if (s.profile) {
         const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
         s.cpu_prepare += seconds(start, prepared);
         s.cpu_submit += seconds(prepared, paired) - (s.cpu_wait - wait_before);
         s.cpu_finish += seconds(paired, std::chrono::steady_clock::now());
     }
+}
+
+int ZBufferBackend::batch_directions() const { return kBatch; }
+
+void ZBufferBackend::transfer_many(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
+                                   std::vector<GeometryMatrix>& out, int threads, const std::function<void()>& alongside) {
+    Impl& s = *impl_;
+    const Gl& gl = *s.gl;
+    const std::size_t n = directions.size();
+    out.resize(n);
+    bool along = static_cast<bool>(alongside);
+    for (std::size_t b0 = 0, step = 0; b0 < n; b0 += step) {
+        s.context->make_current();
+        step = std::min<std::size_t>(static_cast<std::size_t>(s.batch_capacity()), n - b0);
+        const int K = static_cast<int>(step);
+        s.reserve_batch(K);
+        const int T = std::max(1, std::min(threads, K));
+        if (static_cast<int>(s.grids.size()) < T) s.grids.resize(static_cast<std::size_t>(T), s.grid);
+        if (static_cast<int>(s.scratch.size()) < K) s.scratch.resize(static_cast<std::size_t>(K));
+        const auto start = std::chrono::steady_clock::now();
+
+        // The CPU's part first, on the threads: every direction's vertices and records,
+        // then one upload of each.
+        const std::size_t vertex_floats = static_cast<std::size_t>(s.vertex_slot) / sizeof(float);
+        const std::size_t record_doubles = static_cast<std::size_t>(s.record_slot) / sizeof(double);
+        parallel_chunks(K, T, [&](int k0, int k1, int t) {
+            for (int k = k0; k < k1; ++k)
+                s.prepare(s.grids[static_cast<std::size_t>(t)], directions[b0 + k], jitters[b0 + k],
+                          &s.stage_vertices[vertex_floats * k], &s.stage_records[record_doubles * k]);
+        });
+        gl.BindBuffer(GL_ARRAY_BUFFER, s.batch_vertices);
+        gl.BufferSubData(GL_ARRAY_BUFFER, 0, s.vertex_slot * K, s.stage_vertices.data());
+        gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.batch_records);
+        gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, s.record_slot * K, s.stage_records.data());
+
+        // Every direction drawn, paired and compacted into its slot, one after another on
+        // the GPU (each pass leaves the lists and the table clean for the next); the
+        // solver's work meanwhile; then the slots read back (the first read waits).
+        const auto prepared = std::chrono::steady_clock::now();
+        const auto capacity = static_cast<std::uint32_t>(s.layer_capacity);  // as submitted
+        for (int k = 0; k < K; ++k) {
+            const Impl::Slot slot = s.batch_slot(k);
+            s.draw(slot, false);
+            s.submit_pair(slot, false);
+        }
+        s.check("transfer_many");
+        const auto submitted = std::chrono::steady_clock::now();
+        if (along) {
+            alongside();
+            along = false;
+        }
+        const auto waiting = std::chrono::steady_clock::now();
+        std::vector<Impl::Back> backs(static_cast<std::size_t>(K));
+        for (int k = 0; k < K; ++k)
+            backs[static_cast<std::size_t>(k)] = s.read(s.batch_slot(k), s.scratch[static_cast<std::size_t>(k)].words);
+        const auto read = std::chrono::steady_clock::now();
+        // A direction the GPU could not finish with the buffers as submitted runs again
+        // alone, with them grown (rare after the first directions; an earlier one of the
+        // batch may have grown them already).
+        std::uint32_t most = 0;
+        for (int k = 0; k < K; ++k) {
+            Impl::Back& back = backs[static_cast<std::size_t>(k)];
+            if (back.overflow != 0 || back.layers > capacity) {
+                s.grow(back);
+                s.prepare(s.grid, directions[b0 + k], jitters[b0 + k], s.vertices.data(), s.records.data());
+                gl.BindBuffer(GL_ARRAY_BUFFER, s.vertex_buffer);
+                gl.BufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(s.vertices.size() * sizeof(float)),
+                                 s.vertices.data());
+                gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.patch_buffer);
+                gl.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(s.records.size() * sizeof(double)),
+                                 s.records.data());
+                do back = s.pair();
+                while (s.grow(back));
+                s.scratch[static_cast<std::size_t>(k)].words.swap(s.entry_words);
+            }
+            s.layers += back.layers;
+            ++s.directions;
+            most = std::max(most, back.count);
+        }
+        s.check("transfer_many");
+        // A table more than half full is grown for the next submission.
+        if (most > s.table_size / 2 && s.table_size < kMaxTable) s.make_table(std::min(4 * s.table_size, kMaxTable));
+        // The entries sorted and stored on the threads.
+        parallel_chunks(K, T, [&](int k0, int k1) {
+            for (int k = k0; k < k1; ++k) {
+                auto& x = s.scratch[static_cast<std::size_t>(k)];
+                GeometryMatrix& m = out[b0 + static_cast<std::size_t>(k)];
+                m.direction = directions[b0 + k];
+                s.store(x.words, backs[static_cast<std::size_t>(k)].count, x.keys, x.counts, x.key_tmp, x.count_tmp, m);
+            }
+        });
+        if (s.profile) {
+            const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+            s.cpu_prepare += seconds(start, prepared);
+            s.cpu_submit += seconds(prepared, submitted);
+            s.cpu_wait += seconds(waiting, read);
+            s.cpu_finish += seconds(read, std::chrono::steady_clock::now());
+            ++s.batches;
+        }
+    }
+    if (along) alongside();  // an empty batch
 }
 
 }  // namespace raybundle::visibility

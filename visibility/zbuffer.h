@@ -28,6 +28,11 @@
 //      count), then only the distinct pairs cross the bus: thousands of entries rather
 //      than megapixels. The CPU sorts them by (receiver, source): the same entries in
 //      the same order whatever the GPU's scheduling.
+// Batches (transfer_many(), what the solvers call through BackendSet): many directions
+// in one submission, each with slots of its own for its vertices, depth records and
+// read-back part, one after another on the GPU (every pass leaves the lists and the
+// table clean for the next); the CPU's preparation and sorting on the caller's threads,
+// and the solver's own work while the GPU draws.
 // A pixel with more surfaces than the layer buffer holds, or a crowded table, grows the
 // buffer and runs the direction again (rare after the first directions). More than 64
 // surfaces over one pixel, more layers than one buffer of the GPU holds, or a table
@@ -50,6 +55,13 @@ public:
     std::string name() const override { return "zbuffer"; }
     int resolution() const override;
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
+    // Up to 16 directions per submission (fewer where their buffers would pass 256 MiB):
+    // their vertices and depth records prepared on the threads, all drawn, paired and
+    // compacted in one go, `alongside` run while the GPU works, one wait, the entries
+    // sorted on the threads. The same matrices as transfer().
+    void transfer_many(const std::vector<Vec3>& directions, const std::vector<Eigen::Vector2d>& jitters,
+                       std::vector<GeometryMatrix>& out, int threads, const std::function<void()>& alongside) override;
+    int batch_directions() const override;
     // The OpenGL implementation in use.
     std::string details() const override;
 

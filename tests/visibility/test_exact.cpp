@@ -427,6 +427,64 @@ TEST_CASE("the GPU z-buffer: the same seed gives the same matrix, whatever the h
     }
 }
 
+TEST_CASE("the GPU z-buffer: a batch gives the matrices one direction at a time gives", "[visibility][zbuffer]") {
+    // transfer_many submits up to 16 directions at once, prepares and sorts them on the
+    // caller's threads and runs `alongside` while the GPU works. 40 directions (three
+    // submissions, the last one short) must give, bit for bit, what a fresh backend's
+    // transfer() gives for each; a stack of 12 quads over the Cornell box's floor passes
+    // the 8 surfaces a pixel the layer buffer first holds, so the batch also runs the
+    // directions the GPU could not finish again, alone, with the buffer grown.
+    if (!built("zbuffer")) {
+        WARN("this build has no zbuffer backend: nothing to compare");
+        return;
+    }
+    std::string objects;
+    for (int k = 0; k < 12; ++k) {
+        const double z = 0.05 * k;
+        objects += (objects.empty() ? "" : ",") + quad(Vec3(0, 0, z), Vec3(1, 0, z), Vec3(1, 1, z), Vec3(0, 1, z),
+                                                       Vec3(0, 0, 1), "m");
+    }
+    const auto stack = scenes::parse_scene(R"({"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]},
+        "patch_size": 0.25, "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}",
+                                           "stack.json", ".");
+    for (const scenes::Scene* scene : {&stack, static_cast<const scenes::Scene*>(nullptr)}) {
+        const auto box = scenes::make_builtin("cornell-box", 100.0);
+        const scenes::Scene& s = scene ? *scene : box;
+        INFO((scene ? "stacked quads" : "Cornell box"));
+        visibility::BackendOptions opt;
+        opt.resolution = 96;
+        opt.sky = scene != nullptr;
+        sampling::RandomDirections dirs(11);
+        std::vector<Vec3> ws;
+        std::vector<Eigen::Vector2d> jitters;
+        for (int d = 0; d < 40; ++d) {
+            ws.push_back(d % 5 == 0 ? Vec3(0, 0, d % 10 == 0 ? 1 : -1) : dirs.next());  // along the stack too
+            jitters.emplace_back(0.05 + 0.9 * ((d * 7) % 13) / 13.0, 0.05 + 0.9 * ((d * 5) % 11) / 11.0);
+        }
+        auto batched = visibility::make_backend("zbuffer", s, opt);
+        std::vector<visibility::GeometryMatrix> got;
+        int along = 0;
+        batched->transfer_many(ws, jitters, got, 3, [&] { ++along; });
+        CHECK(along == 1);
+        REQUIRE(got.size() == ws.size());
+        auto single = visibility::make_backend("zbuffer", s, opt);
+        bool same = true;
+        std::size_t entries = 0;
+        for (std::size_t d = 0; d < ws.size(); ++d) {
+            visibility::GeometryMatrix expected;
+            single->transfer(ws[d], jitters[d], expected);
+            same = same && got[d].direction == ws[d] && got[d].entries.size() == expected.entries.size();
+            for (std::size_t k = 0; same && k < expected.entries.size(); ++k)
+                same = got[d].entries[k].receiver == expected.entries[k].receiver &&
+                       got[d].entries[k].source == expected.entries[k].source &&
+                       got[d].entries[k].area == expected.entries[k].area;
+            entries += expected.entries.size();
+        }
+        CHECK(same);
+        CHECK(entries > 40);
+    }
+}
+
 TEST_CASE("the GPU z-buffer: more than 64 surfaces over one pixel is a clear error", "[visibility][zbuffer]") {
     // 70 parallel quads stacked along z: every pixel under them holds 70 surfaces,
     // more than the pairing pass orders; the error says so and names a backend that
