@@ -12,6 +12,7 @@
 #include <fcntl.h>
 #include <functional>
 #include <iostream>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -190,15 +191,27 @@ std::vector<std::vector<char>> Ranks::gather_all(const std::vector<char>& mine) 
         sizes[k] = static_cast<int>(std::min<long long>(counts[k], INT_MAX));
         total += counts[k];
     }
+    // Every rank sees the same total and refuses alike; memory one rank cannot get is
+    // agreed on before the next collective, as every failure is.
     if (total > INT_MAX)
-        throw std::runtime_error("the ranks' exchange of the scene's preparation would move " + std::to_string(total) +
-                                 " bytes, more than MPI's 2 GiB: run fewer ranks or a coarser scene");
-    std::vector<char> all(static_cast<std::size_t>(total));
+        throw std::runtime_error("the ranks' exchange of the scene's contact search would move " + std::to_string(total) +
+                                 " bytes, more than MPI's 2 GiB in one exchange: run the scene on one rank, or with a "
+                                 "larger patch_size");
+    std::vector<char> all;
+    std::string failure;
+    try {
+        all.resize(static_cast<std::size_t>(total));
+    } catch (const std::bad_alloc&) {
+        failure = "out of memory for the ranks' exchange of the scene's contact search (" + std::to_string(total) +
+                  " bytes)";
+    }
+    agree(failure.empty() ? nullptr : &failure, 1);
     MPI_Allgatherv(mine.data(), sizes[static_cast<std::size_t>(rank_)], MPI_BYTE, all.data(), sizes.data(), firsts.data(),
                    MPI_BYTE, MPI_COMM_WORLD);
     std::vector<std::vector<char>> out(size);
     for (std::size_t k = 0; k < size; ++k)
-        out[k].assign(all.begin() + firsts[k], all.begin() + firsts[k] + sizes[k]);
+        if (static_cast<int>(k) != rank_) out[k].assign(all.begin() + firsts[k], all.begin() + firsts[k] + sizes[k]);
+    out[static_cast<std::size_t>(rank_)] = mine;
     return out;
 }
 

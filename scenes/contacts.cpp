@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
 #include <stdexcept>
 #include <string>
 #include <limits>
@@ -152,6 +153,7 @@ void list_cells(const std::array<Vec3, 3>& p, const Cell& lo, const Cell& hi, do
 // and its values (plain data: every member runs the same binary).
 template <class T>
 void pack(std::vector<char>& out, const std::vector<T>& values) {
+    static_assert(std::is_trivially_copyable_v<T>);
     const auto count = static_cast<std::uint32_t>(values.size());
     const auto* c = reinterpret_cast<const char*>(&count);
     out.insert(out.end(), c, c + sizeof count);
@@ -161,6 +163,7 @@ void pack(std::vector<char>& out, const std::vector<T>& values) {
 
 template <class T>
 void unpack(const std::vector<char>& in, std::size_t& at, std::vector<T>& values, const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>);
     std::uint32_t count = 0;
     if (in.size() - at < sizeof count) throw std::runtime_error(std::string("contact search: ") + what + " cut short");
     std::memcpy(&count, in.data() + at, sizeof count);
@@ -171,32 +174,74 @@ void unpack(const std::vector<char>& in, std::size_t& at, std::vector<T>& values
     at += count * sizeof(T);
 }
 
+// A line as plain numbers (a Vec3 is not plain data everywhere): at, along, length, cut.
+using PackedLine = std::array<double, 8>;
+PackedLine packed(const Line& l) {
+    return {l.at.x(), l.at.y(), l.at.z(), l.along.x(), l.along.y(), l.along.z(), l.length, l.cut ? 1.0 : 0.0};
+}
+Line unpacked(const PackedLine& p) { return {Vec3(p[0], p[1], p[2]), Vec3(p[3], p[4], p[5]), p[6], p[7] != 0.0}; }
+
+// What a member's shares begin with: its triangle count and a fingerprint of their
+// corners, or kNoSearch where its scene is not cut at contacts. Members whose scenes
+// differ (another file on another node) stop, each with the same line (SceneError
+// naming `shown`), before any of them cuts with another's lines.
+struct ShareHeader {
+    std::uint64_t triangles;
+    std::uint64_t fingerprint;
+};
+constexpr std::uint64_t kNoSearch = ~std::uint64_t{0};
+
+std::uint64_t fingerprint(const std::vector<Tri>& tris) {
+    std::uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (const Tri& t : tris)
+        for (const Vec3& p : t.p)
+            for (int k = 0; k < 3; ++k) {
+                std::uint64_t bits = 0;
+                const double x = p[k];
+                std::memcpy(&bits, &x, sizeof bits);
+                h = (h ^ bits) * 0x100000001B3ull;
+                h ^= h >> 29;
+            }
+    return h;
+}
+
+void check_headers(const std::vector<std::vector<char>>& all, const std::string& shown) {
+    auto header = [&all](std::size_t k) {
+        ShareHeader h{0, 0};
+        if (all[k].size() >= sizeof h) std::memcpy(&h, all[k].data(), sizeof h);
+        return h;
+    };
+    const ShareHeader first = header(0);
+    for (std::size_t k = 1; k < all.size(); ++k) {
+        const ShareHeader h = header(k);
+        if (h.triangles == first.triangles && h.fingerprint == first.fingerprint) continue;
+        const auto says = [](std::size_t r, const ShareHeader& x) {
+            return x.triangles == kNoSearch ? "rank " + std::to_string(r) + " does not cut at contacts (\"cut_contacts\")"
+                                            : "rank " + std::to_string(r) + " has " + std::to_string(x.triangles) +
+                                                  " triangles to search for contacts";
+        };
+        const std::string what = h.triangles != first.triangles
+                                     ? says(k, h) + ", " + says(0, first)
+                                     : "rank " + std::to_string(k) + "'s triangles lie elsewhere than rank 0's";
+        throw SceneError(shown, "", "the ranks' scenes differ: " + what +
+                                        "; every node must read the same scene file and be given the same options");
+    }
+}
+
 // Every member's share of per-triangle lists (member k: triangles k, k + R, ...) on every
-// member. The first bytes of a share are the triangle count, so that members whose
-// scenes differ (another file on another node) stop, each with the same line (SceneError
-// naming `shown`), not with wrong cuts.
+// member, after the headers agree.
 template <class T>
-void swap_shares(const PreparationTeam& team, std::vector<std::vector<T>>& lists, const char* what,
-                 const std::string& shown) {
-    const auto n = static_cast<std::uint32_t>(lists.size());
+void swap_shares(const PreparationTeam& team, const ShareHeader& header, std::vector<std::vector<T>>& lists,
+                 const char* what, const std::string& shown) {
     const auto R = static_cast<std::size_t>(team.size());
-    std::vector<char> mine(reinterpret_cast<const char*>(&n), reinterpret_cast<const char*>(&n) + sizeof n);
+    std::vector<char> mine(sizeof header);
+    std::memcpy(mine.data(), &header, sizeof header);
     for (std::size_t i = static_cast<std::size_t>(team.rank()); i < lists.size(); i += R) pack(mine, lists[i]);
     const auto all = team.gather_all(mine);
-    auto count = [&all](std::size_t k) {
-        std::uint32_t c = 0;
-        if (all[k].size() >= sizeof c) std::memcpy(&c, all[k].data(), sizeof c);
-        return c;
-    };
-    for (std::size_t k = 1; k < all.size(); ++k)
-        if (count(k) != count(0))
-            throw SceneError(shown, "", "the ranks' scenes differ: rank " + std::to_string(k) + " has " +
-                                            std::to_string(count(k)) + " triangles to search for contacts, rank 0 " +
-                                            std::to_string(count(0)) +
-                                            "; every node must read the same scene file and be given the same options");
+    check_headers(all, shown);
     for (std::size_t k = 0; k < all.size(); ++k) {
         if (static_cast<int>(k) == team.rank()) continue;
-        std::size_t at = sizeof(std::uint32_t);
+        std::size_t at = sizeof header;
         for (std::size_t i = k; i < lists.size(); i += R) unpack(all[k], at, lists[i], what);
     }
 }
@@ -256,7 +301,8 @@ std::vector<std::vector<Line>> contact_lines(const std::vector<Tri>& tris, doubl
             for (const auto& c : met) listed[i].push_back(key(c));
         }
     });
-    if (members > 1) swap_shares(*team, listed, "cells", shown);
+    const ShareHeader header{tris.size(), members > 1 ? fingerprint(tris) : 0};
+    if (members > 1) swap_shares(*team, header, listed, "cells", shown);
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
     for (std::size_t i = 0; i < tris.size(); ++i)
         for (const std::uint64_t k : listed[i]) cells[k].push_back(static_cast<std::uint32_t>(i));
@@ -286,11 +332,27 @@ std::vector<std::vector<Line>> contact_lines(const std::vector<Tri>& tris, doubl
             }
         }
     });
-    if (members > 1) swap_shares(*team, lines, "lines", shown);
+    if (members > 1) {
+        std::vector<std::vector<PackedLine>> plain(lines.size());
+        for (std::size_t k = static_cast<std::size_t>(me); k < lines.size(); k += static_cast<std::size_t>(members))
+            for (const Line& l : lines[k]) plain[k].push_back(packed(l));
+        swap_shares(*team, header, plain, "lines", shown);
+        for (std::size_t k = 0; k < lines.size(); ++k)
+            if (static_cast<int>(k % static_cast<std::size_t>(members)) != me)
+                for (const PackedLine& p : plain[k]) lines[k].push_back(unpacked(p));
+    }
     return lines;
 }
 
 }  // namespace
+
+void skip_contact_search(const Scene& scene, const PreparationTeam* team) {
+    if (!team || team->size() <= 1) return;
+    const ShareHeader header{kNoSearch, 0};
+    std::vector<char> mine(sizeof header);
+    std::memcpy(mine.data(), &header, sizeof header);
+    check_headers(team->gather_all(mine), scene.name);
+}
 
 ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* team) {
     TriMesh& mesh = scene.mesh;

@@ -54,4 +54,9 @@ struct ContactCuts {
 // the same scene: the same cuts for any count of either.
 ContactCuts cut_at_contacts(Scene& scene, int threads = 1, const PreparationTeam* team = nullptr);
 
+// A scene not cut at contacts, on a team: its members meet where cut_at_contacts would
+// exchange (so that members whose scenes differ in whether they cut stop with one line,
+// not in mismatched exchanges). Nothing without a team of more than one.
+void skip_contact_search(const Scene& scene, const PreparationTeam* team);
+
 }  // namespace raybundle::scenes

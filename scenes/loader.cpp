@@ -604,7 +604,10 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize(limits.threads);
     refine(scene, root, shown, limits);
-    if (!root.has("cut_contacts") || root.boolean("cut_contacts")) cut_at_contacts(scene, limits.threads, limits.team);
+    if (!root.has("cut_contacts") || root.boolean("cut_contacts"))
+        cut_at_contacts(scene, limits.threads, limits.team);
+    else
+        skip_contact_search(scene, limits.team);
     return scene;
 }
 

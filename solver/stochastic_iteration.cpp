@@ -221,12 +221,12 @@ void StochasticIteration::step(const Vec3* ws, const visibility::GeometryMatrix*
 }
 
 void StochasticIteration::advance(long total) {
-    // One direction at a time on one thread. With more, batches of 4 directions per
-    // thread: their matrices are computed side by side, and the light moves along one
-    // batch's matrices (in order, on the calling thread) while the other threads
-    // compute the next batch's (or a GPU backend's submission runs). The directions and
-    // jitters are drawn in the same order either way, and however the steps are split
-    // into calls.
+    // One direction at a time on one thread (a GPU backend: what one submission takes,
+    // BackendSet::batch_directions). With more, batches of 4 directions per thread:
+    // their matrices are computed side by side, and the light moves along one batch's
+    // matrices (in order, on the calling thread) while the other threads compute the
+    // next batch's (or the GPU works on them). The directions and jitters are drawn in
+    // the same order either way, and however the steps are split into calls.
     const int per_step = *options_.frame ? 3 : 1;
     const long batch = backends_.threads() > 1 ? 4L * backends_.threads()
                                                : std::max(1L, static_cast<long>(backends_.batch_directions() / per_step));

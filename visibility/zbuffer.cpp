@@ -915,8 +915,17 @@ void ZBufferBackend::transfer_many(const std::vector<Vec3>& directions, const st
         s.context->make_current();
         step = std::min<std::size_t>(static_cast<std::size_t>(s.batch_capacity()), n - b0);
         const int K = static_cast<int>(step);
+        if (K == 1) {  // no slots for one direction: the buffers of transfer()
+            if (along) alongside();
+            along = false;
+            transfer(directions[b0], jitters[b0], out[b0]);
+            continue;
+        }
         s.reserve_batch(K);
-        const int T = std::max(1, std::min(threads, K));
+        // Each preparing thread holds a copy of the map's grid (the scene's vertices): at
+        // most 256 MiB of them.
+        const std::size_t grid_bytes = 64 + s.vertices.size() * 20 + s.records.size() * 3;
+        const int T = std::max(1, std::min({threads, K, static_cast<int>(std::max<std::size_t>(1, (std::size_t{256} << 20) / grid_bytes))}));
         if (static_cast<int>(s.grids.size()) < T) s.grids.resize(static_cast<std::size_t>(T), s.grid);
         if (static_cast<int>(s.scratch.size()) < K) s.scratch.resize(static_cast<std::size_t>(K));
         const auto start = std::chrono::steady_clock::now();

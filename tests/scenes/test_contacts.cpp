@@ -43,21 +43,46 @@ private:
         const int round = round_;
         slots_[static_cast<std::size_t>(rank)] = mine;
         if (++arrived_ == size_) {
+            // The round's result apart from the slots: the first member back may fill
+            // its slot for the next round before the others have woken. The result is
+            // replaced only when that round completes, which needs every member.
+            result_ = slots_;
             arrived_ = 0;
             ++round_;
             done_.notify_all();
         } else {
             done_.wait(lock, [&] { return round_ != round; });
         }
-        return slots_;  // not overwritten before every member has copied it: the next round needs all
+        return result_;
     }
 
     int size_;
-    std::vector<std::vector<char>> slots_;
+    std::vector<std::vector<char>> slots_, result_;
     std::mutex mutex_;
     std::condition_variable done_;
     int arrived_ = 0, round_ = 0;
 };
+
+// parse_scene on every member of a team of threads, each with its own scene text.
+std::vector<std::string> load_together(const std::vector<std::string>& texts) {
+    const int size = static_cast<int>(texts.size());
+    ThreadTeam team(size);
+    std::vector<std::string> errors(texts.size());
+    std::vector<std::thread> members;
+    for (int r = 0; r < size; ++r)
+        members.emplace_back([&, r] {
+            const ThreadTeam::Member me(team, r);
+            scenes::LoadLimits limits;
+            limits.team = &me;
+            try {
+                scenes::parse_scene(texts[static_cast<std::size_t>(r)], "s.json", ".", {}, limits);
+            } catch (const std::exception& e) {
+                errors[static_cast<std::size_t>(r)] = e.what();
+            }
+        });
+    for (auto& m : members) m.join();
+    return errors;
+}
 
 // make_builtin on every member of a team of `size` threads, each with its own patch size.
 std::vector<scenes::Scene> prepare_together(const std::vector<double>& patch_sizes, std::vector<std::string>& errors) {
@@ -267,7 +292,8 @@ TEST_CASE("contacts: the sides part only along the contact, not along the rest o
 
 TEST_CASE("contacts: the search on several threads cuts the scene as one thread does", "[scenes][contacts]") {
     // The Cornell box refined, its blocks on the floor and its light under the
-    // ceiling: every vertex, patch and contact edge the same for 1, 2 and 3 threads.
+    // ceiling: every vertex, patch, area, corner normal and contact edge the same for 1,
+    // 2 and 3 threads (Scene::finalize runs on them too).
     const auto one = scenes::make_builtin("cornell-box", 40.0, 1);
     REQUIRE(one.contact_lines > 0);
     for (const int threads : {2, 3}) {
@@ -281,9 +307,15 @@ TEST_CASE("contacts: the search on several threads cuts the scene as one thread 
         bool same = true;
         for (std::size_t v = 0; v < one.vertex_positions().size(); ++v)
             same = same && many.vertex_positions()[v] == one.vertex_positions()[v];
-        for (std::size_t p = 0; p < one.patch_count(); ++p)
+        for (std::size_t p = 0; p < one.patch_count(); ++p) {
             for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
+            same = same && many.patch_list()[p].area == one.patch_list()[p].area &&
+                   many.patch_list()[p].normal == one.patch_list()[p].normal &&
+                   many.corner_normals()[p] == one.corner_normals()[p];
+        }
         CHECK(same);
+        CHECK(many.total_area() == one.total_area());
+        CHECK(many.bounds_radius() == one.bounds_radius());
     }
 }
 
@@ -318,4 +350,18 @@ TEST_CASE("contacts: a team's members each search a share and make the scene one
     prepare_together({40.0, 60.0}, errors);
     for (const auto& e : errors)
         CHECK_THAT(e, Catch::Contains("the ranks' scenes differ: rank 1 has") && Catch::Contains("rank 0"));
+    // The same triangle count elsewhere, and a scene not cut at contacts beside one that
+    // is: also one line each, not wrong cuts or exchanges that do not match.
+    const auto scene = [](double x, bool cut) {
+        return std::string(R"({"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]}, "patch_size": "none",)") +
+               (cut ? "" : R"("cut_contacts": false,)") +
+               R"("materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [{"quad": [[0, 0, 0], [)" +
+               std::to_string(x) + R"(, 0, 0], [1, 1, 0], [0, 1, 0]], "material": "m"}]})";
+    };
+    for (const auto& e : load_together({scene(1.0, true), scene(1.5, true)}))
+        CHECK_THAT(e, Catch::Contains("the ranks' scenes differ: rank 1's triangles lie elsewhere than rank 0's"));
+    for (const auto& e : load_together({scene(1.0, true), scene(1.0, false)}))
+        CHECK_THAT(e, Catch::Contains("rank 1 does not cut at contacts") && Catch::Contains("rank 0 has 2 triangles"));
+    for (const auto& e : load_together({scene(1.0, false), scene(1.0, false)})) CHECK(e.empty());
+    for (const auto& e : load_together({scene(1.0, true), scene(1.0, true)})) CHECK(e.empty());
 }

@@ -482,6 +482,12 @@ TEST_CASE("the GPU z-buffer: a batch gives the matrices one direction at a time 
         }
         CHECK(same);
         CHECK(entries > 40);
+        // A batch of one goes through transfer()'s own buffers.
+        std::vector<visibility::GeometryMatrix> one;
+        batched->transfer_many({ws[3]}, {jitters[3]}, one, 3, [&] { ++along; });
+        CHECK(along == 2);
+        REQUIRE(one.size() == 1);
+        CHECK(one[0].entries.size() == got[3].entries.size());
     }
 }
 
