@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bench=${1:-build}/bench/bench_visibility
 backends=$("${1:-build}"/apps/raybundle backends | awk '{print $1}')
-header="backend,scene,patches,resolution,directions,repeat,seconds_per_direction,seconds_median,ratio_to_first,entries_per_direction"
+header="backend,scene,patches,resolution,directions,repeat,seconds_per_direction,seconds_median,ratio_to_first,entries_per_direction,batch,threads"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
