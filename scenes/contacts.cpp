@@ -170,7 +170,7 @@ void unpack(const std::vector<char>& in, std::size_t& at, std::vector<T>& values
     at += sizeof count;
     if ((in.size() - at) / sizeof(T) < count) throw std::runtime_error(std::string("contact search: ") + what + " cut short");
     values.resize(count);
-    std::memcpy(static_cast<void*>(values.data()), in.data() + at, count * sizeof(T));
+    if (count > 0) std::memcpy(static_cast<void*>(values.data()), in.data() + at, count * sizeof(T));
     at += count * sizeof(T);
 }
 
