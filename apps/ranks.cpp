@@ -178,25 +178,21 @@ void Ranks::share_rows(void* data, std::size_t row_bytes, int rows) const {
 std::vector<std::vector<char>> Ranks::gather_all(const std::vector<char>& mine) const {
     agree(nullptr, 0);
     if (!spread()) return {mine};
-    // The sizes first, as 64-bit counts: every rank sees them all and refuses the same
-    // exchange (MPI counts bytes in an int) before anything else is sent.
+    // The sizes first, as 64-bit counts: every rank sees the same total and refuses alike
+    // (MPI counts bytes in an int); memory one rank cannot get is agreed on before the
+    // next collective, as every failure is.
     const auto size = static_cast<std::size_t>(size_);
     const auto count = static_cast<long long>(mine.size());
     std::vector<long long> counts(size);
     MPI_Allgather(&count, 1, MPI_LONG_LONG, counts.data(), 1, MPI_LONG_LONG, MPI_COMM_WORLD);
     long long total = 0;
-    std::vector<int> sizes(size), firsts(size);
-    for (std::size_t k = 0; k < size; ++k) {
-        firsts[k] = static_cast<int>(std::min<long long>(total, INT_MAX));
-        sizes[k] = static_cast<int>(std::min<long long>(counts[k], INT_MAX));
-        total += counts[k];
-    }
-    // Every rank sees the same total and refuses alike; memory one rank cannot get is
-    // agreed on before the next collective, as every failure is.
+    for (const long long c : counts) total += c;
     if (total > INT_MAX)
         throw std::runtime_error("the ranks' exchange of the scene's contact search would move " + std::to_string(total) +
                                  " bytes, more than MPI's 2 GiB in one exchange: run the scene on one rank, or with a "
                                  "larger patch_size");
+    std::vector<int> sizes(counts.begin(), counts.end()), firsts(size, 0);
+    for (std::size_t k = 1; k < size; ++k) firsts[k] = firsts[k - 1] + sizes[k - 1];
     std::vector<char> all;
     std::string failure;
     try {
@@ -209,9 +205,7 @@ std::vector<std::vector<char>> Ranks::gather_all(const std::vector<char>& mine) 
     MPI_Allgatherv(mine.data(), sizes[static_cast<std::size_t>(rank_)], MPI_BYTE, all.data(), sizes.data(), firsts.data(),
                    MPI_BYTE, MPI_COMM_WORLD);
     std::vector<std::vector<char>> out(size);
-    for (std::size_t k = 0; k < size; ++k)
-        if (static_cast<int>(k) != rank_) out[k].assign(all.begin() + firsts[k], all.begin() + firsts[k] + sizes[k]);
-    out[static_cast<std::size_t>(rank_)] = mine;
+    for (std::size_t k = 0; k < size; ++k) out[k].assign(all.begin() + firsts[k], all.begin() + firsts[k] + sizes[k]);
     return out;
 }
 
