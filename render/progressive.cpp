@@ -607,6 +607,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     FieldImage out;
     GatherResult gathered;
     std::optional<GBuffer> gbuffer;
+    const auto guides = Clock::now();
     if (!o.gather) gbuffer = make_gbuffer(scene, caster, camera, run.threads);
     const auto start = Clock::now();
 
@@ -744,6 +745,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         observe(s);
     };
     out.rounds = run_rounds(rounds, run, advance, render, probe, after, automatic);
+    out.rounds.seconds_render += std::chrono::duration<double>(start - guides).count();  // the patch image's G-buffer
     if (o.gather) {
         // Both halves of every pass were added with their round's scale.
         const double w = 1.0 / (2.0 * out.rounds.scale);
