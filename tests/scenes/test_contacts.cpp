@@ -63,6 +63,26 @@ private:
     int arrived_ = 0, round_ = 0;
 };
 
+// The same prepared scene, bit for bit: contacts, vertices, patches (corners, areas,
+// normals, corner normals), total area and bounds.
+void check_same_scene(const scenes::Scene& many, const scenes::Scene& one) {
+    CHECK(many.contact_lines == one.contact_lines);
+    CHECK(many.contact_splits == one.contact_splits);
+    CHECK(many.contact_edges == one.contact_edges);
+    REQUIRE(many.patch_count() == one.patch_count());
+    CHECK(many.vertex_positions() == one.vertex_positions());
+    bool same = true;
+    for (std::size_t p = 0; p < one.patch_count(); ++p) {
+        for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
+        same = same && many.patch_list()[p].area == one.patch_list()[p].area &&
+               many.patch_list()[p].normal == one.patch_list()[p].normal &&
+               many.corner_normals()[p] == one.corner_normals()[p];
+    }
+    CHECK(same);
+    CHECK(many.total_area() == one.total_area());
+    CHECK(many.bounds_radius() == one.bounds_radius());
+}
+
 // parse_scene on every member of a team of threads, each with its own scene text.
 std::vector<std::string> load_together(const std::vector<std::string>& texts) {
     const int size = static_cast<int>(texts.size());
@@ -298,24 +318,7 @@ TEST_CASE("contacts: the search on several threads cuts the scene as one thread 
     REQUIRE(one.contact_lines > 0);
     for (const int threads : {2, 3}) {
         INFO(threads << " threads");
-        const auto many = scenes::make_builtin("cornell-box", 40.0, threads);
-        CHECK(many.contact_lines == one.contact_lines);
-        CHECK(many.contact_splits == one.contact_splits);
-        CHECK(many.contact_edges == one.contact_edges);
-        REQUIRE(many.patch_count() == one.patch_count());
-        REQUIRE(many.vertex_positions().size() == one.vertex_positions().size());
-        bool same = true;
-        for (std::size_t v = 0; v < one.vertex_positions().size(); ++v)
-            same = same && many.vertex_positions()[v] == one.vertex_positions()[v];
-        for (std::size_t p = 0; p < one.patch_count(); ++p) {
-            for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
-            same = same && many.patch_list()[p].area == one.patch_list()[p].area &&
-                   many.patch_list()[p].normal == one.patch_list()[p].normal &&
-                   many.corner_normals()[p] == one.corner_normals()[p];
-        }
-        CHECK(same);
-        CHECK(many.total_area() == one.total_area());
-        CHECK(many.bounds_radius() == one.bounds_radius());
+        check_same_scene(scenes::make_builtin("cornell-box", 40.0, threads), one);
     }
 }
 
@@ -329,19 +332,8 @@ TEST_CASE("contacts: a team's members each search a share and make the scene one
         const auto all = prepare_together(std::vector<double>(static_cast<std::size_t>(size), 40.0), errors);
         for (int r = 0; r < size; ++r) {
             INFO("member " << r);
-            const auto& many = all[static_cast<std::size_t>(r)];
             REQUIRE(errors[static_cast<std::size_t>(r)].empty());
-            CHECK(many.contact_lines == one.contact_lines);
-            CHECK(many.contact_splits == one.contact_splits);
-            CHECK(many.contact_edges == one.contact_edges);
-            REQUIRE(many.patch_count() == one.patch_count());
-            REQUIRE(many.vertex_positions().size() == one.vertex_positions().size());
-            bool same = true;
-            for (std::size_t v = 0; v < one.vertex_positions().size(); ++v)
-                same = same && many.vertex_positions()[v] == one.vertex_positions()[v];
-            for (std::size_t p = 0; p < one.patch_count(); ++p)
-                for (int k = 0; k < 3; ++k) same = same && many.patch_list()[p].v[k] == one.patch_list()[p].v[k];
-            CHECK(same);
+            check_same_scene(all[static_cast<std::size_t>(r)], one);
         }
     }
     // Members whose scenes differ (another file on another node) stop, each with a line
