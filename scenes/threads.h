@@ -9,9 +9,10 @@
 // parallel_bands(rows, threads, body): body(y0, y1) on contiguous bands of rows.
 // parallel_rows(rows, threads, body): body(y) for every row, rows dealt out in turn
 // (balances rows of uneven cost).
-// parallel_chunks(items, threads, body): body(i0, i1) on chunks of about items / (16
-// threads) items, each taken by the next thread free (balances items whose cost is
-// clustered in index order, e.g. the patches next to a light). A body that takes a third
+// parallel_chunks(items, threads, body[, per_thread]): body(i0, i1) on chunks of about
+// items / (per_thread threads) items (16 per thread by default), each taken by the next
+// thread free (balances items whose cost is clustered in index order, e.g. the patches
+// next to a light; more chunks balance better and cost an atomic add each). A body that takes a third
 // argument gets the thread's index t < min(threads, items) too (for scratch space of
 // its own, never for what it computes).
 //
@@ -72,7 +73,7 @@ void parallel_rows(int rows, int threads, const Body& body) {
 }
 
 template <class Body>
-void parallel_chunks(int items, int threads, const Body& body) {
+void parallel_chunks(int items, int threads, const Body& body, int chunks_per_thread = 16) {
     auto call = [&body](int i0, int i1, int t) {
         if constexpr (std::is_invocable_v<const Body&, int, int, int>)
             body(i0, i1, t);
@@ -84,7 +85,7 @@ void parallel_chunks(int items, int threads, const Body& body) {
         call(0, items, 0);
         return;
     }
-    const long long chunk = std::max(1, items / (16 * n));
+    const long long chunk = std::max(1LL, items / (static_cast<long long>(std::max(1, chunks_per_thread)) * n));
     std::atomic<long long> next{0};
     run_threads(n, [&](int t) {
         for (long long i0 = next.fetch_add(chunk, std::memory_order_relaxed); i0 < items;
