@@ -36,6 +36,11 @@ ExactPainterBackend::ExactPainterBackend(const scenes::Scene& scene, const Backe
       sky_(options.sky),
       positions_(scene.vertex_positions()),
       kernels_(&best_span_kernels()) {
+    const std::size_t patches = scene.patch_count();
+    normals_.reserve(patches);
+    centroids_.reserve(patches);
+    offsets_.reserve(patches);
+    corners_.reserve(3 * patches);
     for (const auto& p : scene.patch_list()) {
         normals_.push_back(p.normal);
         centroids_.push_back(p.centroid);

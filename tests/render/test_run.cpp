@@ -126,7 +126,7 @@ TEST_CASE("run: the chains side by side give the field of chains in turn, and th
         CHECK(p.at("threads") == 4);
         sum += p.at("seconds").get<double>();
     }
-    CHECK(names == std::vector<std::string>{"ray_caster", "scene_check", "first_shot", "diffuse_shot", "solve",
+    CHECK(names == std::vector<std::string>{"ray_caster", "scene_check", "first_shot", "diffuse_shot", "setup", "solve",
                                             "gather_guides", "filter", "gather_samples"});
     CHECK(sum <= runs[2].record.at("seconds_total").get<double>());
 }
