@@ -628,7 +628,12 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         long every = std::max(1L, o.pause_every);
         while (done < per_chain) {
             long count = next_record - done;
-            if (o.pause) count = std::min(count, every);
+            if (o.pause) {
+                count = std::min(count, every);
+                // Following the clock, a short rest joins this interval: each pause costs
+                // the chains' difference in speed over the interval before it.
+                if (o.pause_seconds > 0.0 && next_record - done - count < every / 2) count = next_record - done;
+            }
             const auto t_interval = Clock::now();
             // Each chain's steps so far in this call, and the progress of both as one.
             long chain_done[2] = {0, 0};

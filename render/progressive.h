@@ -242,8 +242,9 @@ struct FieldImageOptions {
     long pause_every = 16;
     // With pause_seconds > 0, the steps between pauses double (from pause_every) while
     // a pause interval takes less than half of it, and halve (down to pause_every)
-    // while one takes longer: a pause waits for both chains and refills the solver's
-    // pipeline of batches, so they should be rare where steps are quick, and a stop
+    // while one takes longer, and a rest shorter than half the interval joins the
+    // interval before it: a pause waits for both chains (the faster one idles) and
+    // refills the solver's pipeline of batches, so they should be rare, and a stop
     // request is still answered within about pause_seconds where steps are. The result
     // does not depend on where the pauses fall. Off on a team: its members must pause
     // at the same steps.
