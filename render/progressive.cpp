@@ -638,7 +638,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             // Each chain's steps so far in this call, and the progress of both as one.
             long chain_done[2] = {0, 0};
             std::mutex progress_lock;
-            auto advance_chain = [&](int h) {
+            auto progress_of = [&](int h) {
                 sampling::ProgressCallback progress;
                 if (r.progress)
                     progress = [&, h](const sampling::Progress& p) {
@@ -650,10 +650,21 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                         q.total = 2 * per_chain;
                         r.progress(q);
                     };
-                chains[h]->advance(count, progress);
+                return progress;
             };
+            auto advance_chain = [&](int h) { chains[h]->advance(count, progress_of(h)); };
             if (o.chains_side_by_side) {
-                run_threads(2, advance_chain);
+                // Both chains' steps on all the threads (solver/pipeline.h): a thread
+                // that has none of one chain's left helps with the other's, and the
+                // pause waits for a step, not for the slower chain. Else each chain on
+                // its share of the threads.
+                std::vector<solver::StepStream> both;
+                for (int h = 0; h < 2; ++h)
+                    if (auto s = chains[h]->stream(count, progress_of(h))) both.push_back(std::move(*s));
+                if (both.size() == 2)
+                    solver::run_step_streams(both, r.threads);
+                else
+                    run_threads(2, advance_chain);
             } else {
                 for (int h = 0; h < 2; ++h) advance_chain(h);
             }

@@ -106,6 +106,7 @@
 #include "render/shade.h"
 #include "sampling/run.h"
 #include "scenes/ray_caster.h"
+#include "solver/pipeline.h"
 #include "solver/radiance_field.h"
 
 #include <functional>
@@ -122,6 +123,13 @@ public:
     virtual ~FieldChain() = default;
     // `steps` more steps, going on from the last call; progress ("solve", done of steps).
     virtual void advance(long steps, const sampling::ProgressCallback& progress) = 0;
+    // The same steps as a stream that threads share with the other chain's
+    // (solver/pipeline.h), its progress to `progress`; none where the chain cannot
+    // (then advance()).
+    virtual std::optional<solver::StepStream> stream(long steps, const sampling::ProgressCallback& progress) {
+        (void)steps, (void)progress;
+        return std::nullopt;
+    }
     // The mean over the steps so far, and how many steps it averages.
     virtual solver::RadianceField field() const = 0;
     virtual long averaged() const = 0;

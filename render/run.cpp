@@ -125,6 +125,11 @@ public:
         solver_->advance(steps);
         forward_ = nullptr;
     }
+    // The callback stays until the next call (the stream's items report to it).
+    std::optional<solver::StepStream> stream(long steps, const sampling::ProgressCallback& progress) override {
+        forward_ = progress;
+        return solver_->stream(steps, true);
+    }
     solver::RadianceField field() const override { return solver_->field(); }
     long averaged() const override { return solver_->averaged(); }
     const solver::Solver& solver() const { return *solver_; }

@@ -162,7 +162,8 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
         const int t = c.run.threads;
         stats["decisions"]["threads"] =
             "the two chains side by side on " + std::to_string((t + 1) / 2) + " and " + std::to_string(t / 2) +
-            " threads (one backend each; each chain's light moves in order, so any count gives the same result)" +
+            " threads (one backend each; a thread free takes either chain's next step where the method allows, "
+            "solver/pipeline.h; each chain's light moves in order, so any count gives the same result)" +
             (r.gather ? "; final gather and filters: " + std::to_string(t) : "");
     }
     // This run's steps only (a resumed run's solver counts the steps before it too).

@@ -132,19 +132,21 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     report_.method = walk_method_name(method);
     report_.visibility = describe(backends_);
     // Walks of a source that does not adapt are independent of each other (without the
-    // unbiased correction, which carries one walk's light into the next): with several
-    // backends, whole walks go side by side, each walk under way with vectors of its
-    // own (walks_under_way). Otherwise a walk's D directions do (at most D threads busy).
-    side_by_side_ = backends_.threads() > 1 && !source_->adapts() && !options.unbiased;
+    // unbiased correction, which carries one walk's light into the next): whole walks go
+    // side by side (stream()), each walk under way with vectors of its own
+    // (walks_under_way). Otherwise a walk's D directions do (at most D threads busy).
+    independent_ = !source_->adapts() && !options.unbiased;
+    walk_vectors_ = vectors - 1;  // sum_ is the chain's, the others each walk's
     const int under_way = walks_under_way(backends_.threads());
-    if (side_by_side_) vectors = vectors * static_cast<std::size_t>(under_way) - (under_way - 1);
     report_.decisions["walk_threads"] =
-        backends_.threads() == 1 ? std::string("one walk at a time")
-        : side_by_side_          ? "whole walks side by side on " + std::to_string(backends_.threads()) + " threads, up to " +
-                              std::to_string(under_way) + " under way"
-                                 : std::string("one walk at a time, its directions side by side (") +
-                                       (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")";
-    report_.bytes_per_patch = vectors * sizeof(Rgb);
+        !independent_ ? (backends_.threads() == 1
+                             ? std::string("one walk at a time")
+                             : std::string("one walk at a time, its directions side by side (") +
+                                   (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")")
+        : backends_.threads() == 1 ? std::string("one walk at a time (two under way beside another chain's)")
+                                   : "whole walks side by side on " + std::to_string(backends_.threads()) +
+                                         " threads, up to " + std::to_string(under_way) + " under way";
+    grow_work(independent_ && backends_.threads() > 1 ? static_cast<std::size_t>(under_way) : 1);
     report_.details = {{"depth", D}, {"sampler", sampling::sampler_name(options.sampler)}, {"unbiased", options.unbiased}};
     if (glossy_) {
         to_eye_ = t_.directions_to_eye();
@@ -154,7 +156,6 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     }
     if (source_->adapts()) {
         weights_ = importance_weights(t_, glossy_);
-        report_.bytes_per_patch = (vectors + source_->vectors()) * sizeof(Rgb);
         report_.decisions["importance"] =
             "the image's luminance of a walk, from " + std::to_string(weights_.rays) + " camera rays (" +
             std::to_string(static_cast<int>(std::lround(100.0 * weights_.covered))) + " % meet a patch's front)";
@@ -344,73 +345,66 @@ double GlobalWalks::evaluate_at(const double* point) {
     return std::max(0.0, sum);
 }
 
-void GlobalWalks::advance(long total) {
+void GlobalWalks::grow_work(std::size_t walks) {
+    if (work_.size() < walks) {
+        const Work first = work_.front();  // a copy: resize() may move the vector
+        work_.resize(walks, first);
+    }
+    // Each walk under way's vectors, the chain's sum, and an adapting source's own.
+    report_.bytes_per_patch =
+        (walk_vectors_ * work_.size() + 1 + (source_->adapts() ? source_->vectors() : 0)) * sizeof(Rgb);
+}
+
+std::optional<StepStream> GlobalWalks::stream(long total, bool shared) {
+    if (!independent_) return std::nullopt;
+    // Whole walks side by side: a walk is proposed and its jitters drawn in walk order,
+    // and its sum taken in walk order, so that the walks are those of one thread; a
+    // thread free takes the next walk, up to walks_under_way() past the oldest not yet
+    // summed (a slow walk does not hold the others up). Beside another chain's stream
+    // even one backend keeps two walks under way, so that the other's threads can help.
+    const int threads = backends_.threads();
+    const std::size_t window = threads > 1 || shared ? static_cast<std::size_t>(walks_under_way(threads)) : 1;
+    grow_work(window);
+    StepStream s;
+    s.count = std::max(0L, total);
+    s.window = static_cast<long>(window);
+    for (int t = 0; t < threads; ++t) s.backends.push_back(&backends_.at(t));
+    const long base = walks_done_;
+    s.begin = [this, base](long item, long slot) {
+        source_->propose(base + item, point_.data());
+        start_walk(work_[static_cast<std::size_t>(slot)], point_.data());
+    };
+    s.compute = [this](long slot, visibility::Backend& backend) { evaluate(work_[static_cast<std::size_t>(slot)], &backend); };
     const auto start = Clock::now();
-    if (!side_by_side_) {
-        for (long m = 0; m < total; ++m) {
-            source_->propose(walks_done_, point_.data());
-            const double importance = evaluate_at(point_.data());
-            source_->accept(work_.front().walk, importance, sum_);
-            count(work_.front());
-            ++walks_done_;
-            ++report_.steps;
-            run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
-        }
+    s.finish = [this, total, start](long item, long slot) {
+        Work& work = work_[static_cast<std::size_t>(slot)];
+        source_->accept(work.walk, 0.0, sum_);
+        count(work);
+        ++walks_done_;
+        ++report_.steps;
+        run_.report("solve", item + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
+    };
+    return s;
+}
+
+void GlobalWalks::advance(long total) {
+    if (total <= 0) return;
+    if (auto one = stream(total, false)) {
+        std::vector<StepStream> streams{std::move(*one)};
+        run_step_streams(streams, backends_.threads());
         return;
     }
-    // Whole walks side by side, each on a thread and its backend. A walk is proposed and
-    // its jitters drawn in walk order, and its sum taken in walk order, so that the
-    // walks are those of one thread; a thread free takes the next walk, up to
-    // walks_under_way() walks past the oldest not yet summed (a slow walk does not hold
-    // the others up), and whichever thread finds the oldest walk done sums it.
-    const int threads = backends_.threads();
-    const auto window = static_cast<std::size_t>(walks_under_way(threads));
-    if (work_.size() < window) {
-        const Work first = work_.front();  // a copy: resize() may move the vector
-        work_.resize(window, first);
+    // One walk at a time (its directions side by side on the backends).
+    const auto start = Clock::now();
+    for (long m = 0; m < total; ++m) {
+        source_->propose(walks_done_, point_.data());
+        const double importance = evaluate_at(point_.data());
+        source_->accept(work_.front().walk, importance, sum_);
+        count(work_.front());
+        ++walks_done_;
+        ++report_.steps;
+        run_.report("solve", m + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
     }
-    const long base = walks_done_;
-    std::mutex lock_walks;
-    std::condition_variable changed;
-    long started = 0, summed = 0;
-    bool failed = false;
-    std::vector<char> done(window, 0);
-    run_threads(threads, [&](int t) {
-        std::unique_lock<std::mutex> lock(lock_walks);
-        try {
-            while (!failed && summed < total) {
-                const std::size_t oldest = static_cast<std::size_t>(summed) % window;
-                if (done[oldest]) {
-                    Work& work = work_[oldest];
-                    source_->accept(work.walk, 0.0, sum_);
-                    count(work);
-                    done[oldest] = 0;
-                    ++walks_done_;
-                    ++report_.steps;
-                    ++summed;
-                    run_.report("solve", summed, total, std::chrono::duration<double>(Clock::now() - start).count());
-                    changed.notify_all();
-                } else if (started < total && started < summed + static_cast<long>(window)) {
-                    const long k = started++;
-                    Work& work = work_[static_cast<std::size_t>(k) % window];
-                    source_->propose(base + k, point_.data());
-                    start_walk(work, point_.data());
-                    lock.unlock();
-                    evaluate(work, &backends_.at(t));
-                    lock.lock();
-                    done[static_cast<std::size_t>(k) % window] = 1;
-                    changed.notify_all();
-                } else {
-                    changed.wait(lock);
-                }
-            }
-        } catch (...) {
-            if (!lock.owns_lock()) lock.lock();
-            failed = true;  // the others stop too, rather than wait for this walk
-            changed.notify_all();
-            throw;
-        }
-    });
 }
 
 // Between walks the sums, the jitters' generator, the correction and the source's

@@ -73,6 +73,7 @@ public:
                 const SolverOptions& options, const sampling::RunOptions& run);
 
     void advance(long walks) override;
+    std::optional<StepStream> stream(long walks, bool shared) override;
     RadianceField field() const override;
     long averaged() const override { return walks_done_; }
     SolverReport report() const override;
@@ -142,7 +143,10 @@ private:
     // Walks under way at once side by side on `threads`: a half more than the threads,
     // so that a walk slower than the others does not leave threads idle.
     static int walks_under_way(int threads) { return threads + std::max(1, threads / 2); }
-    bool side_by_side_ = false;  // whole walks on the threads (else a walk's directions)
+    // At least `walks` in work_, and the report's bytes per patch for them.
+    void grow_work(std::size_t walks);
+    bool independent_ = false;      // walks independent of each other: whole walks side by side
+    std::size_t walk_vectors_ = 0;  // per-patch vectors of one walk under way
     // The unbiased correction: the previous walk's last-bounce irradiance (per patch),
     // and the direction it arrived along (with both: +-, per patch by its normal).
     std::vector<Rgb> correction_;

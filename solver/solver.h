@@ -27,6 +27,7 @@
 // estimate the error (render/progressive.h).
 #include "sampling/run.h"
 #include "sampling/walk_sampler.h"
+#include "solver/pipeline.h"
 #include "solver/radiance_field.h"
 #include "solver/state.h"
 #include "solver/transport.h"
@@ -107,6 +108,17 @@ public:
     // `steps` more steps (or walks), going on from where the last call stopped: the
     // same seed and chain give the same result however the steps are split into calls.
     virtual void advance(long steps) = 0;
+    // The same `steps` as a stream of items that threads share with other solvers'
+    // streams (solver/pipeline.h: a run's two chains side by side), on the solver's
+    // backends; `shared`: other streams run beside it (a window wide enough for their
+    // threads to help). None where the solver cannot: its steps depend on each other
+    // beyond the light moved in order (a walk source that adapts, the unbiased
+    // correction, the linear basis), or its one backend takes batches (a GPU's
+    // submissions); then advance().
+    virtual std::optional<StepStream> stream(long steps, bool shared) {
+        (void)steps, (void)shared;
+        return std::nullopt;
+    }
     // SolverOptions::steps of them.
     void run() { advance(planned_); }
     // The current estimate (the mean of the steps or walks so far).

@@ -220,16 +220,70 @@ void StochasticIteration::step(const Vec3* ws, const visibility::GeometryMatrix*
 
 }
 
-void StochasticIteration::advance(long total) {
-    // One direction at a time on one thread (a GPU backend: what one submission takes,
-    // BackendSet::batch_directions). With more, batches of 4 directions per thread:
-    // their matrices are computed side by side, and the light moves along one batch's
-    // matrices (in order, on the calling thread) while the other threads compute the
-    // next batch's (or the GPU works on them). The directions and jitters are drawn in
-    // the same order either way, and however the steps are split into calls.
+std::optional<StepStream> StochasticIteration::stream(long total, bool shared) {
+    (void)shared;  // the window below is wide enough for another chain's threads too
+    if (backends_.threads() == 1 && backends_.batch_directions() > 1) return std::nullopt;  // advance()'s batches
     const int per_step = *options_.frame ? 3 : 1;
-    const long batch = backends_.threads() > 1 ? 4L * backends_.threads()
-                                               : std::max(1L, static_cast<long>(backends_.batch_directions() / per_step));
+    StepStream s;
+    s.count = std::max(0L, total);
+    // Steps under way: enough that the threads never wait for the light to move (one
+    // step's move is shorter than its matrices), few enough that the matrices kept
+    // (the slots', reused from step to step) stay a small multiple of the threads'.
+    s.window = 2L * backends_.threads() + 2;
+    if (slots_.size() < static_cast<std::size_t>(s.window)) slots_.resize(static_cast<std::size_t>(s.window));
+    for (int t = 0; t < backends_.threads(); ++t) s.backends.push_back(&backends_.at(t));
+    // The directions and jitters are drawn in step order, as one thread alone draws them.
+    s.begin = [this, per_step](long, long slot) {
+        Slot& at = slots_[static_cast<std::size_t>(slot)];
+        if (*options_.frame) {
+            const auto frame = directions_.next_frame();
+            std::copy(frame.begin(), frame.end(), at.w.begin());
+        } else {
+            at.w[0] = directions_.next();
+        }
+        for (int d = 0; d < per_step; ++d) {
+            const double y = jitter_.uniform(), x = jitter_.uniform();  // y first: see sampling/rng.h
+            at.jitter[static_cast<std::size_t>(d)] = {x, y};
+        }
+    };
+    s.compute = [this, per_step](long slot, visibility::Backend& backend) {
+        Slot& at = slots_[static_cast<std::size_t>(slot)];
+        const auto t0 = Clock::now();
+        for (std::size_t d = 0; d < static_cast<std::size_t>(per_step); ++d)
+            backend.transfer(at.w[d], at.jitter[d], at.matrices[d]);
+        at.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    const auto start = Clock::now();
+    s.finish = [this, per_step, total, start](long item, long slot) {
+        Slot& at = slots_[static_cast<std::size_t>(slot)];
+        const auto t1 = Clock::now();
+        step(at.w.data(), at.matrices.data(), per_step);
+        for (int d = 0; d < per_step; ++d) report_.entries_total += at.matrices[static_cast<std::size_t>(d)].entries.size();
+        report_.directions += per_step;
+        ++report_.steps;
+        report_.seconds_visibility += at.seconds;
+        report_.seconds_transport += std::chrono::duration<double>(Clock::now() - t1).count();
+        run_.report("solve", item + 1, total, std::chrono::duration<double>(Clock::now() - start).count());
+    };
+    return s;
+}
+
+void StochasticIteration::advance(long total) {
+    if (total <= 0) return;
+    // Backends side by side (or one that takes one direction at a time): the steps as a
+    // stream (solver/pipeline.h). Each thread takes the next direction as it finishes
+    // one, and whichever finds the next step's matrices done moves the light along them.
+    if (auto one = stream(total, false)) {
+        std::vector<StepStream> streams{std::move(*one)};
+        run_step_streams(streams, backends_.threads());
+        return;
+    }
+    // One backend that takes batches (BackendSet::batch_directions: what one submission
+    // of a GPU takes): the light moves along one batch's matrices while the backend
+    // computes the next batch's. The directions and jitters are drawn in the same order
+    // as above, however the steps are split into calls.
+    const int per_step = *options_.frame ? 3 : 1;
+    const long batch = std::max(1L, static_cast<long>(backends_.batch_directions() / per_step));
     std::vector<Vec3> ws, next_ws;
     std::vector<Eigen::Vector2d> offsets, next_offsets;
     const auto start = Clock::now();
@@ -262,7 +316,6 @@ void StochasticIteration::advance(long total) {
         moved = std::chrono::duration<double>(Clock::now() - t1).count();
         report_.seconds_transport += moved;
     };
-    if (total <= 0) return;
     long count = std::min(batch, total);
     draw(count, ws, offsets);
     auto t0 = Clock::now();

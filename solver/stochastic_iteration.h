@@ -68,6 +68,7 @@
 #include "sampling/directions.h"
 
 #include <algorithm>
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -90,6 +91,7 @@ public:
                         const sampling::RunOptions& run);
 
     void advance(long steps) override;
+    std::optional<StepStream> stream(long steps, bool shared) override;
     RadianceField field() const override;
     long averaged() const override { return std::max(0L, steps_ - burn_in_); }
     SolverReport report() const override { return report_; }
@@ -125,7 +127,17 @@ private:
     sampling::RandomDirections directions_;
     sampling::Rng jitter_;
     long steps_ = 0;
-    std::vector<visibility::GeometryMatrix> matrices_, next_matrices_;  // a batch, and the one computed beside it
+    // A step under way (solver/pipeline.h): its directions (1, or a frame's 3), jitters
+    // and matrices, and the seconds they took; a cache line of its own, since threads
+    // fill neighbouring slots at once.
+    struct alignas(64) Slot {
+        std::array<scenes::Vec3, 3> w;
+        std::array<Eigen::Vector2d, 3> jitter;
+        std::array<visibility::GeometryMatrix, 3> matrices;
+        double seconds = 0.0;
+    };
+    std::vector<Slot> slots_;
+    std::vector<visibility::GeometryMatrix> matrices_, next_matrices_;  // batches of one backend (a GPU's)
     SolverReport report_;
 };
 

@@ -1,9 +1,10 @@
 #pragma once
-// Geometry matrices of a batch of directions on several threads: one backend per
-// thread, each matrix a function of its direction and jitter alone, so that the
-// result does not depend on the number of threads. The solvers compute the
-// visibility of a batch this way and then move the light along the matrices in order,
-// which keeps their results bit-identical for any thread count.
+// Geometry matrices on several threads: one backend per thread, each matrix a function
+// of its direction and jitter alone, so that the result does not depend on the number
+// of threads. The solvers hand the backends to solver/pipeline.h, whose threads each
+// take one; a walk whose steps depend on each other computes its D directions through
+// transfer_batch(), and a backend that cannot run side by side (a GPU's) takes whole
+// batches there.
 //
 // Call order: make a BackendSet once (it makes one backend per thread through the
 // factory), then transfer_batch() as often as needed.
@@ -32,7 +33,8 @@ public:
     int threads() const { return static_cast<int>(all_.size()); }
     // The directions a solver should hand transfer_batch() at once: 4 per thread with
     // backends side by side (each thread takes the next as it finishes one), else what
-    // the one backend batches (a GPU's submission), else 1.
+    // the one backend batches (a GPU's submission: the solver then batches its steps),
+    // else 1.
     int batch_directions() const {
         return all_.size() > 1 ? 4 * threads() : std::max(1, all_.front()->batch_directions());
     }

@@ -1,0 +1,101 @@
+#include "solver/pipeline.h"
+
+#include "scenes/threads.h"
+
+#include <algorithm>
+#include <condition_variable>
+#include <mutex>
+#include <stdexcept>
+
+namespace raybundle::solver {
+
+void run_step_streams(std::vector<StepStream>& streams, int threads) {
+    std::vector<visibility::Backend*> backends;
+    for (const StepStream& s : streams) {
+        if (s.count > 0 && (s.window < 1 || !s.begin || !s.compute || !s.finish))
+            throw std::logic_error("run_step_streams: a stream without a window or a callback");
+        backends.insert(backends.end(), s.backends.begin(), s.backends.end());
+    }
+    if (backends.empty()) throw std::logic_error("run_step_streams: no backend");
+    const int T = std::max(1, std::min(threads, static_cast<int>(backends.size())));
+
+    struct State {
+        long begun = 0, finished = 0;
+        bool finishing = false;     // a thread is finishing this stream's items
+        std::vector<char> computed;  // per slot
+    };
+    std::vector<State> state(streams.size());
+    for (std::size_t s = 0; s < streams.size(); ++s)
+        state[s].computed.assign(static_cast<std::size_t>(std::max(1L, streams[s].window)), 0);
+    std::mutex lock_all;
+    std::condition_variable changed;
+    bool failed = false;
+    auto slot_of = [&](std::size_t s, long item) { return item % streams[s].window; };
+    auto all_finished = [&] {
+        for (std::size_t s = 0; s < streams.size(); ++s)
+            if (state[s].finished < streams[s].count) return false;
+        return true;
+    };
+
+    run_threads(T, [&](int t) {
+        visibility::Backend& backend = *backends[static_cast<std::size_t>(t)];
+        std::unique_lock<std::mutex> lock(lock_all);
+        try {
+            while (!failed && !all_finished()) {
+                // The serial part first: it frees the window's slots.
+                std::size_t f = streams.size();
+                for (std::size_t s = 0; s < streams.size() && f == streams.size(); ++s) {
+                    const State& st = state[s];
+                    if (!st.finishing && st.finished < streams[s].count &&
+                        st.computed[static_cast<std::size_t>(slot_of(s, st.finished))])
+                        f = s;
+                }
+                if (f < streams.size()) {
+                    State& st = state[f];
+                    st.finishing = true;
+                    while (!failed && st.finished < streams[f].count &&
+                           st.computed[static_cast<std::size_t>(slot_of(f, st.finished))]) {
+                        const long item = st.finished, slot = slot_of(f, item);
+                        lock.unlock();
+                        streams[f].finish(item, slot);
+                        lock.lock();
+                        st.computed[static_cast<std::size_t>(slot)] = 0;
+                        ++st.finished;
+                        changed.notify_all();  // a slot free, or the stream done
+                    }
+                    st.finishing = false;
+                    changed.notify_all();  // another thread may finish what came in meanwhile
+                    continue;
+                }
+                // Else the next item of the stream least far along that has room.
+                std::size_t b = streams.size();
+                double least = 2.0;
+                for (std::size_t s = 0; s < streams.size(); ++s) {
+                    const State& st = state[s];
+                    if (st.begun >= streams[s].count || st.begun >= st.finished + streams[s].window) continue;
+                    const double along = static_cast<double>(st.begun) / static_cast<double>(streams[s].count);
+                    if (along < least) least = along, b = s;
+                }
+                if (b < streams.size()) {
+                    State& st = state[b];
+                    const long item = st.begun++, slot = slot_of(b, item);
+                    streams[b].begin(item, slot);
+                    lock.unlock();
+                    streams[b].compute(slot, backend);
+                    lock.lock();
+                    st.computed[static_cast<std::size_t>(slot)] = 1;
+                    changed.notify_all();
+                    continue;
+                }
+                changed.wait(lock);
+            }
+        } catch (...) {
+            if (!lock.owns_lock()) lock.lock();
+            failed = true;  // the others stop at their next look
+            changed.notify_all();
+            throw;
+        }
+    });
+}
+
+}  // namespace raybundle::solver

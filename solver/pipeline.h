@@ -1,0 +1,45 @@
+#pragma once
+// The steps of one or more chains on shared threads, without a barrier between them.
+//
+// A StepStream is `count` items in order: a chain's steps (stochastic iteration) or
+// walks in one advance. Each item is
+//   begun     in item order, one at a time, under the pipeline's lock (its random
+//             draws: cheap),
+//   computed  by any thread beside other items (a step's geometry matrices, a whole
+//             walk): a function of what `begin` drew alone, written to its slot only,
+//   finished  in item order, one at a time (the light moved along the matrices, the
+//             walk summed): the chain's serial part.
+// At most `window` items of a stream are begun and not yet finished; item k uses slot
+// k % window. A thread free finishes a stream's next items where they are computed and
+// no other thread is finishing that stream; else it begins and computes the next item
+// of the stream least far along; it waits only where it can do neither. So the
+// streams' serial parts overlap each other's and the computing, no thread waits for a
+// batch to end, and streams run together end within about one item of each other (the
+// chains of a run, side by side: a pause waits for both).
+//
+// What the items compute does not depend on the threads: begin and finish run in item
+// order, compute writes only its item's slot, and the backends are interchangeable.
+#include "visibility/backend.h"
+
+#include <functional>
+#include <vector>
+
+namespace raybundle::solver {
+
+struct StepStream {
+    long count = 0;   // items
+    long window = 1;  // items begun and not yet finished, at most
+    std::function<void(long item, long slot)> begin;
+    std::function<void(long slot, visibility::Backend& backend)> compute;
+    std::function<void(long item, long slot)> finish;
+    // The stream's backends: one thread each. The streams run together share all of
+    // them, so they must be interchangeable (one kind, one scene, the same options).
+    std::vector<visibility::Backend*> backends;
+};
+
+// Runs the streams' items on min(threads, all their backends) threads, thread t with
+// backend t. The first exception a callback throws stops every thread (their items
+// under way end first) and is rethrown; the streams are then in no defined state.
+void run_step_streams(std::vector<StepStream>& streams, int threads);
+
+}  // namespace raybundle::solver
