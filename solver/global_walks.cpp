@@ -3,13 +3,10 @@
 #include "sampling/streams.h"
 #include "sampling/walk_sampler.h"
 #include "scenes/errors.h"
-#include "scenes/threads.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
-#include <mutex>
 #include <stdexcept>
 
 namespace raybundle::solver {
