@@ -19,7 +19,10 @@
 // GlobalWalks computes it only for a source that adapts().
 //
 // Call order: make_walk_source() once. Then for each walk: propose(), the walk
-// evaluated at the proposed point, accept() with its estimate and importance.
+// evaluated at the proposed point, accept() with its estimate and importance. A source
+// that does not adapt has its walks side by side (solver/pipeline.h): propose() of a
+// later walk may then run on one thread while accept() of an earlier one runs on
+// another (each in walk order), so the two must share no state.
 // save()/restore() between walks (a restored source goes on bit-identically);
 // report() and mean() at any time.
 #include "solver/solver.h"

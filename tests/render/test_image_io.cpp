@@ -6,6 +6,9 @@
 #include <catch2/catch.hpp>
 #include <png.h>
 
+#include <array>
+#include <limits>
+
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -73,4 +76,45 @@ TEST_CASE("PNG: every pixel tone-mapped, rows in order, the same file for any th
         INFO("channel value " << k);
         REQUIRE(pixels[k] == render::tone_map(image.rgb[k], exposure));
     }
+}
+
+TEST_CASE("PNG: rows in several compressed segments, and every byte value to_srgb8's", "[render][image_io]") {
+    // 700 x 100 pixels (four segments of 32 rows joined into one zlib stream), the
+    // channels sweeping 0 .. 1.07 in steps of 2^-16 (every byte value and every
+    // boundary between two, up to a step) with negatives, infinities and NaN among them:
+    // read back by libpng (which checks the chunks' CRCs and zlib's Adler-32), every
+    // byte is to_srgb8's, and 1 and 4 threads write the same file.
+    render::Image image(700, 100);
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = static_cast<float>(k % 70001) / 65536.0f;
+    image.rgb[5] = -0.5f;
+    image.rgb[6] = std::numeric_limits<float>::infinity();
+    image.rgb[7] = -std::numeric_limits<float>::infinity();
+    image.rgb[8] = std::numeric_limits<float>::quiet_NaN();
+    const auto tmp = std::filesystem::temp_directory_path();
+    const std::string pid = std::to_string(::getpid());
+    std::vector<std::string> bytes;
+    for (const int threads : {1, 4}) {
+        const std::string path = (tmp / ("raybundle-test-segments-" + pid + "-" + std::to_string(threads) + ".png")).string();
+        render::write_png(path, image, 0.0, threads);
+        std::ifstream in(path, std::ios::binary);
+        bytes.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        std::remove(path.c_str());
+    }
+    REQUIRE(bytes[0] == bytes[1]);
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    REQUIRE(png_image_begin_read_from_memory(&png, bytes[0].data(), bytes[0].size()));
+    png.format = PNG_FORMAT_RGB;
+    REQUIRE(png.width == 700);
+    REQUIRE(png.height == 100);
+    std::vector<unsigned char> pixels(PNG_IMAGE_SIZE(png));
+    REQUIRE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr));
+    std::size_t differ = 0;
+    std::array<bool, 256> seen{};
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) {
+        differ += pixels[k] != render::to_srgb8(image.rgb[k]) ? 1 : 0;
+        seen[pixels[k]] = true;
+    }
+    CHECK(differ == 0);
+    CHECK(std::count(seen.begin(), seen.end(), true) == 256);
 }
