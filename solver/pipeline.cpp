@@ -11,10 +11,13 @@ namespace raybundle::solver {
 
 void run_step_streams(std::vector<StepStream>& streams, int threads) {
     std::vector<visibility::Backend*> backends;
-    for (const StepStream& s : streams) {
-        if (s.count > 0 && (s.window < 1 || !s.begin || !s.compute || !s.finish))
+    std::vector<std::size_t> home;  // per backend, the stream it came with
+    for (std::size_t s = 0; s < streams.size(); ++s) {
+        const StepStream& stream = streams[s];
+        if (stream.count > 0 && (stream.window < 1 || !stream.begin || !stream.compute || !stream.finish))
             throw std::logic_error("run_step_streams: a stream without a window or a callback");
-        backends.insert(backends.end(), s.backends.begin(), s.backends.end());
+        backends.insert(backends.end(), stream.backends.begin(), stream.backends.end());
+        home.insert(home.end(), stream.backends.size(), s);
     }
     if (backends.empty()) throw std::logic_error("run_step_streams: no backend");
     const int T = std::max(1, std::min(threads, static_cast<int>(backends.size())));
@@ -39,6 +42,7 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
 
     run_threads(T, [&](int t) {
         visibility::Backend& backend = *backends[static_cast<std::size_t>(t)];
+        const std::size_t mine = home[static_cast<std::size_t>(t)];
         std::unique_lock<std::mutex> lock(lock_all);
         try {
             while (!failed && !all_finished()) {
@@ -67,14 +71,23 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
                     changed.notify_all();  // another thread may finish what came in meanwhile
                     continue;
                 }
-                // Else the next item of the stream least far along that has room.
-                std::size_t b = streams.size();
-                double least = 2.0;
-                for (std::size_t s = 0; s < streams.size(); ++s) {
+                // Else the next item of the thread's own stream (the one its backend came
+                // with: its items' vectors stay in this core's caches), or where that has
+                // none to begin, of the stream least far along that has room.
+                auto has_room = [&](std::size_t s) {
                     const State& st = state[s];
-                    if (st.begun >= streams[s].count || st.begun >= st.finished + streams[s].window) continue;
-                    const double along = static_cast<double>(st.begun) / static_cast<double>(streams[s].count);
-                    if (along < least) least = along, b = s;
+                    return st.begun < streams[s].count && st.begun < st.finished + streams[s].window;
+                };
+                std::size_t b = streams.size();
+                if (has_room(mine)) {
+                    b = mine;
+                } else {
+                    double least = 2.0;
+                    for (std::size_t s = 0; s < streams.size(); ++s) {
+                        if (!has_room(s)) continue;
+                        const double along = static_cast<double>(state[s].begun) / static_cast<double>(streams[s].count);
+                        if (along < least) least = along, b = s;
+                    }
                 }
                 if (b < streams.size()) {
                     State& st = state[b];

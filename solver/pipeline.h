@@ -12,6 +12,7 @@
 // At most `window` items of a stream are begun and not yet finished; item k uses slot
 // k % window. A thread free finishes a stream's next items where they are computed and
 // no other thread is finishing that stream; else it begins and computes the next item
+// of its own stream (the one its backend came with), or where that has none to begin,
 // of the stream least far along; it waits only where it can do neither. So the
 // streams' serial parts overlap each other's and the computing, no thread waits for a
 // batch to end, and streams run together end within about one item of each other (the
