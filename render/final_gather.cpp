@@ -111,7 +111,10 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     if (o.glossy_rays < 0)
         throw scenes::OptionError("glossy_rays", "must be >= 0, got " + std::to_string(o.glossy_rays));
     const int W = camera.width(), H = camera.height();
-    const GatherEstimator g(scene, caster, field, o);
+    // From here the guides' phase: the estimator's corner values and marks, the
+    // images, then the guide samples.
+    const auto t0 = Clock::now();
+    const GatherEstimator g(scene, caster, field, o, run.threads);
     const auto& patches = scene.patch_list();
     GatherResult r;
     r.direct_at_hits = g.direct_at_hits();
@@ -135,7 +138,6 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     // Pass 1: the guide sample of every pixel: G-buffer, indirect light, and with
     // spp = 1 (where the guide is the pixel's only sample) direct light. With spp > 1
     // the guide lies anywhere in its pixel, drawn anew every pass.
-    const auto t0 = Clock::now();
     const GBuffer gbuffer = make_gbuffer(scene, caster, camera, run.threads, PixelPoints{o.spp > 1, run.seed, o.pass});
     long rows_done = 0;
     std::mutex progress_lock;

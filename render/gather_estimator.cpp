@@ -5,6 +5,7 @@
 #include "sampling/strata.h"
 #include "scenes/brdf.h"
 #include "scenes/frame.h"
+#include "scenes/threads.h"
 #include "solver/radiance_field.h"
 
 #include <algorithm>
@@ -47,36 +48,40 @@ Rgb stratified_mean(int count, sampling::Rng& rng, Reading reading) {
 }  // namespace
 
 GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster,
-                                 const solver::RadianceField& field, const GatherOptions& options)
+                                 const solver::RadianceField& field, const GatherOptions& options, int threads)
     : scene_(scene), caster_(caster), patches_(scene.patch_list()), lighting_(scene, caster),
       analytic_(options.direct == DirectLight::analytic), near_hits_(options.near_hits),
       correction_(options.correction) {
-    corners_ = field.corners.empty() ? corner_radiance(scene, field) : field.corners;
+    corners_ = field.corners.empty() ? corner_radiance(scene, field, threads) : field.corners;
     if (!options.direct_at_hits || field.direct.size() != field.radiance.size() || !field.corners.empty()) return;
     const std::size_t n = patches_.size();
     solver::RadianceField direct, rest;
     direct.radiance = field.direct;
     rest.radiance.resize(n);
-    for (std::size_t i = 0; i < n; ++i) rest.radiance[i] = field.radiance[i] - field.direct[i];
-    const auto direct_corners = corner_radiance(scene, direct);
-    const auto rest_corners = corner_radiance(scene, rest);
+    parallel_bands(static_cast<int>(n), threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i)
+            rest.radiance[i] = field.radiance[i] - field.direct[i];
+    });
+    const auto direct_corners = corner_radiance(scene, direct, threads);
+    const auto rest_corners = corner_radiance(scene, rest, threads);
     direct_at_.assign(n, 0);
-    direct_at_count_ = 0;
     const AreaLights& lights = lighting_.lights();
-    for (std::size_t i = 0; i < n; ++i) {
-        const auto& m = scene.material_of(i);
-        if (m.glossy() || m.emissive() || !(m.albedo > 0.0).any()) continue;
-        double spread = 0.0;
-        for (const Rgb& c : direct_corners[i]) spread = std::max(spread, (c - field.direct[i]).abs().maxCoeff());
-        if (!(spread > kDirectVaries * field.radiance[i].maxCoeff())) continue;
-        corners_[i] = rest_corners[i];
-        // Which estimate of the area lights: the one exact where all is seen if the
-        // patch's direct light is at least half the unoccluded light at its centroid.
-        const Vec3& c = patches_[i].centroid;
-        const double open = lights.empty() ? 0.0 : (m.albedo / M_PI * lights.irradiance(c, patches_[i].normal)).mean();
-        direct_at_[i] = open > 0.0 && field.direct[i].mean() >= 0.5 * open ? 1 : 2;
-        ++direct_at_count_;
-    }
+    parallel_chunks(static_cast<int>(n), threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            const auto& m = scene.material_of(i);
+            if (m.glossy() || m.emissive() || !(m.albedo > 0.0).any()) continue;
+            double spread = 0.0;
+            for (const Rgb& c : direct_corners[i]) spread = std::max(spread, (c - field.direct[i]).abs().maxCoeff());
+            if (!(spread > kDirectVaries * field.radiance[i].maxCoeff())) continue;
+            corners_[i] = rest_corners[i];
+            // Which estimate of the area lights: the one exact where all is seen if the
+            // patch's direct light is at least half the unoccluded light at its centroid.
+            const Vec3& c = patches_[i].centroid;
+            const double open = lights.empty() ? 0.0 : (m.albedo / M_PI * lights.irradiance(c, patches_[i].normal)).mean();
+            direct_at_[i] = open > 0.0 && field.direct[i].mean() >= 0.5 * open ? 1 : 2;
+        }
+    });
+    direct_at_count_ = static_cast<long>(std::count_if(direct_at_.begin(), direct_at_.end(), [](auto d) { return d != 0; }));
 }
 
 Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int samples,

@@ -58,9 +58,10 @@ struct BiasProbe {
 
 class GatherEstimator {
 public:
-    // The scene, the caster and the field must outlive it.
+    // The scene, the caster and the field must outlive it. Its corner values and the
+    // patches that take their direct light at the hit point are found on `threads`.
     GatherEstimator(const scenes::Scene& scene, const scenes::RayCaster& caster, const solver::RadianceField& field,
-                    const GatherOptions& options);
+                    const GatherOptions& options, int threads = 1);
 
     // How many patches take their direct light at the hit point (see above); -1 where
     // none can (the option off, or a field without its direct part).
