@@ -221,17 +221,18 @@ void StochasticIteration::step(const Vec3* ws, const visibility::GeometryMatrix*
 }
 
 std::optional<StepStream> StochasticIteration::stream(long total, bool shared) {
-    (void)shared;  // the window below is wide enough for another chain's threads too
     if (backends_.threads() == 1 && backends_.batch_directions() > 1) return std::nullopt;  // advance()'s batches
     const int per_step = *options_.frame ? 3 : 1;
     StepStream s;
     s.count = std::max(0L, total);
     // Steps under way: enough that the threads never wait for the light to move (one
     // step's move is shorter than its matrices), few enough that the matrices kept
-    // (the slots', reused from step to step) stay a small multiple of the threads'.
-    s.window = 2L * backends_.threads() + 2;
+    // (the slots', reused from step to step) stay a small multiple of the threads'
+    // (also another chain's threads, beside which it runs); one step alone on one thread.
+    const int threads = backends_.threads();
+    s.window = threads > 1 || shared ? 2L * threads + 2 : 1;
     if (slots_.size() < static_cast<std::size_t>(s.window)) slots_.resize(static_cast<std::size_t>(s.window));
-    for (int t = 0; t < backends_.threads(); ++t) s.backends.push_back(&backends_.at(t));
+    for (int t = 0; t < threads; ++t) s.backends.push_back(&backends_.at(t));
     // The directions and jitters are drawn in step order, as one thread alone draws them.
     s.begin = [this, per_step](long, long slot) {
         Slot& at = slots_[static_cast<std::size_t>(slot)];
