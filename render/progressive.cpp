@@ -672,8 +672,11 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             out.steps += 2 * count;
             if (o.pause_seconds > 0.0) {
                 const double took = since(t_interval);
+                // Quick steps: at once to about half of pause_seconds (at least twice the
+                // steps, at most 64 times), not one doubling per pause.
                 if (count == every && took < 0.5 * o.pause_seconds)
-                    every *= 2;
+                    every = static_cast<long>(std::clamp(0.5 * o.pause_seconds / std::max(took, 1e-9), 2.0, 64.0) *
+                                              static_cast<double>(every));
                 else if (took > o.pause_seconds)
                     every = std::max(std::max(1L, o.pause_every), every / 2);
             }

@@ -248,12 +248,12 @@ struct FieldImageOptions {
     // make: the first round throws Interrupted, a later one ends the rounds without it.
     std::function<bool(long done)> pause;
     long pause_every = 16;
-    // With pause_seconds > 0, the steps between pauses double (from pause_every) while
-    // a pause interval takes less than half of it, and halve (down to pause_every)
-    // while one takes longer, and a rest shorter than half the interval joins the
-    // interval before it: a pause waits for both chains (the faster one idles) and
-    // refills the solver's pipeline of batches, so they should be rare, and a stop
-    // request is still answered within about pause_seconds where steps are. The result
+    // With pause_seconds > 0, the steps between pauses grow (from pause_every) to what
+    // takes about half of it where an interval took less (at least doubling), and halve
+    // (down to pause_every) while one takes longer, and a rest shorter than half the
+    // interval joins the interval before it: a pause waits for the last steps of both
+    // chains under way and refills the solver's pipeline, so they should be rare, and
+    // a stop request is still answered within about pause_seconds where steps are. The result
     // does not depend on where the pauses fall. Off on a team: its members must pause
     // at the same steps.
     double pause_seconds = 0.0;
