@@ -89,10 +89,10 @@ struct SolverReport {
     VisibilityUsed visibility;
     long steps = 0;       // steps or walks done
     long directions = 0;  // geometry matrices computed
-    // Seconds computing matrices and moving light along them. Iteration: wall seconds;
-    // where the two overlap (several threads), visibility is the wall time of the
-    // batches less the moving done beside them, so that the two add up to the solve's
-    // wall time. Walks side by side: each walk's own seconds, summed over the walks.
+    // Seconds computing matrices and moving light along them: each step's or walk's own
+    // seconds, summed (on several threads, more than the solve's wall time); a GPU's
+    // batches (iteration with a backend that takes them): the wall time of the batches
+    // less the moving done beside them, so that the two add up to the solve's.
     double seconds_visibility = 0.0, seconds_transport = 0.0;
     std::size_t entries_total = 0;    // geometry-matrix entries over all directions
     std::size_t bytes_per_patch = 0;  // the method's per-patch vectors
