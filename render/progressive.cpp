@@ -675,8 +675,9 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                 // Quick steps: at once to about half of pause_seconds (at least twice the
                 // steps, at most 64 times), not one doubling per pause.
                 if (count == every && took < 0.5 * o.pause_seconds)
-                    every = static_cast<long>(std::clamp(0.5 * o.pause_seconds / std::max(took, 1e-9), 2.0, 64.0) *
-                                              static_cast<double>(every));
+                    every = static_cast<long>(std::min(
+                        std::clamp(0.5 * o.pause_seconds / std::max(took, 1e-9), 2.0, 64.0) * static_cast<double>(every),
+                        2.0 * static_cast<double>(per_chain)));  // no further than the round's steps
                 else if (took > o.pause_seconds)
                     every = std::max(std::max(1L, o.pause_every), every / 2);
             }
