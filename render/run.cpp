@@ -125,10 +125,20 @@ public:
         solver_->advance(steps);
         forward_ = nullptr;
     }
-    // The callback stays until the next call (the stream's items report to it).
+    // The solver reports as it finishes a step: each finish forwards to `progress`
+    // (a stream's finishes run one at a time), and nothing does once the stream is gone.
     std::optional<solver::StepStream> stream(long steps, const sampling::ProgressCallback& progress) override {
-        forward_ = progress;
-        return solver_->stream(steps, true);
+        auto made = solver_->stream(steps, true);
+        if (made)
+            made->finish = [this, finish = std::move(made->finish), progress](long item, long slot) {
+                forward_ = progress;
+                struct Unset {
+                    sampling::ProgressCallback& f;
+                    ~Unset() { f = nullptr; }
+                } unset{forward_};
+                finish(item, slot);
+            };
+        return made;
     }
     solver::RadianceField field() const override { return solver_->field(); }
     long averaged() const override { return solver_->averaged(); }
