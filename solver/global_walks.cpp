@@ -386,11 +386,7 @@ std::optional<StepStream> GlobalWalks::stream(long total, bool shared) {
 
 void GlobalWalks::advance(long total) {
     if (total <= 0) return;
-    if (auto one = stream(total, false)) {
-        std::vector<StepStream> streams{std::move(*one)};
-        run_step_streams(streams, backends_.threads());
-        return;
-    }
+    if (auto one = stream(total, false)) return run_step_stream(std::move(*one));
     // One walk at a time (its directions side by side on the backends).
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {

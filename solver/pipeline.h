@@ -43,4 +43,11 @@ struct StepStream {
 // under way end first) and is rethrown; the streams are then in no defined state.
 void run_step_streams(std::vector<StepStream>& streams, int threads);
 
+// One stream alone, a thread per backend of its own.
+inline void run_step_stream(StepStream stream) {
+    const int threads = static_cast<int>(stream.backends.size());
+    std::vector<StepStream> one{std::move(stream)};
+    run_step_streams(one, threads);
+}
+
 }  // namespace raybundle::solver

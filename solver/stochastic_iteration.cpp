@@ -274,11 +274,7 @@ void StochasticIteration::advance(long total) {
     // Backends side by side (or one that takes one direction at a time): the steps as a
     // stream (solver/pipeline.h). Each thread takes the next direction as it finishes
     // one, and whichever finds the next step's matrices done moves the light along them.
-    if (auto one = stream(total, false)) {
-        std::vector<StepStream> streams{std::move(*one)};
-        run_step_streams(streams, backends_.threads());
-        return;
-    }
+    if (auto one = stream(total, false)) return run_step_stream(std::move(*one));
     // One backend that takes batches (BackendSet::batch_directions: what one submission
     // of a GPU takes): the light moves along one batch's matrices while the backend
     // computes the next batch's. The directions and jitters are drawn in the same order

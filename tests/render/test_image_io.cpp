@@ -49,16 +49,18 @@ TEST_CASE("EXR: a missing or malformed file throws, naming it", "[render][image_
     std::remove(text.c_str());
 }
 
-TEST_CASE("PNG: every pixel tone-mapped, rows in order, the same file for any thread count", "[render][image_io]") {
-    render::Image image(7, 37);  // more rows than threads, not a multiple of them
-    for (std::size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = 0.013f * static_cast<float>(k % 97) - 0.1f;
-    const double exposure = 0.5;
+namespace {
+
+// `image` written as a PNG on 1 and on `threads` threads: the two files' bytes equal,
+// read back by libpng (which checks the chunks' CRCs and zlib's Adler-32) at the
+// image's size; its RGB bytes.
+std::vector<unsigned char> png_written(const render::Image& image, double exposure, int threads) {
     const auto tmp = std::filesystem::temp_directory_path();
-    const std::string pid = std::to_string(::getpid());
     std::vector<std::string> bytes;
-    for (const int threads : {1, 3}) {
-        const std::string path = (tmp / ("raybundle-test-" + pid + "-" + std::to_string(threads) + ".png")).string();
-        render::write_png(path, image, exposure, threads);
+    for (const int t : {1, threads}) {
+        const std::string path =
+            (tmp / ("raybundle-test-" + std::to_string(::getpid()) + "-" + std::to_string(t) + ".png")).string();
+        render::write_png(path, image, exposure, t);
         std::ifstream in(path, std::ios::binary);
         bytes.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
         std::remove(path.c_str());
@@ -68,10 +70,20 @@ TEST_CASE("PNG: every pixel tone-mapped, rows in order, the same file for any th
     png.version = PNG_IMAGE_VERSION;
     REQUIRE(png_image_begin_read_from_memory(&png, bytes[0].data(), bytes[0].size()));
     png.format = PNG_FORMAT_RGB;
-    REQUIRE(png.width == 7);
-    REQUIRE(png.height == 37);
+    REQUIRE(static_cast<int>(png.width) == image.width);
+    REQUIRE(static_cast<int>(png.height) == image.height);
     std::vector<unsigned char> pixels(PNG_IMAGE_SIZE(png));
     REQUIRE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr));
+    return pixels;
+}
+
+}  // namespace
+
+TEST_CASE("PNG: every pixel tone-mapped, rows in order, the same file for any thread count", "[render][image_io]") {
+    render::Image image(7, 37);  // more rows than threads, not a multiple of them
+    for (std::size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = 0.013f * static_cast<float>(k % 97) - 0.1f;
+    const double exposure = 0.5;
+    const std::vector<unsigned char> pixels = png_written(image, exposure, 3);
     for (std::size_t k = 0; k < image.rgb.size(); ++k) {
         INFO("channel value " << k);
         REQUIRE(pixels[k] == render::tone_map(image.rgb[k], exposure));
@@ -90,25 +102,7 @@ TEST_CASE("PNG: rows in several compressed segments, and every byte value to_srg
     image.rgb[6] = std::numeric_limits<float>::infinity();
     image.rgb[7] = -std::numeric_limits<float>::infinity();
     image.rgb[8] = std::numeric_limits<float>::quiet_NaN();
-    const auto tmp = std::filesystem::temp_directory_path();
-    const std::string pid = std::to_string(::getpid());
-    std::vector<std::string> bytes;
-    for (const int threads : {1, 4}) {
-        const std::string path = (tmp / ("raybundle-test-segments-" + pid + "-" + std::to_string(threads) + ".png")).string();
-        render::write_png(path, image, 0.0, threads);
-        std::ifstream in(path, std::ios::binary);
-        bytes.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-        std::remove(path.c_str());
-    }
-    REQUIRE(bytes[0] == bytes[1]);
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    REQUIRE(png_image_begin_read_from_memory(&png, bytes[0].data(), bytes[0].size()));
-    png.format = PNG_FORMAT_RGB;
-    REQUIRE(png.width == 700);
-    REQUIRE(png.height == 100);
-    std::vector<unsigned char> pixels(PNG_IMAGE_SIZE(png));
-    REQUIRE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr));
+    const std::vector<unsigned char> pixels = png_written(image, 0.0, 4);
     std::size_t differ = 0;
     std::array<bool, 256> seen{};
     for (std::size_t k = 0; k < image.rgb.size(); ++k) {
