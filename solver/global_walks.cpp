@@ -132,18 +132,21 @@ GlobalWalks::GlobalWalks(const Transport& transport, std::unique_ptr<visibility:
     // unbiased correction, which carries one walk's light into the next): whole walks go
     // side by side (stream()), each walk under way with vectors of its own
     // (walks_under_way). Otherwise a walk's D directions do (at most D threads busy).
-    independent_ = !source_->adapts() && !options.unbiased;
+    // One backend that takes batches (a GPU's) gets a walk's directions in one.
+    const bool batches = backends_.threads() == 1 && backends_.batch_directions() > 1;
+    whole_walks_ = !source_->adapts() && !options.unbiased && !batches;
     walk_vectors_ = vectors - 1;  // sum_ is the chain's, the others each walk's
     const int under_way = walks_under_way(backends_.threads());
     report_.decisions["walk_threads"] =
-        !independent_ ? (backends_.threads() == 1
-                             ? std::string("one walk at a time")
-                             : std::string("one walk at a time, its directions side by side (") +
-                                   (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")")
+        batches ? std::string("one walk at a time, its directions in one batch of the backend's")
+        : !whole_walks_ ? (backends_.threads() == 1
+                               ? std::string("one walk at a time")
+                               : std::string("one walk at a time, its directions side by side (") +
+                                     (options.unbiased ? "the unbiased correction links the walks" : "the source adapts") + ")")
         : backends_.threads() == 1 ? std::string("one walk at a time (two under way beside another chain's)")
                                    : "whole walks side by side on " + std::to_string(backends_.threads()) +
                                          " threads, up to " + std::to_string(under_way) + " under way";
-    grow_work(independent_ && backends_.threads() > 1 ? static_cast<std::size_t>(under_way) : 1);
+    grow_work(whole_walks_ && backends_.threads() > 1 ? static_cast<std::size_t>(under_way) : 1);
     report_.details = {{"depth", D}, {"sampler", sampling::sampler_name(options.sampler)}, {"unbiased", options.unbiased}};
     if (glossy_) {
         to_eye_ = t_.directions_to_eye();
@@ -353,7 +356,7 @@ void GlobalWalks::grow_work(std::size_t walks) {
 }
 
 std::optional<StepStream> GlobalWalks::stream(long total, bool shared) {
-    if (!independent_) return std::nullopt;
+    if (!whole_walks_) return std::nullopt;  // one walk at a time (advance())
     // Whole walks side by side: a walk is proposed and its jitters drawn in walk order,
     // and its sum taken in walk order, so that the walks are those of one thread; a
     // thread free takes the next walk, up to walks_under_way() past the oldest not yet
@@ -387,7 +390,7 @@ std::optional<StepStream> GlobalWalks::stream(long total, bool shared) {
 void GlobalWalks::advance(long total) {
     if (total <= 0) return;
     if (auto one = stream(total, false)) return run_step_stream(std::move(*one));
-    // One walk at a time (its directions side by side on the backends).
+    // One walk at a time (its directions side by side on the backends, or in one batch).
     const auto start = Clock::now();
     for (long m = 0; m < total; ++m) {
         source_->propose(walks_done_, point_.data());

@@ -145,7 +145,7 @@ private:
     static int walks_under_way(int threads) { return threads + std::max(1, threads / 2); }
     // At least `walks` in work_, and the report's bytes per patch for them.
     void grow_work(std::size_t walks);
-    bool independent_ = false;      // walks independent of each other: whole walks side by side
+    bool whole_walks_ = false;      // whole walks side by side (independent, no GPU batches)
     std::size_t walk_vectors_ = 0;  // per-patch vectors of one walk under way
     // The unbiased correction: the previous walk's last-bounce irradiance (per patch),
     // and the direction it arrived along (with both: +-, per patch by its normal).
