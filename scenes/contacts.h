@@ -47,7 +47,8 @@ struct ContactCuts {
 };
 
 // Cuts the scene's patches along their contact lines and marks the contact edges;
-// calls scene.finalize() when it changed anything. The scene must be finalized
+// calls scene.finalize() when it changed anything or the mesh has faces the flat
+// arrays do not (subdivide() with Finish::leave_mesh). The scene must be finalized
 // before (bounds), and refined if it is to be (the loaders cut after subdivide()).
 // The contact search runs on `threads` threads and, given a team of more than one, is
 // split among its members (scenes/team.h), who must all call it at the same point with

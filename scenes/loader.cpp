@@ -398,7 +398,7 @@ namespace {
 // The scene's "patch_size": a number refines to it; "auto" (or no entry) to 1/25 of the
 // scene's largest extent, so that a room modelled with one quad a wall is not solved
 // as a dozen patches; "none" keeps the patches as modelled. Records the decision.
-void refine(Scene& scene, const Node& root, const std::string& shown, const LoadLimits& limits) {
+void refine(Scene& scene, const Node& root, const std::string& shown, const LoadLimits& limits, Finish finish) {
     double size = 0.0;
     if (root.has("patch_size") && root.raw("patch_size").is_string()) {
         const std::string word = root.string("patch_size");
@@ -430,7 +430,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
                                                       ": set \"patch_size\" to a larger number or \"none\"");
         }
     }
-    subdivide(scene, size, limits.threads);
+    subdivide(scene, size, limits.threads, finish);
 }
 
 }  // namespace
@@ -603,8 +603,9 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     scene.finalize(limits.threads);
-    refine(scene, root, shown, limits);
-    if (!root.has("cut_contacts") || root.boolean("cut_contacts"))
+    const bool cuts = !root.has("cut_contacts") || root.boolean("cut_contacts");
+    refine(scene, root, shown, limits, cuts ? Finish::leave_mesh : Finish::finalize);  // the cuts finalize
+    if (cuts)
         cut_at_contacts(scene, limits.threads, limits.team);
     else
         skip_contact_search(scene, limits.team);

@@ -74,7 +74,7 @@ TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double
     return m;
 }
 
-std::size_t subdivide(Scene& scene, double max_edge, int threads) {
+std::size_t subdivide(Scene& scene, double max_edge, int threads, Finish finish) {
     TriMesh& mesh = scene.mesh;
     const double limit2 = max_edge * max_edge;
     std::size_t splits = 0;
@@ -86,6 +86,10 @@ std::size_t subdivide(Scene& scene, double max_edge, int threads) {
             if (len2 > limit2) long_edges.emplace_back(len2, e);
         }
         if (long_edges.empty()) break;
+        // Each split adds a vertex and at most three edges and two faces: room for the
+        // pass at once, not a reallocation of every mesh property as it grows.
+        const std::size_t k = long_edges.size();
+        mesh.reserve(mesh.n_vertices() + k, mesh.n_edges() + 3 * k, mesh.n_faces() + 2 * k);
         // Longest first: splitting the longest edge of a triangle is what keeps shapes bounded.
         std::stable_sort(long_edges.begin(), long_edges.end(),
                          [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -96,7 +100,7 @@ std::size_t subdivide(Scene& scene, double max_edge, int threads) {
             ++splits;
         }
     }
-    scene.finalize(threads);
+    if (finish == Finish::finalize) scene.finalize(threads);
     return splits;
 }
 

@@ -14,8 +14,12 @@ namespace raybundle::scenes {
 // new vertex of a split edge gets, in each face, the normalised mean of that face's
 // normals at the edge's ends), so call scene.finalize() first, which computes the
 // missing ones on the coarse patches. Calls scene.finalize(threads) at the end (the
-// splits themselves are serial). Returns the number of splits.
-std::size_t subdivide(Scene& scene, double max_edge, int threads = 1);
+// splits themselves are serial), or with Finish::leave_mesh leaves that to the caller
+// (cut_at_contacts() does it): the mesh is refined, the flat arrays (patch_list() and
+// the rest) still the coarse scene's, its bounds unchanged by midpoints. Returns the
+// number of splits.
+enum class Finish { finalize, leave_mesh };
+std::size_t subdivide(Scene& scene, double max_edge, int threads = 1, Finish finish = Finish::finalize);
 
 // Refines chosen patches: patch i (scene.patch_list() order) is cut until no piece of it
 // has an edge longer than max_edge[i] (infinity, or any value at least its longest edge:
