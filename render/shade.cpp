@@ -49,9 +49,11 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
 Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& g, Shading mode,
             int threads) {
     Image img(g.width, g.height);
-    std::vector<std::array<Rgb, 3>> corners;
-    // The linear basis has its own corner values; the constant basis averages patches.
-    if (mode == Shading::Smooth) corners = field.corners.empty() ? corner_radiance(scene, field, threads) : field.corners;
+    // The linear basis has its own corner values; the constant basis averages patches
+    // (read where they are, not copied).
+    std::vector<std::array<Rgb, 3>> averaged;
+    if (mode == Shading::Smooth && field.corners.empty()) averaged = corner_radiance(scene, field, threads);
+    const auto& corners = field.corners.empty() ? averaged : field.corners;
     parallel_bands(g.height, threads, [&](int y0, int y1) {
         for (int y = y0; y < y1; ++y)
             for (int x = 0; x < g.width; ++x) {
