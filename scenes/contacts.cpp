@@ -1,6 +1,7 @@
 #include "scenes/contacts.h"
 
 #include "scenes/errors.h"
+#include "scenes/sorted_cells.h"
 #include "scenes/subdivide.h"
 #include "scenes/threads.h"
 
@@ -244,79 +245,6 @@ void swap_shares(const PreparationTeam& team, const ShareHeader& header, std::ve
         for (std::size_t i = k; i < lists.size(); i += R) unpack(all[k], at, lists[i], what);
     }
 }
-
-// The hashed grid as runs of a sorted array: every (cell, triangle) listing in triangle
-// order, sorted by cell stably (so a cell's triangles stay in index order) by an LSD
-// radix sort whose passes split the array into fixed chunks on the threads (the same
-// order for any count); each listing then knows its cell's run.
-struct SortedCells {
-    std::vector<std::size_t> first;       // triangle i's listings: first[i] .. first[i + 1]
-    std::vector<std::uint32_t> run_of;    // per listing, its cell's run
-    std::vector<std::size_t> run_start;   // run r: members[run_start[r] .. run_start[r + 1]]
-    std::vector<std::uint32_t> members;   // the triangles of each cell, in index order
-
-    SortedCells(const std::vector<std::vector<std::uint64_t>>& listed, int threads) {
-        const std::size_t n = listed.size();
-        first.assign(n + 1, 0);
-        for (std::size_t i = 0; i < n; ++i) first[i + 1] = first[i] + listed[i].size();
-        const std::size_t E = first[n];
-        std::vector<std::uint64_t> key(E), key_tmp(E);
-        std::vector<std::uint32_t> at(E), at_tmp(E), owner(E);  // listing index, its triangle
-        parallel_chunks(static_cast<int>(n), threads, [&](int i0, int i1) {
-            for (int i = i0; i < i1; ++i)
-                for (std::size_t s = 0; s < listed[static_cast<std::size_t>(i)].size(); ++s) {
-                    const std::size_t j = first[static_cast<std::size_t>(i)] + s;
-                    key[j] = listed[static_cast<std::size_t>(i)][s];
-                    at[j] = static_cast<std::uint32_t>(j);
-                    owner[j] = static_cast<std::uint32_t>(i);
-                }
-        });
-        std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
-        for (const std::uint64_t k : key) all_or |= k, all_and &= k;
-        constexpr int kBits = 11;
-        constexpr std::size_t kDigits = std::size_t{1} << kBits;
-        const int T = static_cast<int>(std::max<std::size_t>(1, std::min<std::size_t>(static_cast<std::size_t>(std::max(1, threads)), E / 65536 + 1)));
-        std::vector<std::size_t> count(static_cast<std::size_t>(T) * kDigits);
-        auto chunk = [&](int t) { return E * static_cast<std::size_t>(t) / static_cast<std::size_t>(T); };
-        for (int shift = 0; shift < 64; shift += kBits) {
-            if (((all_or ^ all_and) >> shift & (kDigits - 1)) == 0) continue;  // one digit everywhere
-            const auto digit = [shift](std::uint64_t k) { return static_cast<std::size_t>(k >> shift & (kDigits - 1)); };
-            std::fill(count.begin(), count.end(), 0);
-            run_threads(T, [&](int t) {
-                std::size_t* c = &count[static_cast<std::size_t>(t) * kDigits];
-                for (std::size_t j = chunk(t); j < chunk(t + 1); ++j) ++c[digit(key[j])];
-            });
-            // Offsets digit by digit, chunk by chunk within a digit: a stable order.
-            std::size_t sum = 0;
-            for (std::size_t d = 0; d < kDigits; ++d)
-                for (int t = 0; t < T; ++t) {
-                    std::size_t& c = count[static_cast<std::size_t>(t) * kDigits + d];
-                    const std::size_t here = c;
-                    c = sum;
-                    sum += here;
-                }
-            run_threads(T, [&](int t) {
-                std::size_t* c = &count[static_cast<std::size_t>(t) * kDigits];
-                for (std::size_t j = chunk(t); j < chunk(t + 1); ++j) {
-                    const std::size_t to = c[digit(key[j])]++;
-                    key_tmp[to] = key[j];
-                    at_tmp[to] = at[j];
-                }
-            });
-            key.swap(key_tmp);
-            at.swap(at_tmp);
-        }
-        run_of.resize(E);
-        members.resize(E);
-        run_start.clear();
-        for (std::size_t j = 0; j < E; ++j) {
-            if (j == 0 || key[j] != key[j - 1]) run_start.push_back(j);
-            run_of[at[j]] = static_cast<std::uint32_t>(run_start.size() - 1);
-            members[j] = owner[at[j]];
-        }
-        run_start.push_back(E);
-    }
-};
 
 // The contact lines of every triangle (see the header), surfaces nearer than `widest`
 // (and 1e-2 of the smaller triangle's size) touching.
@@ -575,7 +503,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
         }
     }
     mesh.remove_property(origin);
-    if (cuts.splits > 0 || cuts.edges > 0) scene.finalize(threads);
+    if (cuts.splits > 0 || cuts.edges > 0 || scene.patch_list().size() != mesh.n_faces()) scene.finalize(threads);
     scene.contact_lines += cuts.lines;
     scene.contact_splits += cuts.splits;
     scene.contact_edges += cuts.edges;

@@ -1,5 +1,6 @@
 #include "scenes/diagnostics.h"
 
+#include "scenes/sorted_cells.h"
 #include "scenes/threads.h"
 
 #include <algorithm>
@@ -8,7 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <sstream>
-#include <unordered_map>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -94,108 +95,161 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
     if (n < 2) return result;
     const double tol = 1e-9 * scene.bounds_radius();
 
-    // Group by plane: the normal rounded to 1e-6, then the offset n . p within tol.
+    // Group by plane: the normal rounded to 1e-6, then the offset n . p within tol
+    // (the patch index last: one order for any sort).
     struct Key {
         long long nx, ny, nz;
         double offset;
         std::uint32_t patch;
     };
     std::vector<Key> keys(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Vec3& nrm = patches[i].normal;
-        keys[i] = {std::llround(nrm.x() * 1e6), std::llround(nrm.y() * 1e6), std::llround(nrm.z() * 1e6),
-                   nrm.dot(pos[patches[i].v[0]]), static_cast<std::uint32_t>(i)};
-    }
-    std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+    parallel_chunks(static_cast<int>(n), threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            const Vec3& nrm = patches[i].normal;
+            keys[i] = {std::llround(nrm.x() * 1e6), std::llround(nrm.y() * 1e6), std::llround(nrm.z() * 1e6),
+                       nrm.dot(pos[patches[i].v[0]]), static_cast<std::uint32_t>(i)};
+        }
+    });
+    parallel_sort(keys, threads, [](const Key& a, const Key& b) {
         if (a.nx != b.nx) return a.nx < b.nx;
         if (a.ny != b.ny) return a.ny < b.ny;
         if (a.nz != b.nz) return a.nz < b.nz;
-        return a.offset < b.offset;
+        if (a.offset != b.offset) return a.offset < b.offset;
+        return a.patch < b.patch;
     });
 
-    std::vector<std::uint32_t> group;
-    std::vector<std::array<P2, 3>> tri;
-    std::vector<std::pair<P2, P2>> box;
-    std::vector<std::vector<long long>> listed;  // each triangle's cells
-    std::unordered_map<long long, std::vector<std::uint32_t>> cells;
+    // The planes of two patches or more, each with a 2-D frame relative to its first
+    // corner (offsets far from the origin keep their precision) and a uniform grid of
+    // cells about two patches wide.
+    struct Plane {
+        std::size_t begin, end;  // its patches: keys[begin .. end)
+        Vec3 u, v, origin;
+        double cell;
+    };
+    std::vector<Plane> planes;
     for (std::size_t g0 = 0; g0 < n;) {
         std::size_t g1 = g0 + 1;
         while (g1 < n && keys[g1].nx == keys[g0].nx && keys[g1].ny == keys[g0].ny && keys[g1].nz == keys[g0].nz &&
                keys[g1].offset - keys[g1 - 1].offset <= tol)
             ++g1;
         if (g1 - g0 >= 2) {
-            // The group's patches in 2-D, in a uniform grid of cells about two patches wide.
-            group.clear();
-            tri.clear();
-            cells.clear();
             const Vec3 normal = patches[keys[g0].patch].normal;
-            const Vec3 u = normal.unitOrthogonal(), v = normal.cross(u);
+            const Vec3 u = normal.unitOrthogonal();
             double area = 0.0;
-            // In 2-D relative to the group's first corner (offsets far from the origin
-            // keep their precision).
-            const Vec3 origin = pos[patches[keys[g0].patch].v[0]];
-            for (std::size_t k = g0; k < g1; ++k) {
-                const Patch& p = patches[keys[k].patch];
-                group.push_back(keys[k].patch);
-                std::array<P2, 3> t;
-                for (int c = 0; c < 3; ++c) t[c] = P2(u.dot(pos[p.v[c]] - origin), v.dot(pos[p.v[c]] - origin));
-                tri.push_back(t);
-                area += p.area;
-            }
-            // A uniform grid of cells about two patches wide; a triangle is listed in
-            // the cells it meets, not in all its bounding box covers (a sliver across
-            // the plane meets a line of cells, its box a square of them), and each
-            // pair is tested once (the stamp says which triangle last took it).
-            const double cell = 2.0 * std::sqrt(area / static_cast<double>(group.size()));
-            const int m = static_cast<int>(group.size());
-            // Large groups (a wall of many patches) on the threads, small ones on this one.
-            const int T = m >= 4096 ? threads : 1;
-            box.assign(group.size(), {});
-            listed.assign(group.size(), {});
-            parallel_bands(m, T, [&](int k0, int k1) {
-                for (auto k = static_cast<std::uint32_t>(k0); k < static_cast<std::uint32_t>(k1); ++k) {
-                    P2 lo = tri[k][0], hi = tri[k][0];
-                    for (const P2& c : tri[k]) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
-                    box[k] = {lo, hi};
-                    const long long x0 = std::llround(std::floor(lo.x() / cell)), x1 = std::llround(std::floor(hi.x() / cell));
-                    const long long y0 = std::llround(std::floor(lo.y() / cell)), y1 = std::llround(std::floor(hi.y() / cell));
-                    for (long long x = x0; x <= x1; ++x)
-                        for (long long y = y0; y <= y1; ++y)
-                            if (meets_square(tri[k], P2(x * cell, y * cell), cell)) listed[k].push_back(x * 1000003LL + y);
-                }
-            });
-            for (std::uint32_t k = 0; k < group.size(); ++k)
-                for (const long long c : listed[k]) cells[c].push_back(k);
-            // Bands of triangles on the threads, each with its own stamps; the pairs
-            // sorted below whatever the split.
-            const int bands = std::max(1, std::min(T, m));
-            std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> band_found(static_cast<std::size_t>(bands));
-            run_threads(bands, [&](int t) {
-                std::vector<std::uint32_t> stamp(group.size(), std::numeric_limits<std::uint32_t>::max());
-                auto& out = band_found[static_cast<std::size_t>(t)];
-                const auto ka0 = static_cast<std::uint32_t>(static_cast<long long>(m) * t / bands);
-                const auto ka1 = static_cast<std::uint32_t>(static_cast<long long>(m) * (t + 1) / bands);
-                for (std::uint32_t ka = ka0; ka < ka1; ++ka)
-                    for (const long long c : listed[ka])
-                        for (const std::uint32_t kb : cells.at(c)) {
-                            if (kb <= ka || stamp[kb] == ka) continue;
-                            stamp[kb] = ka;
-                            const P2 lo = box[ka].first.cwiseMax(box[kb].first), hi = box[ka].second.cwiseMin(box[kb].second);
-                            if (lo.x() > hi.x() || lo.y() > hi.y() || apart(tri[ka], tri[kb])) continue;
-                            const std::uint32_t i = group[ka], j = group[kb];
-                            const double smaller = std::min(patches[i].area, patches[j].area);
-                            if (overlap_area(tri[ka], tri[kb]) > 1e-6 * smaller) out.emplace_back(std::min(i, j), std::max(i, j));
-                        }
-            });
-            std::vector<std::pair<std::uint32_t, std::uint32_t>> found;
-            for (const auto& band : band_found) found.insert(found.end(), band.begin(), band.end());
-            std::sort(found.begin(), found.end());
-            found.erase(std::unique(found.begin(), found.end()), found.end());
-            if (!found.empty() && result.pairs == 0) std::tie(result.first, result.second) = found.front();
-            result.pairs += found.size();
+            for (std::size_t k = g0; k < g1; ++k) area += patches[keys[k].patch].area;
+            planes.push_back({g0, g1, u, normal.cross(u), pos[patches[keys[g0].patch].v[0]],
+                              2.0 * std::sqrt(area / static_cast<double>(g1 - g0))});
         }
         g0 = g1;
     }
+    if (planes.empty()) return result;
+
+    // All planes' patches as one list of members (plane by plane), on the threads: each
+    // member's triangle in its plane's frame and its box.
+    std::vector<std::uint32_t> plane_of, patch_of;
+    for (std::size_t g = 0; g < planes.size(); ++g)
+        for (std::size_t k = planes[g].begin; k < planes[g].end; ++k) {
+            plane_of.push_back(static_cast<std::uint32_t>(g));
+            patch_of.push_back(keys[k].patch);
+        }
+    const std::size_t m = patch_of.size();
+    std::vector<std::array<P2, 3>> tri(m);
+    std::vector<std::pair<P2, P2>> box(m);
+    parallel_chunks(static_cast<int>(m), threads, [&](int k0, int k1) {
+        for (auto k = static_cast<std::size_t>(k0); k < static_cast<std::size_t>(k1); ++k) {
+            const Plane& g = planes[plane_of[k]];
+            const Patch& p = patches[patch_of[k]];
+            for (int c = 0; c < 3; ++c) tri[k][c] = P2(g.u.dot(pos[p.v[c]] - g.origin), g.v.dot(pos[p.v[c]] - g.origin));
+            P2 lo = tri[k][0], hi = tri[k][0];
+            for (const P2& c : tri[k]) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+            box[k] = {lo, hi};
+        }
+    });
+    // Each plane's cells numbered row by row after the planes before it, where all the
+    // numbers stay below 2^53 (exact in the double that counts them; a short key sorts
+    // in few passes); else the plane's index
+    // and the cell's coordinates hashed into the key (two members share a key only in
+    // one plane, or by a wrap of its bits, which the plane test below catches).
+    struct Span {
+        long long x0 = std::numeric_limits<long long>::max(), y0 = x0, x1 = std::numeric_limits<long long>::min(), y1 = x1;
+        std::uint64_t base = 0;
+    };
+    std::vector<Span> span(planes.size());
+    auto cell_of = [&](std::size_t k, const P2& at) {
+        const double c = planes[plane_of[k]].cell;
+        return std::make_pair(std::llround(std::floor(at.x() / c)), std::llround(std::floor(at.y() / c)));
+    };
+    for (std::size_t k = 0; k < m; ++k) {
+        Span& g = span[plane_of[k]];
+        const auto [x0, y0] = cell_of(k, box[k].first);
+        const auto [x1, y1] = cell_of(k, box[k].second);
+        g.x0 = std::min(g.x0, x0), g.y0 = std::min(g.y0, y0), g.x1 = std::max(g.x1, x1), g.y1 = std::max(g.y1, y1);
+    }
+    double numbered = 0.0;
+    for (Span& g : span) {
+        g.base = static_cast<std::uint64_t>(numbered);
+        numbered += (static_cast<double>(g.x1 - g.x0) + 1.0) * (static_cast<double>(g.y1 - g.y0) + 1.0);
+    }
+    const bool dense = numbered < 0x1p53;
+    // The cells each member meets, not all its box covers (a sliver across the plane
+    // meets a line of cells, its box a square of them).
+    std::vector<std::vector<std::uint64_t>> listed(m);
+    parallel_chunks(static_cast<int>(m), threads, [&](int k0, int k1) {
+        for (auto k = static_cast<std::size_t>(k0); k < static_cast<std::size_t>(k1); ++k) {
+            const double cell = planes[plane_of[k]].cell;
+            const Span& g = span[plane_of[k]];
+            const auto [x0, y0] = cell_of(k, box[k].first);
+            const auto [x1, y1] = cell_of(k, box[k].second);
+            for (long long x = x0; x <= x1; ++x)
+                for (long long y = y0; y <= y1; ++y)
+                    if (meets_square(tri[k], P2(x * cell, y * cell), cell))
+                        listed[k].push_back(
+                            dense ? g.base + static_cast<std::uint64_t>(x - g.x0) * static_cast<std::uint64_t>(g.y1 - g.y0 + 1) +
+                                        static_cast<std::uint64_t>(y - g.y0)
+                                  : static_cast<std::uint64_t>(plane_of[k]) << 44 ^ (static_cast<std::uint64_t>(x) & 0x3fffff) << 22 ^
+                                        (static_cast<std::uint64_t>(y) & 0x3fffff));
+        }
+    });
+    const SortedCells cells(listed, threads);
+
+    // Each member against the later members of its cells (each pair tested once: the
+    // stamp says which member last took it), on the threads; the pairs sorted below
+    // whatever the split.
+    struct Found {
+        std::uint32_t plane, i, j;
+        bool operator<(const Found& o) const { return std::tie(plane, i, j) < std::tie(o.plane, o.i, o.j); }
+        bool operator==(const Found& o) const { return plane == o.plane && i == o.i && j == o.j; }
+    };
+    const int T = std::max(1, std::min(threads, static_cast<int>(m)));
+    std::vector<std::vector<Found>> found_by(static_cast<std::size_t>(T));
+    std::vector<std::vector<std::uint32_t>> stamps(static_cast<std::size_t>(T));
+    parallel_chunks(static_cast<int>(m), threads, [&](int k0, int k1, int t) {
+        auto& stamp = stamps[static_cast<std::size_t>(t)];
+        if (stamp.empty()) stamp.assign(m, std::numeric_limits<std::uint32_t>::max());
+        auto& out = found_by[static_cast<std::size_t>(t)];
+        for (auto ka = static_cast<std::uint32_t>(k0); ka < static_cast<std::uint32_t>(k1); ++ka)
+            for (std::size_t s = cells.first[ka]; s < cells.first[ka + 1]; ++s) {
+                const std::uint32_t r = cells.run_of[s];
+                for (std::size_t c = cells.run_start[r]; c < cells.run_start[r + 1]; ++c) {
+                    const std::uint32_t kb = cells.members[c];
+                    if (kb <= ka || stamp[kb] == ka || plane_of[kb] != plane_of[ka]) continue;
+                    stamp[kb] = ka;
+                    const P2 lo = box[ka].first.cwiseMax(box[kb].first), hi = box[ka].second.cwiseMin(box[kb].second);
+                    if (lo.x() > hi.x() || lo.y() > hi.y() || apart(tri[ka], tri[kb])) continue;
+                    const std::uint32_t i = patch_of[ka], j = patch_of[kb];
+                    const double smaller = std::min(patches[i].area, patches[j].area);
+                    if (overlap_area(tri[ka], tri[kb]) > 1e-6 * smaller)
+                        out.push_back({plane_of[ka], std::min(i, j), std::max(i, j)});
+                }
+            }
+    });
+    std::vector<Found> found;
+    for (const auto& part : found_by) found.insert(found.end(), part.begin(), part.end());
+    std::sort(found.begin(), found.end());
+    found.erase(std::unique(found.begin(), found.end()), found.end());
+    result.pairs = found.size();
+    // The example: the first pair of the first plane that has one.
+    if (!found.empty()) std::tie(result.first, result.second) = std::make_pair(found.front().i, found.front().j);
     return result;
 }
 

@@ -16,6 +16,10 @@
 // argument gets the thread's index t < min(threads, items) too (for scratch space of
 // its own, never for what it computes).
 //
+// parallel_sort(values, threads, less): sorts values by a strict total order (no two
+// distinct values equivalent: then every correct sort gives the same sequence, on any
+// number of threads). Fixed parts sorted on the threads, then merged in pairs.
+//
 // Results must not depend on the number of threads: bodies write disjoint outputs and
 // draw random numbers from streams chosen by row or pixel, never by thread.
 #include <algorithm>
@@ -92,6 +96,36 @@ void parallel_chunks(int items, int threads, const Body& body, int chunks_per_th
              i0 = next.fetch_add(chunk, std::memory_order_relaxed))
             call(static_cast<int>(i0), static_cast<int>(std::min<long long>(items, i0 + chunk)), t);
     });
+}
+
+template <class T, class Less>
+void parallel_sort(std::vector<T>& values, int threads, const Less& less) {
+    const std::size_t n = values.size();
+    // Parts of at least 16k values: below that the threads cost more than they save.
+    const auto parts = static_cast<std::size_t>(std::max(1, std::min<int>(threads, static_cast<int>(n / 16384))));
+    if (parts == 1) {
+        std::sort(values.begin(), values.end(), less);
+        return;
+    }
+    auto bound = [&](std::size_t p) { return n * std::min(p, parts) / parts; };
+    run_threads(static_cast<int>(parts), [&](int t) {
+        const auto p = static_cast<std::size_t>(t);
+        std::sort(values.begin() + static_cast<long>(bound(p)), values.begin() + static_cast<long>(bound(p + 1)), less);
+    });
+    std::vector<T> other(n);
+    std::vector<T>* from = &values;
+    std::vector<T>* to = &other;
+    for (std::size_t width = 1; width < parts; width *= 2) {
+        const std::size_t pairs = (parts + 2 * width - 1) / (2 * width);
+        run_threads(static_cast<int>(pairs), [&](int t) {
+            const std::size_t p = 2 * width * static_cast<std::size_t>(t);
+            const auto a = static_cast<long>(bound(p)), m = static_cast<long>(bound(p + width)),
+                       b = static_cast<long>(bound(p + 2 * width));
+            std::merge(from->begin() + a, from->begin() + m, from->begin() + m, from->begin() + b, to->begin() + a, less);
+        });
+        std::swap(from, to);
+    }
+    if (from != &values) values.swap(other);
 }
 
 // The number of hardware threads (at least 1).

@@ -293,7 +293,7 @@ TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twic
     // millions of cells (8,000 of them: 2 minutes, then bad_alloc).
     TempDir dir;
     std::string obj;
-    const int n = 1100;  // twice: 4,400 patches in one plane, enough for the threads (diagnostics.cpp)
+    const int n = 1100;  // twice: 4,400 patches in one plane
     const double pi = std::acos(-1.0);
     for (double offset : {0.0, 1e9}) {
         obj.clear();
