@@ -276,18 +276,43 @@ std::vector<std::vector<Line>> contact_lines(const std::vector<Tri>& tris, doubl
     const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));
     const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(widest, 1e-12 * radius), radius / 32.0),
                                  std::min(by_area, radius));
-    auto key = [](const Cell& c) {
-        return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
-               static_cast<std::uint64_t>(c.z() & 0x1fffff);
-    };
     std::vector<Eigen::AlignedBox3d> boxes(tris.size());
-    parallel_chunks(n, threads, [&](int i0, int i1) {
-        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+    // The cells the grown boxes span, per band of triangles on the threads.
+    const int bands = std::max(1, std::min(threads, n));
+    std::vector<Cell> band_lo(static_cast<std::size_t>(bands), Cell::Constant(std::numeric_limits<long>::max()));
+    std::vector<Cell> band_hi(static_cast<std::size_t>(bands), Cell::Constant(std::numeric_limits<long>::min()));
+    run_threads(bands, [&](int t) {
+        const auto b = static_cast<std::size_t>(t);
+        const auto i0 = static_cast<std::size_t>(static_cast<long long>(n) * t / bands);
+        const auto i1 = static_cast<std::size_t>(static_cast<long long>(n) * (t + 1) / bands);
+        Cell lo = band_lo[b], hi = band_hi[b];  // (in registers: the bands' entries share a cache line)
+        for (std::size_t i = i0; i < i1; ++i) {
             for (const auto& p : tris[i].p) boxes[i].extend(p);
             boxes[i].min().array() -= widest;
             boxes[i].max().array() += widest;
+            lo = lo.min((boxes[i].min().array() / cell).floor().cast<long>());
+            hi = hi.max((boxes[i].max().array() / cell).floor().cast<long>());
         }
+        band_lo[b] = lo;
+        band_hi[b] = hi;
     });
+    Cell lo_cell = band_lo[0], hi_cell = band_hi[0];
+    for (int b = 1; b < bands; ++b) lo_cell = lo_cell.min(band_lo[b]), hi_cell = hi_cell.max(band_hi[b]);
+    // The cells numbered densely over that block where the count stays below 2^53 (a
+    // short key sorts in few passes); else 21 bits per axis (cells that share a key by a
+    // wrap of its bits only add partners whose boxes are then tested).
+    const Eigen::Array3d extent = (hi_cell - lo_cell).cast<double>() + 1.0;
+    const bool dense = n > 0 && extent.prod() < 0x1p53;
+    auto key = [&](const Cell& c) {
+        if (dense) {
+            const Cell d = c - lo_cell;
+            return (static_cast<std::uint64_t>(d.x()) * static_cast<std::uint64_t>(extent.y()) + static_cast<std::uint64_t>(d.y())) *
+                       static_cast<std::uint64_t>(extent.z()) +
+                   static_cast<std::uint64_t>(d.z());
+        }
+        return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
+               static_cast<std::uint64_t>(c.z() & 0x1fffff);
+    };
     // Each triangle's cells; the grid filled in triangle order.
     std::vector<std::vector<std::uint64_t>> listed(tris.size());
     parallel_chunks(mine, threads, [&](int k0, int k1) {

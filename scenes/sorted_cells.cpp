@@ -62,15 +62,29 @@ SortedCells::SortedCells(const std::vector<std::vector<std::uint64_t>>& listed, 
         key.swap(key_tmp);
         at.swap(at_tmp);
     }
+    // The runs: a listing starts one where its key differs from the one before. The
+    // starts counted per chunk on the threads, then numbered on them from the counts
+    // before each chunk (at is a permutation: the writes to run_of are disjoint).
+    auto starts = [&](std::size_t j) { return j == 0 || key[j] != key[j - 1]; };
+    std::vector<std::size_t> before(static_cast<std::size_t>(T) + 1, 0);
+    run_threads(T, [&](int t) {
+        std::size_t c = 0;
+        for (std::size_t j = chunk(t); j < chunk(t + 1); ++j) c += starts(j) ? 1 : 0;
+        before[static_cast<std::size_t>(t) + 1] = c;
+    });
+    for (int t = 0; t < T; ++t) before[static_cast<std::size_t>(t) + 1] += before[static_cast<std::size_t>(t)];
     run_of.resize(E);
     members.resize(E);
-    run_start.clear();
-    for (std::size_t j = 0; j < E; ++j) {
-        if (j == 0 || key[j] != key[j - 1]) run_start.push_back(j);
-        run_of[at[j]] = static_cast<std::uint32_t>(run_start.size() - 1);
-        members[j] = owner[at[j]];
-    }
-    run_start.push_back(E);
+    run_start.resize(before.back() + 1);
+    run_threads(T, [&](int t) {
+        std::size_t r = before[static_cast<std::size_t>(t)];
+        for (std::size_t j = chunk(t); j < chunk(t + 1); ++j) {
+            if (starts(j)) run_start[r++] = j;
+            run_of[at[j]] = static_cast<std::uint32_t>(r - 1);
+            members[j] = owner[at[j]];
+        }
+    });
+    run_start.back() = E;
 }
 
 }  // namespace raybundle::scenes
