@@ -26,14 +26,23 @@ namespace {
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // dst += w src (dst empty: w src).
-void add_scaled(Image& dst, const Image& src, double w) {
+// Each value on its own: bands of rows on the threads, the same for any count.
+void add_scaled(Image& dst, const Image& src, double w, int threads) {
     if (dst.rgb.empty()) dst = Image(src.width, src.height);
-    for (std::size_t k = 0; k < src.rgb.size(); ++k) dst.rgb[k] += static_cast<float>(w * src.rgb[k]);
+    const std::size_t row = 3 * static_cast<std::size_t>(src.width);
+    parallel_bands(src.height, threads, [&](int y0, int y1) {
+        for (std::size_t k = row * static_cast<std::size_t>(y0); k < row * static_cast<std::size_t>(y1); ++k)
+            dst.rgb[k] += static_cast<float>(w * src.rgb[k]);
+    });
 }
 
-Image scaled(const Image& a, double s) {
+Image scaled(const Image& a, double s, int threads) {
     Image out(a.width, a.height);
-    for (std::size_t k = 0; k < a.rgb.size(); ++k) out.rgb[k] = static_cast<float>(s * a.rgb[k]);
+    const std::size_t row = 3 * static_cast<std::size_t>(a.width);
+    parallel_bands(a.height, threads, [&](int y0, int y1) {
+        for (std::size_t k = row * static_cast<std::size_t>(y0); k < row * static_cast<std::size_t>(y1); ++k)
+            out.rgb[k] = static_cast<float>(s * a.rgb[k]);
+    });
     return out;
 }
 
@@ -183,14 +192,14 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
             Pass made = render(h, scale, pass, q, half_run(inner, h));
             if (automatic.on) {
                 const bool probed_pass = !made.corrected.rgb.empty();
-                add_scaled(csum[h], probed_pass ? made.corrected : made.image, scale);
+                add_scaled(csum[h], probed_pass ? made.corrected : made.image, scale, inner.threads);
                 if (!made.bias.rgb.empty())
-                    add_scaled(cbias_sum[h], probed_pass ? made.corrected_bias : made.bias, scale);
+                    add_scaled(cbias_sum[h], probed_pass ? made.corrected_bias : made.bias, scale, inner.threads);
                 if (probed_pass) probe_share = made.probe_share;
             }
             pass_image[h] = std::move(made.image);
-            add_scaled(sum[h], pass_image[h], scale);
-            if (!made.bias.rgb.empty()) add_scaled(bias_sum[h], made.bias, scale);
+            add_scaled(sum[h], pass_image[h], scale, inner.threads);
+            if (!made.bias.rgb.empty()) add_scaled(bias_sum[h], made.bias, scale, inner.threads);
         }
         bool probed = false;
         const auto t2 = Clock::now();
@@ -219,12 +228,12 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
         field_sum += scale * scale / steps;
         // Both halves' means so far, and their estimate.
         auto estimated = [&](const Image (&s)[2], const Image (&bs)[2]) {
-            std::pair<Image, Image> halves{scaled(s[0], 1.0 / out.scale), scaled(s[1], 1.0 / out.scale)};
+            std::pair<Image, Image> halves{scaled(s[0], 1.0 / out.scale, inner.threads), scaled(s[1], 1.0 / out.scale, inner.threads)};
             const ErrorEstimate e =
                 bs[0].rgb.empty() || bs[1].rgb.empty()
                     ? estimate_error(halves.first, halves.second, Image(), Image())
-                    : estimate_error(halves.first, halves.second, scaled(bs[0], 1.0 / out.scale),
-                                     scaled(bs[1], 1.0 / out.scale));
+                    : estimate_error(halves.first, halves.second, scaled(bs[0], 1.0 / out.scale, inner.threads),
+                                     scaled(bs[1], 1.0 / out.scale, inner.threads));
             return std::pair{std::move(halves), e};
         };
         auto [halves, parts] = estimated(sum, bias_sum);
@@ -434,16 +443,16 @@ std::pair<solver::RadianceField, double> combine(const scenes::Scene& scene, con
 
 // Adds one pass's gather result, weight w, into the run's (the AOV means over both
 // halves are taken at the end).
-void add_gather(GatherResult& sum, const GatherResult& pass, double w) {
+void add_gather(GatherResult& sum, const GatherResult& pass, double w, int threads) {
     if (sum.normal.rgb.empty()) {
         sum.normal = pass.normal;
         sum.depth = pass.depth;
         sum.position = pass.position;
     }
-    add_scaled(sum.direct, pass.direct, w);
-    add_scaled(sum.indirect, pass.indirect, w);
-    add_scaled(sum.indirect_filtered, pass.indirect_filtered, w);
-    add_scaled(sum.bias, pass.bias, w);
+    add_scaled(sum.direct, pass.direct, w, threads);
+    add_scaled(sum.indirect, pass.indirect, w, threads);
+    add_scaled(sum.indirect_filtered, pass.indirect_filtered, w, threads);
+    add_scaled(sum.bias, pass.bias, w, threads);
     sum.filter_radius = pass.filter_radius;
     sum.direct_at_hits = pass.direct_at_hits;
     sum.camera_rays += pass.camera_rays;
@@ -731,7 +740,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         const GatherOptions g = pass_options(scale, pass, q);
         correction = g.correction;
         GatherResult result = final_gather(scene, caster, segment[h], camera, g, r);
-        add_gather(gathered, result, scale);
+        add_gather(gathered, result, scale, r.threads);
         // Without the probe the bias image lacks the field's error: the halves' rule alone.
         Pass made{std::move(result.image), result.bias_probed ? std::move(result.bias) : Image()};
         if (automatic.on && !result.corrected.rgb.empty()) {
@@ -770,10 +779,10 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         // Both halves of every pass were added with their round's scale.
         const double w = 1.0 / (2.0 * out.rounds.scale);
         gathered.image = out.image;
-        gathered.direct = scaled(gathered.direct, w);
-        gathered.indirect = scaled(gathered.indirect, w);
-        gathered.indirect_filtered = scaled(gathered.indirect_filtered, w);
-        gathered.bias = scaled(gathered.bias, w);
+        gathered.direct = scaled(gathered.direct, w, run.threads);
+        gathered.indirect = scaled(gathered.indirect, w, run.threads);
+        gathered.indirect_filtered = scaled(gathered.indirect_filtered, w, run.threads);
+        gathered.bias = scaled(gathered.bias, w, run.threads);
         out.gather = std::move(gathered);
     }
     return out;
