@@ -24,6 +24,12 @@ double cross(const P2& a, const P2& b) { return a.x() * b.y() - a.y() * b.x(); }
 // The area of the intersection of two triangles (Sutherland-Hodgman: clip one by the
 // other's three edges, counter-clockwise).
 double overlap_area(std::array<P2, 3> a, std::array<P2, 3> b) {
+    // Relative to a's first corner: far from the plane's origin the corners' large
+    // coordinates would cancel in the cross products (a square 1e-3 wide at 1e9 lost
+    // all of its area to rounding).
+    const P2 o = a[0];
+    for (auto* t : {&a, &b})
+        for (P2& c : *t) c -= o;
     auto ccw = [](std::array<P2, 3>& t) {
         if (cross(t[1] - t[0], t[2] - t[0]) < 0) std::swap(t[1], t[2]);
     };

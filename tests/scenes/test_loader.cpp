@@ -325,3 +325,29 @@ TEST_CASE("coplanar overlaps: slivers across a disc are none, the same mesh twic
         CHECK(three.second == one.second);
     }
 }
+
+TEST_CASE("coplanar overlaps: a plane too wide for numbered cells (hashed keys) finds the same pairs", "[scenes]") {
+    // Squares 1e-3 wide at the origin and at (1e9, 1e9) in one plane: about 1e24 cells of
+    // the plane's grid, past what its cells can be numbered by (2^53), so the cells are
+    // keyed by hashed coordinates. Each square twice: its 2 triangles overlap their
+    // twins (the diagonals only touch), 4 pairs in all.
+    Scene s;
+    Material m;
+    m.albedo = Rgb(0.5, 0.5, 0.5);
+    const int w = s.add_material(m);
+    const double a = 1e-3;
+    for (const double at : {0.0, 1e9})
+        for (int twice = 0; twice < 2; ++twice)
+            s.add_object({Vec3(at, at, 0), Vec3(at + a, at, 0), Vec3(at + a, at + a, 0), Vec3(at, at + a, 0)},
+                         {{0, 1, 2}, {0, 2, 3}}, w);
+    s.finalize();
+    REQUIRE(s.patch_count() == 8);
+    const auto one = coplanar_overlaps(s);
+    CHECK(one.pairs == 4);
+    CHECK(one.first == 0);
+    CHECK(one.second == 2);
+    const auto three = coplanar_overlaps(s, 3);
+    CHECK(three.pairs == one.pairs);
+    CHECK(three.first == one.first);
+    CHECK(three.second == one.second);
+}
