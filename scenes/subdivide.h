@@ -13,11 +13,13 @@ namespace raybundle::scenes {
 // class. Materials are copied to the new faces; the corner normals are carried (the
 // new vertex of a split edge gets, in each face, the normalised mean of that face's
 // normals at the edge's ends), so call scene.finalize() first, which computes the
-// missing ones on the coarse patches. Calls scene.finalize(threads) at the end (the
-// splits themselves are serial), or with Finish::leave_mesh leaves that to the caller
-// (cut_at_contacts() does it): the mesh is refined, the flat arrays (patch_list() and
-// the rest) still the coarse scene's, its bounds unchanged by midpoints. Returns the
-// number of splits.
+// missing ones on the coarse patches. Each pass splits every edge longer than max_edge,
+// longest first; the mesh is exactly what split_edge() on each in that order makes (the
+// same handles), the splits of a pass that touch no common face running on the threads
+// (the same mesh for any count). Calls scene.finalize(threads) at the end, or with
+// Finish::leave_mesh leaves that to the caller (cut_at_contacts() does it): the mesh is
+// refined, the flat arrays (patch_list() and the rest) still the coarse scene's, its
+// bounds unchanged by midpoints. Returns the number of splits.
 enum class Finish { finalize, leave_mesh };
 std::size_t subdivide(Scene& scene, double max_edge, int threads = 1, Finish finish = Finish::finalize);
 
