@@ -86,7 +86,7 @@ private:
 
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
-    const std::vector<scenes::Patch>& patches_;
+    const Buffer<scenes::Patch>& patches_;
     AreaLights lights_;
     double offset_;
 };

@@ -61,7 +61,7 @@ namespace {
 // every value is finite. Blocks of lcm(N, 4) floats go through four-lane vectors, so
 // that every lane always sees the same channel.
 template <int N>
-void scan_range(const std::vector<float>& data, float* lo, float* hi, bool& finite) {
+void scan_range(const Buffer<float>& data, float* lo, float* hi, bool& finite) {
     using F4 = float __attribute__((vector_size(16)));
     using U4 = std::uint32_t __attribute__((vector_size(16)));
     constexpr int kBlock = N % 4 == 0 ? N : N % 2 == 0 ? 2 * N : 4 * N, kVecs = kBlock / 4;
@@ -99,7 +99,7 @@ void scan_range(const std::vector<float>& data, float* lo, float* hi, bool& fini
 
 }  // namespace
 
-Range channel_range(const char* fn, const char* what, const std::vector<float>& data, int channels, int width) {
+Range channel_range(const char* fn, const char* what, const Buffer<float>& data, int channels, int width) {
     Range r{std::vector<double>(channels, 0.0), std::vector<double>(channels, 0.0)};
     if (data.empty()) return r;
     float lo[6], hi[6];

@@ -31,6 +31,6 @@ struct Range {
     double abs_max(int c) const { return std::max(-lo[c], hi[c]); }
 };
 // Throws on the first non-finite value; `what` names the image in the message.
-Range channel_range(const char* fn, const char* what, const std::vector<float>& data, int channels, int width);
+Range channel_range(const char* fn, const char* what, const Buffer<float>& data, int channels, int width);
 
 }  // namespace raybundle::render::detail

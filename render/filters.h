@@ -59,7 +59,7 @@ namespace raybundle::render {
 // 6 = normal + position (À-Trous only).
 struct Guide {
     int width = 0, height = 0, channels = 0;
-    std::vector<float> data;
+    Buffer<float> data;
 
     Guide() = default;
     Guide(int w, int h, int c) : width(w), height(h), channels(c), data(static_cast<std::size_t>(w) * h * c, 0.0f) {}

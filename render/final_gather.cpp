@@ -82,8 +82,8 @@ public:
     int count() const { return count_; }
     // The i-th of this process's rows.
     int row(int i) const { return first_ + i * stride_; }
-    template <class T>
-    void share(std::vector<T>& rows) const {
+    template <class T, class Allocator>
+    void share(std::vector<T, Allocator>& rows) const {
         if (team_) team_->share_rows(rows.data(), sizeof(T) * (rows.size() / static_cast<std::size_t>(rows_)), rows_);
     }
     void share(Image& image) const { share(image.rgb); }

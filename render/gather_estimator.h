@@ -111,14 +111,14 @@ private:
 
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
-    const std::vector<scenes::Patch>& patches_;
+    const Buffer<scenes::Patch>& patches_;
     DirectLighting lighting_;
     bool analytic_;
     bool near_hits_;
     double correction_;
     // Per patch, the field's corner values, less the direct light on the patches marked
     // in direct_at_ (1: E0 less the blocked part, 2: the seen part).
-    std::vector<std::array<scenes::Rgb, 3>> corners_;
+    Buffer<std::array<scenes::Rgb, 3>> corners_;
     std::vector<char> direct_at_;
     long direct_at_count_ = -1;
 };

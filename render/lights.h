@@ -73,7 +73,7 @@ private:
         double area = 0.0;
     };
     const scenes::Scene& scene_;
-    const std::vector<scenes::Patch>& patches_;
+    const Buffer<scenes::Patch>& patches_;
     std::vector<std::uint32_t> emitters_;
     std::vector<double> cdf_;
     std::vector<double> power_;

@@ -81,7 +81,7 @@ public:
 private:
     const scenes::Scene& scene_;
     const scenes::RayCaster& caster_;
-    const std::vector<scenes::Patch>& patches_;
+    const Buffer<scenes::Patch>& patches_;
     DirectLighting lighting_;
 };
 

@@ -28,16 +28,17 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 // dst += w src (dst empty: w src).
 // Each value on its own: bands of rows on the threads, the same for any count.
 void add_scaled(Image& dst, const Image& src, double w, int threads) {
-    if (dst.rgb.empty()) dst = Image(src.width, src.height);
+    const bool first = dst.rgb.empty();  // then the threads write it first (0 + x is x)
+    if (first) dst = Image(src.width, src.height, Image::Unfilled{});
     const std::size_t row = 3 * static_cast<std::size_t>(src.width);
     parallel_bands(src.height, threads, [&](int y0, int y1) {
         for (std::size_t k = row * static_cast<std::size_t>(y0); k < row * static_cast<std::size_t>(y1); ++k)
-            dst.rgb[k] += static_cast<float>(w * src.rgb[k]);
+            dst.rgb[k] = (first ? 0.0f : dst.rgb[k]) + static_cast<float>(w * src.rgb[k]);
     });
 }
 
 Image scaled(const Image& a, double s, int threads) {
-    Image out(a.width, a.height);
+    Image out(a.width, a.height, Image::Unfilled{});
     const std::size_t row = 3 * static_cast<std::size_t>(a.width);
     parallel_bands(a.height, threads, [&](int y0, int y1) {
         for (std::size_t k = row * static_cast<std::size_t>(y0); k < row * static_cast<std::size_t>(y1); ++k)
@@ -408,35 +409,60 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
     return out;
 }
 
+// A field of f's sizes whose entries fill(i) writes on the threads, patch by patch (the
+// direct part copied from f): the threads touch the new memory first (an Rgb's
+// constructor writes nothing; see scenes/buffer.h), not one thread copying it all.
+template <class Fill>
+solver::RadianceField filled(const solver::RadianceField& f, int threads, const Fill& fill) {
+    solver::RadianceField out;
+    out.radiance.resize(f.radiance.size());
+    out.direct.resize(f.direct.size());
+    out.corners.resize(f.corners.size());
+    parallel_chunks(static_cast<int>(f.radiance.size()), threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            fill(out, i);
+            if (!out.direct.empty()) out.direct[i] = f.direct[i];
+        }
+    });
+    return out;
+}
+
 // The field of a chain's steps between two moments: (n2 f2 - n1 f1) / (n2 - n1).
-solver::RadianceField between(const solver::RadianceField& f1, long n1, const solver::RadianceField& f2, long n2) {
-    if (n1 <= 0 || n2 <= n1) return f2;
+solver::RadianceField between(const solver::RadianceField& f1, long n1, const solver::RadianceField& f2, long n2,
+                              int threads) {
+    if (n1 <= 0 || n2 <= n1)
+        return filled(f2, threads, [&](solver::RadianceField& f, std::size_t i) {
+            f.radiance[i] = f2.radiance[i];
+            if (!f.corners.empty()) f.corners[i] = f2.corners[i];
+        });
     const double w2 = static_cast<double>(n2) / (n2 - n1), w1 = static_cast<double>(n1) / (n2 - n1);
-    solver::RadianceField f = f2;
-    for (std::size_t i = 0; i < f.radiance.size(); ++i) f.radiance[i] = w2 * f2.radiance[i] - w1 * f1.radiance[i];
-    for (std::size_t i = 0; i < f.corners.size(); ++i)
-        for (int k = 0; k < 3; ++k) f.corners[i][k] = w2 * f2.corners[i][k] - w1 * f1.corners[i][k];
-    return f;
+    return filled(f2, threads, [&](solver::RadianceField& f, std::size_t i) {
+        f.radiance[i] = w2 * f2.radiance[i] - w1 * f1.radiance[i];
+        if (!f.corners.empty())
+            for (int k = 0; k < 3; ++k) f.corners[i][k] = w2 * f2.corners[i][k] - w1 * f1.corners[i][k];
+    });
 }
 
 // The mean of both chains' fields, weighted by their step counts, and its estimated
 // relative L1 error over patches (area-weighted): sqrt(na nb) / (na + nb) sum |fa - fb|
 // / sum |mean|, which for na = nb is the halves' rule of the header.
 std::pair<solver::RadianceField, double> combine(const scenes::Scene& scene, const solver::RadianceField& fa, long na,
-                                                 const solver::RadianceField& fb, long nb) {
-    solver::RadianceField f = fa;
+                                                 const solver::RadianceField& fb, long nb, int threads) {
     const double n = static_cast<double>(na + nb);
-    if (n <= 0.0) return {f, -1.0};
+    if (n <= 0.0) return {fa, -1.0};
     const double wa = na / n, wb = nb / n;
+    solver::RadianceField f = filled(fa, threads, [&](solver::RadianceField& out, std::size_t i) {
+        out.radiance[i] = wa * fa.radiance[i] + wb * fb.radiance[i];
+        if (!out.corners.empty())
+            for (int k = 0; k < 3; ++k) out.corners[i][k] = wa * fa.corners[i][k] + wb * fb.corners[i][k];
+    });
+    // The sums in patch order, on one thread (the same bits for any count).
     const auto& patches = scene.patch_list();
     double diff = 0.0, total = 0.0;
     for (std::size_t i = 0; i < f.radiance.size(); ++i) {
-        f.radiance[i] = wa * fa.radiance[i] + wb * fb.radiance[i];
         diff += patches[i].area * (fa.radiance[i] - fb.radiance[i]).abs().sum();
         total += patches[i].area * f.radiance[i].abs().sum();
     }
-    for (std::size_t i = 0; i < f.corners.size(); ++i)
-        for (int k = 0; k < 3; ++k) f.corners[i][k] = wa * fa.corners[i][k] + wb * fb.corners[i][k];
     const double estimate = total > 0.0 ? std::sqrt(wa * wb) * diff / total : 0.0;
     return {f, estimate};
 }
@@ -693,7 +719,8 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
             if (done == next_record) {
                 next_record = std::min(per_chain, next_record + chunk);
                 if (observe && o.record_every > 0 && a.averaged() > 0 && b.averaged() > 0) {
-                    const auto [field, estimate] = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
+                    const auto [field, estimate] =
+                        combine(scene, a.field(r.threads), a.averaged(), b.field(r.threads), b.averaged(), r.threads);
                     Snapshot s;
                     s.steps = out.steps;
                     s.seconds = since(start);
@@ -729,12 +756,12 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     double correction = o.gather_options.correction;  // of the latest pass, for the field's probe
     auto render = [&](int h, double scale, std::uint64_t pass, double q, const sampling::RunOptions& r) {
         FieldChain& chain = *chains[h];
-        solver::RadianceField now = chain.field();
+        solver::RadianceField now = chain.field(r.threads);
         const long n = chain.averaged();
         if (n <= seen[h].n)
             throw std::logic_error("field_image: chain " + std::to_string(h) + " averaged no new steps (" +
                                    std::to_string(n) + "): give it SolverOptions::steps = chain_steps()");
-        segment[h] = between(seen[h].field, seen[h].n, now, n);
+        segment[h] = between(seen[h].field, seen[h].n, now, n, r.threads);
         seen[h] = {std::move(now), n};
         if (!o.gather) return Pass{shade(scene, segment[h], *gbuffer, o.shading, r.threads)};
         const GatherOptions g = pass_options(scale, pass, q);
@@ -761,7 +788,8 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.image = image;
-        std::tie(out.field, out.field_estimate) = combine(scene, a.field(), a.averaged(), b.field(), b.averaged());
+        std::tie(out.field, out.field_estimate) =
+            combine(scene, a.field(run.threads), a.averaged(), b.field(run.threads), b.averaged(), run.threads);
         if (!observe) return;
         Snapshot s;
         s.steps = out.steps;

@@ -130,8 +130,9 @@ public:
         (void)steps, (void)progress;
         return std::nullopt;
     }
-    // The mean over the steps so far, and how many steps it averages.
-    virtual solver::RadianceField field() const = 0;
+    // The mean over the steps so far (made on `threads` threads, 0: the chain's own),
+    // and how many steps it averages.
+    virtual solver::RadianceField field(int threads = 0) const = 0;
     virtual long averaged() const = 0;
 };
 

@@ -140,7 +140,7 @@ public:
             };
         return made;
     }
-    solver::RadianceField field() const override { return solver_->field(); }
+    solver::RadianceField field(int threads = 0) const override { return solver_->field(threads); }
     long averaged() const override { return solver_->averaged(); }
     const solver::Solver& solver() const { return *solver_; }
     solver::Solver& solver() { return *solver_; }
@@ -167,8 +167,8 @@ public:
         mine_.advance(steps_of(total_, team_.rank(), team_.size()) - before, progress);
         averaged_ = team_.sum(mine_.averaged());
     }
-    solver::RadianceField field() const override {
-        solver::RadianceField f = mine_.field();
+    solver::RadianceField field(int threads = 0) const override {
+        solver::RadianceField f = mine_.field(threads);
         std::vector<double> values;
         values.reserve(3 * f.radiance.size() + 9 * f.corners.size());
         for (const auto& rgb : f.radiance) values.insert(values.end(), rgb.data(), rgb.data() + 3);

@@ -17,15 +17,15 @@ Shading parse_shading(const std::string& name) {
 
 const char* shading_name(Shading s) { return kShadingNames[static_cast<std::size_t>(s)]; }
 
-std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field,
-                                                int threads) {
+Buffer<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field,
+                                           int threads) {
     const auto& patches = scene.patch_list();
     const std::size_t n = patches.size();
     const scenes::VertexCorners star = scenes::vertex_corners(scene);
 
     const auto& normals = scene.corner_normals();
     const double same = std::cos(1.0 * M_PI / 180.0);
-    std::vector<std::array<Rgb, 3>> corners(n);
+    Buffer<std::array<Rgb, 3>> corners(n);
     parallel_bands(static_cast<int>(n), threads, [&](int i0, int i1) {
         for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i)
             for (int k = 0; k < 3; ++k) {
@@ -48,19 +48,20 @@ std::vector<std::array<Rgb, 3>> corner_radiance(const scenes::Scene& scene, cons
 
 Image shade(const scenes::Scene& scene, const solver::RadianceField& field, const GBuffer& g, Shading mode,
             int threads) {
-    Image img(g.width, g.height);
+    Image img(g.width, g.height, Image::Unfilled{});  // every pixel written below
     // The linear basis has its own corner values; the constant basis averages patches
     // (read where they are, not copied).
-    std::vector<std::array<Rgb, 3>> averaged;
+    Buffer<std::array<Rgb, 3>> averaged;
     if (mode == Shading::Smooth && field.corners.empty()) averaged = corner_radiance(scene, field, threads);
     const auto& corners = field.corners.empty() ? averaged : field.corners;
     parallel_bands(g.height, threads, [&](int y0, int y1) {
         for (int y = y0; y < y1; ++y)
             for (int x = 0; x < g.width; ++x) {
                 const GSample& s = g.at(x, y);
-                if (!s.front && s.patch >= 0) continue;  // a patch seen from behind: black
                 Rgb L;
-                if (s.patch < 0) {
+                if (!s.front && s.patch >= 0) {
+                    L = Rgb::Zero();  // a patch seen from behind: black
+                } else if (s.patch < 0) {
                     L = background(scene, s.direction);
                 } else if (mode == Shading::Flat) {
                     L = field.radiance[s.patch];

@@ -24,8 +24,8 @@ const char* shading_name(Shading s);
 // normal there (within 1 degree: the same smooth surface, Scene::corner_normals), so
 // that walls meeting at a crease keep their own colours, and light does not bleed
 // across materials. Patches split over `threads` (the same result for any count).
-std::vector<std::array<scenes::Rgb, 3>> corner_radiance(const scenes::Scene& scene,
-                                                        const solver::RadianceField& field, int threads = 1);
+Buffer<std::array<scenes::Rgb, 3>> corner_radiance(const scenes::Scene& scene, const solver::RadianceField& field,
+                                                   int threads = 1);
 
 // The patch image: the field at each G-buffer sample (Flat: its patch's radiance;
 // Smooth: its corners' interpolated). Rows split over `threads`.

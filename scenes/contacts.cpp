@@ -191,7 +191,7 @@ struct ShareHeader {
 };
 constexpr std::uint64_t kNoSearch = ~std::uint64_t{0};
 
-std::uint64_t fingerprint(const std::vector<Tri>& tris) {
+std::uint64_t fingerprint(const Buffer<Tri>& tris) {
     std::uint64_t h = 0x9E3779B97F4A7C15ull;
     for (const Tri& t : tris)
         for (const Vec3& p : t.p)
@@ -257,7 +257,7 @@ void swap_shares(const PreparationTeam& team, const ShareHeader& header, std::ve
 // per triangle. A triangle's lines come from its partners in index order, whatever the
 // cells' size. Triangles on the threads; on a team, each member lists the cells of its
 // share of the triangles and finds their lines, and the shares are swapped.
-std::vector<std::vector<Line>> contact_lines(const std::vector<Tri>& tris, double widest, double radius, double tol,
+std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double widest, double radius, double tol,
                                              int threads, const PreparationTeam* team, const std::string& shown) {
     const int n = static_cast<int>(tris.size());
     const int members = team ? team->size() : 1, me = team ? team->rank() : 0;
@@ -386,7 +386,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
 
     // The triangles, and which of their edges end a planar region (faces on the threads;
     // finalize() leaves them 0 .. n_faces() - 1).
-    std::vector<Tri> tris(mesh.n_faces());
+    Buffer<Tri> tris(mesh.n_faces());  // each written by its thread (scenes/buffer.h)
     parallel_chunks(static_cast<int>(mesh.n_faces()), threads, [&](int f0, int f1) {
         for (int i = f0; i < f1; ++i) {
             Tri& t = tris[static_cast<std::size_t>(i)];

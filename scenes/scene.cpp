@@ -258,8 +258,8 @@ void Scene::finalize(int threads) {
     }
 
     // The patches on the threads, each from its own face; their area summed in order.
-    patches.assign(mesh.n_faces(), Patch{});
-    shading_normals.assign(mesh.n_faces(), {});
+    patches.resize(mesh.n_faces());  // every field of every patch written below
+    shading_normals.resize(mesh.n_faces());
     parallel_chunks(static_cast<int>(mesh.n_faces()), threads, [&](int f0, int f1) {
         for (int i = f0; i < f1; ++i) {
             const TriMesh::FaceHandle f(i);

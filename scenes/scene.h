@@ -1,6 +1,8 @@
 #pragma once
 // The scene model: one-sided triangular patches on an OpenMesh TriMesh, their
 // materials, the camera, and flat per-patch arrays derived once for the inner loops.
+#include "scenes/buffer.h"
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
@@ -163,7 +165,7 @@ public:
     void finalize(int threads = 1);
 
     std::size_t patch_count() const { return patches.size(); }
-    const std::vector<Patch>& patch_list() const { return patches; }
+    const Buffer<Patch>& patch_list() const { return patches; }
     // The patches' vertices: the mesh's, with one copy per side of a contact edge.
     const std::vector<Vec3>& vertex_positions() const { return positions; }
     // Per patch, the unit shading normals at its corners v[0], v[1], v[2]: the file's,
@@ -171,7 +173,7 @@ public:
     // vertex that lie within the object's crease angle of the patch's own. A corner
     // normal within 1.4e-6 rad of the patch normal is the patch normal, so flat
     // surfaces stay exactly flat.
-    const std::vector<std::array<Vec3, 3>>& corner_normals() const { return shading_normals; }
+    const Buffer<std::array<Vec3, 3>>& corner_normals() const { return shading_normals; }
     // The shading normal at the point (1 - b1 - b2) v[0] + b1 v[1] + b2 v[2] of a patch
     // (the barycentric weights of RayHit and GSample): the corner normals interpolated
     // and normalised, and turned over when that makes it face away from the patch
@@ -187,9 +189,9 @@ public:
     bool has_emission() const;
 
 private:
-    std::vector<Patch> patches;
+    Buffer<Patch> patches;  // filled on the threads (scenes/buffer.h)
     std::vector<Vec3> positions;
-    std::vector<std::array<Vec3, 3>> shading_normals;
+    Buffer<std::array<Vec3, 3>> shading_normals;
     Vec3 center = Vec3::Zero();
     double radius = 0.0;
     double area_sum = 0.0;

@@ -1,6 +1,8 @@
 #pragma once
 // A hashed grid as runs of a sorted array, for the searches that pair triangles near
 // one another (the contact search, the coplanar overlaps).
+#include "scenes/buffer.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -13,9 +15,10 @@ namespace raybundle::scenes {
 // cell's run. listed[i]: the cells item i meets, as 64-bit keys.
 struct SortedCells {
     std::vector<std::size_t> first;       // item i's listings: first[i] .. first[i + 1]
-    std::vector<std::uint32_t> run_of;    // per listing, its cell's run
-    std::vector<std::size_t> run_start;   // run r: members[run_start[r] .. run_start[r + 1]]
-    std::vector<std::uint32_t> members;   // the items of each cell, in index order
+    // (filled on the threads: see scenes/buffer.h)
+    Buffer<std::uint32_t> run_of;         // per listing, its cell's run
+    Buffer<std::size_t> run_start;        // run r: members[run_start[r] .. run_start[r + 1]]
+    Buffer<std::uint32_t> members;        // the items of each cell, in index order
 
     SortedCells(const std::vector<std::vector<std::uint64_t>>& listed, int threads);
 };

@@ -433,12 +433,13 @@ void GlobalWalks::restore(StateReader& in) {
     restore_counters(in, report_);
 }
 
-RadianceField GlobalWalks::field() const {
+RadianceField GlobalWalks::field(int threads) const {
     const WalkMean mean = source_->mean(sum_, walks_done_);
-    if (mean.scale == 1.0) return t_.field_from(mean.sum, mean.count, to_eye_);
+    if (threads <= 0) threads = run_.threads;
+    if (mean.scale == 1.0) return t_.field_from(mean.sum, mean.count, to_eye_, threads);
     std::vector<Rgb> scaled = mean.sum;
     for (Rgb& v : scaled) v *= mean.scale;
-    return t_.field_from(scaled, mean.count, to_eye_);
+    return t_.field_from(scaled, mean.count, to_eye_, threads);
 }
 
 }  // namespace raybundle::solver

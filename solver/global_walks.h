@@ -74,7 +74,7 @@ public:
 
     void advance(long walks) override;
     std::optional<StepStream> stream(long walks, bool shared) override;
-    RadianceField field() const override;
+    RadianceField field(int threads = 0) const override;
     long averaged() const override { return walks_done_; }
     SolverReport report() const override;
     void save(StateWriter& out) const override;

@@ -141,7 +141,7 @@ void LinearIteration::restore(StateReader& in) {
     restore_counters(in, report_);
 }
 
-RadianceField LinearIteration::field() const {
+RadianceField LinearIteration::field(int /*threads*/) const {
     RadianceField f;
     const std::size_t n = scene_.patch_count();
     f.radiance.resize(n);

@@ -35,7 +35,7 @@ public:
     LinearIteration(const Transport& transport, const SolverOptions& options, const sampling::RunOptions& run);
 
     void advance(long steps) override;
-    RadianceField field() const override;
+    RadianceField field(int threads = 0) const override;
     long averaged() const override { return steps_; }
     SolverReport report() const override { return report_; }
     void save(StateWriter& out) const override;

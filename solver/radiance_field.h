@@ -13,7 +13,7 @@ struct RadianceField {
     std::vector<scenes::Rgb> radiance;
     // With the linear basis: per patch, the radiance at its three corners (the
     // renderer interpolates them). Empty for the constant basis.
-    std::vector<std::array<scenes::Rgb, 3>> corners;
+    Buffer<std::array<scenes::Rgb, 3>> corners;  // (filled on the threads: scenes/buffer.h)
     // Per patch: the part of `radiance` that is the lights' direct light, reflected
     // (the first shot's and the diffuse shot's: computed once, the same in every
     // chain and round), so that a reader can put a point estimate of the direct light

@@ -121,8 +121,10 @@ public:
     }
     // SolverOptions::steps of them.
     void run() { advance(planned_); }
-    // The current estimate (the mean of the steps or walks so far).
-    virtual RadianceField field() const = 0;
+    // The current estimate (the mean of the steps or walks so far), made on `threads`
+    // threads (0: the solver's own; a chain that shares the threads with another is
+    // asked between steps for all of them).
+    virtual RadianceField field(int threads = 0) const = 0;
     // How many steps or walks field() averages (burn-in steps left out): the field of
     // the steps between two moments is (n2 field2 - n1 field1) / (n2 - n1).
     virtual long averaged() const = 0;

@@ -381,8 +381,8 @@ void StochasticIteration::restore(StateReader& in) {
     restore_counters(in, report_);
 }
 
-RadianceField StochasticIteration::field() const {
-    return transport_.field_from(sum_, averaged(), to_eye_);
+RadianceField StochasticIteration::field(int threads) const {
+    return transport_.field_from(sum_, averaged(), to_eye_, threads > 0 ? threads : run_.threads);
 }
 
 }  // namespace raybundle::solver

@@ -92,7 +92,7 @@ public:
 
     void advance(long steps) override;
     std::optional<StepStream> stream(long steps, bool shared) override;
-    RadianceField field() const override;
+    RadianceField field(int threads = 0) const override;
     long averaged() const override { return std::max(0L, steps_ - burn_in_); }
     SolverReport report() const override { return report_; }
     void save(StateWriter& out) const override;

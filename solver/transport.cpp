@@ -2,6 +2,7 @@
 
 #include "scenes/brdf.h"
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 #include <algorithm>
 #include <chrono>
@@ -127,21 +128,26 @@ std::vector<Vec3> Transport::directions_to_eye() const {
     return to_eye;
 }
 
-RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const {
+RadianceField Transport::field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye,
+                                    int threads) const {
     RadianceField f;
+    // Rgb's constructor writes nothing: the threads that fill the arrays touch them first.
     f.radiance.resize(n_);
+    f.direct.resize(direct_reflected_.size());
     const double inv = count > 0 ? 1.0 / static_cast<double>(count) : 0.0;
-    for (std::size_t i = 0; i < n_; ++i) {
-        if (glossy_) {
-            // Emission leaves the front side only; a diffuse patch's radiance (its first
-            // shot included) does not depend on the direction at all.
-            const bool shown = !patch_glossy_[i] || normal_[i].dot(to_eye[i]) > 0.0;
-            f.radiance[i] = (shown ? displayed(i, to_eye[i]) : Rgb::Zero()) + sum[i] * inv;
-        } else {
-            f.radiance[i] = displayed(i, Vec3::Zero()) + reflect_[i] * sum[i] * inv;
+    parallel_chunks(static_cast<int>(n_), threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            if (glossy_) {
+                // Emission leaves the front side only; a diffuse patch's radiance (its
+                // first shot included) does not depend on the direction at all.
+                const bool shown = !patch_glossy_[i] || normal_[i].dot(to_eye[i]) > 0.0;
+                f.radiance[i] = (shown ? displayed(i, to_eye[i]) : Rgb::Zero()) + sum[i] * inv;
+            } else {
+                f.radiance[i] = displayed(i, Vec3::Zero()) + reflect_[i] * sum[i] * inv;
+            }
+            if (!f.direct.empty()) f.direct[i] = direct_reflected_[i];
         }
-    }
-    f.direct = direct_reflected_;
+    });
     return f;
 }
 

@@ -103,7 +103,8 @@ public:
     // diffuse scene (L = shown + 4 albedo sum / count), of the radiance towards the
     // eye in a glossy one (L = shown towards the eye, front side only, + sum / count).
     // With a shot, the field's `direct` holds the shots' part of it.
-    RadianceField field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye) const;
+    RadianceField field_from(const std::vector<Rgb>& sum, long count, const std::vector<Vec3>& to_eye,
+                             int threads = 1) const;
 
     // Sets the two sky slots of an outgoing-radiance vector for direction w.
     void set_sky(const Vec3& w, std::vector<Rgb>& outgoing) const;

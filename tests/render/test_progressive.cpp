@@ -350,7 +350,7 @@ class FixedChain : public render::FieldChain {
 public:
     explicit FixedChain(solver::RadianceField field) : field_(std::move(field)) {}
     void advance(long steps, const sampling::ProgressCallback&) override { steps_ += steps; }
-    solver::RadianceField field() const override { return field_; }
+    solver::RadianceField field(int /*threads*/ = 0) const override { return field_; }
     long averaged() const override { return steps_; }
 
 private:
