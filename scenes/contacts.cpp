@@ -428,6 +428,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
     mesh.add_property(origin, "contact origin");
     for (auto f : mesh.faces()) mesh.property(origin, f) = f.idx();
     std::vector<TriMesh::FaceHandle> faces, work;
+    std::vector<std::uint64_t> seen;  // per face: the last visit that reached it
+    std::uint64_t visit = 0;
     auto faces_of = [&](std::size_t u, TriMesh::VertexHandle v) {  // the faces of origin u around v
         for (auto f : mesh.vf_range(v))
             if (mesh.property(origin, f) == static_cast<int>(u)) work.push_back(f);
@@ -470,14 +472,14 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
             if (cut) ++cuts.lines;
             // The faces of origin u now: the connected pieces of the original triangle.
             faces.clear();
+            ++visit;  // the faces marked with it are seen
+            seen.resize(mesh.n_faces(), 0);
             std::vector<TriMesh::FaceHandle> stack(1, TriMesh::FaceHandle(static_cast<int>(u)));
-            std::vector<char> seen;
             while (!stack.empty()) {
                 const auto f = stack.back();
                 stack.pop_back();
-                if (static_cast<std::size_t>(f.idx()) >= seen.size()) seen.resize(static_cast<std::size_t>(f.idx()) + 1, 0);
-                if (seen[f.idx()]) continue;
-                seen[f.idx()] = 1;
+                if (seen[static_cast<std::size_t>(f.idx())] == visit) continue;
+                seen[static_cast<std::size_t>(f.idx())] = visit;
                 faces.push_back(f);
                 for (auto g : mesh.ff_range(f))
                     if (mesh.property(origin, g) == static_cast<int>(u)) stack.push_back(g);
