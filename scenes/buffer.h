@@ -5,9 +5,12 @@
 // 1.5 us per 4 KiB on the machines measured: 0.4 ms per MB, ten times a memset of the
 // same memory). A std::vector<T>(n) takes all of its faults on the thread that zeroes it;
 // a Buffer<T>(n) filled by parallel_chunks() takes them on the threads that fill it.
-// Only for elements that are all written before they are read.
+// Only for elements that are all written before they are read: resize() leaves the new
+// ones unwritten, so a resize() followed by += on them is a bug (size with a value,
+// Buffer<T>(n, T{}), for sums).
 
 #include <memory>
+#include <type_traits>
 #include <new>
 #include <utility>
 #include <vector>

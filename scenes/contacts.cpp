@@ -428,8 +428,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
     mesh.add_property(origin, "contact origin");
     for (auto f : mesh.faces()) mesh.property(origin, f) = f.idx();
     std::vector<TriMesh::FaceHandle> faces, work;
-    std::vector<std::uint64_t> seen;  // per face: the last visit that reached it
-    std::uint64_t visit = 0;
+    std::vector<std::uint32_t> seen;  // per face: the last visit that reached it
+    std::uint32_t visit = 0;          // (one per line: far fewer than 2^32)
     auto faces_of = [&](std::size_t u, TriMesh::VertexHandle v) {  // the faces of origin u around v
         for (auto f : mesh.vf_range(v))
             if (mesh.property(origin, f) == static_cast<int>(u)) work.push_back(f);

@@ -127,7 +127,7 @@ private:
     };
     // Grown by each pass and written by its splits on the threads (which take the new
     // memory's page faults): reserved at once for the refined mesh, where possible.
-    Buffer<Half> he;                             // per halfedge: one record, one cache line for most reads
+    Buffer<Half> he;                             // per halfedge: one record (a split reads its fields together)
     Buffer<int> out;                             // per vertex: an outgoing halfedge
     Buffer<int> face_half;                       // per face: one of its halfedges
     Buffer<OpenMesh::Vec3d> point;               // per vertex
@@ -268,9 +268,8 @@ SplitMesh::Moved SplitMesh::split_midpoint(int e, Slots at) {
 // the end). So the splits fall into groups that share a face or a boundary link; a
 // group's splits run in the pass's order on one thread, and the groups side by side.
 // Every new element's index is fixed before (by the pass's order, as one split after
-// another numbers them), so the mesh is the same for any number of threads. In a
-// 100k-patch scene's last passes the groups are many: 20,480 single splits in the last,
-// 37 groups of at most 3,136 splits in the one before.
+// another numbers them), so the mesh is the same for any number of threads. A fine
+// refinement's last passes have many groups (docs/benchmarks.md counts them).
 void SplitMesh::split_all(const std::vector<int>& order, int threads) {
     const std::size_t k = order.size();
     const int old_edges = static_cast<int>(contact.size()), old_faces = static_cast<int>(face_half.size());
@@ -365,7 +364,8 @@ void SplitMesh::write_back(Scene& scene, int threads) const {
             mesh.set_halfedge_handle(TriMesh::FaceHandle(f), TriMesh::HalfedgeHandle(face_half[static_cast<std::size_t>(f)]));
     });
     // The new edges' and faces' other properties (status, materials, objects, any a
-    // loader added) copied from the elements they came from, one property per task.
+    // loader added) copied from the elements they came from, each property by one thread
+    // (the contact marks are bits: one writer).
     std::vector<OpenMesh::BaseProperty*> edge_props, face_props;
     for (auto it = mesh.eprops_begin(); it != mesh.eprops_end(); ++it)
         if (*it && *it != &mesh.property(scene.contact_edge_handle)) edge_props.push_back(*it);

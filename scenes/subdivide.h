@@ -15,8 +15,8 @@ namespace raybundle::scenes {
 // normals at the edge's ends), so call scene.finalize() first, which computes the
 // missing ones on the coarse patches. Each pass splits every edge longer than max_edge,
 // longest first; the mesh is exactly what split_edge() on each in that order makes (the
-// same handles), the splits of a pass that touch no common face running on the threads
-// (the same mesh for any count). Calls scene.finalize(threads) at the end, or with
+// same handles), the splits of a pass that share no face or boundary link running on the
+// threads (the same mesh for any count). Calls scene.finalize(threads) at the end, or with
 // Finish::leave_mesh leaves that to the caller (cut_at_contacts() does it): the mesh is
 // refined, the flat arrays (patch_list() and the rest) still the coarse scene's, its
 // bounds unchanged by midpoints. Returns the number of splits.

@@ -3,6 +3,7 @@
 #include "sampling/directions.h"
 #include "sampling/streams.h"
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 #include <chrono>
 #include <cmath>
@@ -141,22 +142,24 @@ void LinearIteration::restore(StateReader& in) {
     restore_counters(in, report_);
 }
 
-RadianceField LinearIteration::field(int /*threads*/) const {
+RadianceField LinearIteration::field(int threads) const {
     RadianceField f;
     const std::size_t n = scene_.patch_count();
-    f.radiance.resize(n);
+    f.radiance.resize(n);  // neither written here: by the threads below
     f.corners.resize(n);
     const double inv_m = steps_ > 0 ? 1.0 / static_cast<double>(steps_) : 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-        Rgb mean = Rgb::Zero();
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t node = node_of_corner_[3 * i + k];
-            f.corners[i][k] = display_[node] + reflect_[node] * sum_[node] * inv_m;
-            mean += f.corners[i][k] / 3.0;
+    parallel_chunks(static_cast<int>(n), threads > 0 ? threads : run_.threads, [&](int i0, int i1) {
+        for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+            Rgb mean = Rgb::Zero();
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t node = node_of_corner_[3 * i + k];
+                f.corners[i][k] = display_[node] + reflect_[node] * sum_[node] * inv_m;
+                mean += f.corners[i][k] / 3.0;
+            }
+            // The patch's mean radiance: the mean of a linear function over a triangle.
+            f.radiance[i] = mean;
         }
-        // The patch's mean radiance: the mean of a linear function over a triangle.
-        f.radiance[i] = mean;
-    }
+    });
     return f;
 }
 

@@ -166,6 +166,7 @@ TEST_CASE("subdivision's own split arrays give OpenMesh's splits element for ele
     // Cut at its contacts first: marked edges and their vertices, split again.
     cases.push_back({"Cornell box", make_builtin("cornell-box", 1e4), 20.0});  // passes of over 4,096 splits: on the threads
     cases.push_back({"open strip and box", strip_and_box(), 0.11});
+    cases.push_back({"open strip and box, finer: boundary links on the threads", strip_and_box(), 0.03});
     for (const Case& c : cases) {
         INFO(c.name);
         Scene reference = c.coarse;
