@@ -352,29 +352,31 @@ std::vector<BuiltinInfo> builtin_scenes() {
 
 Scene make_builtin(const std::string& name, std::optional<double> patch_size, int threads,
                    const PreparationTeam* team) {
-    Scene s;
     double default_size = 0.0;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
     const double size = patch_size.value_or(default_size);
     std::ostringstream line;
     line << "patch size " << size << (size == default_size ? " (the built-in scene's default)" : " (given)");
-    if (name == "fractal-terrain") {
-        if (!(size > 0.0) || !std::isfinite(size) || 2.0 * std::pow(16000.0 * std::sqrt(2.0) / size, 2) > 2e7)
-            throw SceneError(name, "patch_size", "must be a positive number giving at most 20 million patches, got " +
-                                                     std::to_string(size));
-        s = fractal_terrain(size);
-        s.refinement = line.str();
-        return s;
-    }
-    if (name == "homogeneous-box") {
-        s = homogeneous_box();
-    } else if (name == "cornell-box" || name == "cornell-box-cut") {
-        s = cornell_box(name == "cornell-box-cut");
-    } else {
+    // The scene made in place (a Scene assigned is its mesh copied: OpenMesh's kernel
+    // has no move).
+    auto made = [&]() -> Scene {
+        if (name == "fractal-terrain") {
+            if (!(size > 0.0) || !std::isfinite(size) || 2.0 * std::pow(16000.0 * std::sqrt(2.0) / size, 2) > 2e7)
+                throw SceneError(name, "patch_size", "must be a positive number giving at most 20 million patches, got " +
+                                                         std::to_string(size));
+            return fractal_terrain(size);  // made at its patch size
+        }
+        if (name == "homogeneous-box") return homogeneous_box();
+        if (name == "cornell-box" || name == "cornell-box-cut") return cornell_box(name == "cornell-box-cut");
         std::string known;
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
         throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
+    };
+    Scene s = made();
+    if (name == "fractal-terrain") {
+        s.refinement = line.str();
+        return s;
     }
     s.finalize(threads);
     check_refinement(s, size, name);
