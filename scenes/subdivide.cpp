@@ -342,6 +342,35 @@ void SplitMesh::split_all(const std::vector<int>& order, int threads) {
 void SplitMesh::write_back(Scene& scene, int threads) const {
     TriMesh& mesh = scene.mesh;
     const std::size_t nv = point.size(), ne = contact.size(), nf = face_half.size(), old_v = mesh.n_vertices();
+    // OpenMesh writes every element it adds, array by array: the property arrays grown
+    // on the threads (largest first, one thread each), then the kernel's own. With room
+    // to spare for the contact cuts that follow: a split past the capacity would copy
+    // every array of the mesh, on one thread (4 ms at 121k patches).
+    auto room = [](std::size_t n) { return n + n / 8 + 1024; };
+    struct Grown {
+        OpenMesh::BaseProperty* property;
+        std::size_t size, capacity;  // as the kernel's reserve() and resize() below
+    };
+    std::vector<Grown> grow;
+    for (auto it = mesh.vprops_begin(); it != mesh.vprops_end(); ++it)
+        if (*it) grow.push_back({*it, nv, room(nv)});
+    for (auto it = mesh.hprops_begin(); it != mesh.hprops_end(); ++it)
+        if (*it) grow.push_back({*it, 2 * ne, 2 * room(ne)});
+    for (auto it = mesh.eprops_begin(); it != mesh.eprops_end(); ++it)
+        if (*it) grow.push_back({*it, ne, room(ne)});
+    for (auto it = mesh.fprops_begin(); it != mesh.fprops_end(); ++it)
+        if (*it) grow.push_back({*it, nf, room(nf)});
+    std::stable_sort(grow.begin(), grow.end(), [](const Grown& a, const Grown& b) {
+        return a.property->size_of(a.size) > b.property->size_of(b.size);
+    });
+    parallel_chunks(static_cast<int>(grow.size()), threads, [&](int k0, int k1) {
+        for (int k = k0; k < k1; ++k) {
+            const Grown& g = grow[static_cast<std::size_t>(k)];
+            g.property->reserve(g.capacity);
+            g.property->resize(g.size);
+        }
+    }, std::max<int>(1, static_cast<int>(grow.size())));  // one property a chunk
+    mesh.reserve(room(nv), room(ne), room(nf));
     mesh.resize(nv, ne, nf);
     parallel_chunks(static_cast<int>(he.size()), threads, [&](int h0, int h1) {
         for (int i = h0; i < h1; ++i) {
