@@ -21,6 +21,13 @@ namespace raybundle::scenes {
 
 namespace {
 
+// An axis-aligned box (Eigen's AlignedBox writes itself empty when made: this one is
+// left unwritten until filled, see scenes/buffer.h).
+struct Box {
+    Vec3 lo, hi;
+    bool meets(const Box& b) const { return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all(); }
+};
+
 struct Tri {
     std::array<Vec3, 3> p;
     Vec3 n;          // unit
@@ -264,19 +271,25 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
     const int mine = (n - me + members - 1) / members;  // my triangles: me + k members
     auto triangle = [&](int k) { return static_cast<std::size_t>(me) + static_cast<std::size_t>(k) * members; };
 
-    std::vector<double> sizes;
-    sizes.reserve(tris.size());
-    for (const auto& t : tris) sizes.push_back(t.size);
+    // The triangles' sizes and areas on the threads; the areas summed in order.
+    Buffer<double> sizes(tris.size()), areas(tris.size());
+    parallel_chunks(n, threads, [&](int i0, int i1) {
+        for (int i = i0; i < i1; ++i) {
+            const Tri& t = tris[static_cast<std::size_t>(i)];
+            sizes[static_cast<std::size_t>(i)] = t.size;
+            areas[static_cast<std::size_t>(i)] = 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
+        }
+    });
     std::nth_element(sizes.begin(), sizes.begin() + static_cast<long>(sizes.size() / 2), sizes.end());
     // At least so large that the surface covers about 4 cells per triangle: in cells of
     // 1/128 of the scene, each wall of a coarse room of a few dozen triangles was
     // listed in some 16k cells (0.6 s of the Cornell box's preparation).
     double area = 0.0;
-    for (const auto& t : tris) area += 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm();
+    for (const double a : areas) area += a;
     const double by_area = std::sqrt(area / (4.0 * static_cast<double>(std::max<std::size_t>(1, tris.size()))));
     const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(widest, 1e-12 * radius), radius / 32.0),
                                  std::min(by_area, radius));
-    std::vector<Eigen::AlignedBox3d> boxes(tris.size());
+    Buffer<Box> boxes(tris.size());  // each written by its band
     // The cells the grown boxes span, per band of triangles on the threads.
     const int bands = std::max(1, std::min(threads, n));
     std::vector<Cell> band_lo(static_cast<std::size_t>(bands), Cell::Constant(std::numeric_limits<long>::max()));
@@ -287,11 +300,12 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
         const auto i1 = static_cast<std::size_t>(static_cast<long long>(n) * (t + 1) / bands);
         Cell lo = band_lo[b], hi = band_hi[b];  // (in registers: the bands' entries share a cache line)
         for (std::size_t i = i0; i < i1; ++i) {
-            for (const auto& p : tris[i].p) boxes[i].extend(p);
-            boxes[i].min().array() -= widest;
-            boxes[i].max().array() += widest;
-            lo = lo.min((boxes[i].min().array() / cell).floor().cast<long>());
-            hi = hi.max((boxes[i].max().array() / cell).floor().cast<long>());
+            const auto& p = tris[i].p;
+            Box& box = boxes[i];
+            box.lo = (p[0].cwiseMin(p[1]).cwiseMin(p[2]).array() - widest).matrix();
+            box.hi = (p[0].cwiseMax(p[1]).cwiseMax(p[2]).array() + widest).matrix();
+            lo = lo.min((box.lo.array() / cell).floor().cast<long>());
+            hi = hi.max((box.hi.array() / cell).floor().cast<long>());
         }
         band_lo[b] = lo;
         band_hi[b] = hi;
@@ -319,8 +333,8 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
         std::vector<Cell> met;
         for (int k = k0; k < k1; ++k) {
             const std::size_t i = triangle(k);
-            const Cell lo = (boxes[i].min().array() / cell).floor().cast<long>();
-            const Cell hi = (boxes[i].max().array() / cell).floor().cast<long>();
+            const Cell lo = (boxes[i].lo.array() / cell).floor().cast<long>();
+            const Cell hi = (boxes[i].hi.array() / cell).floor().cast<long>();
             met.clear();
             list_cells(tris[i].p, lo, hi, cell, widest, met);
             for (const auto& c : met) listed[i].push_back(key(c));
@@ -345,7 +359,7 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
                 for (std::size_t j = cells.run_start[r]; j < cells.run_start[r + 1]; ++j)
                     if (const std::uint32_t v = cells.members[j]; v != u && stamp[v] != u) {
                         stamp[v] = u;
-                        if (boxes[u].intersects(boxes[v])) partners.push_back(v);
+                        if (boxes[u].meets(boxes[v])) partners.push_back(v);
                     }
             }
             std::sort(partners.begin(), partners.end());
@@ -438,6 +452,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
         if (lines[u].empty()) continue;
         const double near = std::max(tol, 1e-3 * tris[u].size);
         faces.assign(1, TriMesh::FaceHandle(static_cast<int>(u)));
+        bool found = false;  // faces holds every piece (found since the last split)
         for (const Line& line : lines[u]) {
             if (!line.cut) continue;
             const Vec3 across = tris[u].n.cross(line.along);
@@ -470,6 +485,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
                 cut = true;
             }
             if (cut) ++cuts.lines;
+            if (!cut && found) continue;  // the pieces as the last search found them
+            found = true;
             // The faces of origin u now: the connected pieces of the original triangle.
             faces.clear();
             ++visit;  // the faces marked with it are seen
@@ -491,8 +508,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
             const Vec3 across = tris[u].n.cross(line.along);
             auto on_line = [&](const Vec3& p) { return std::abs(across.dot(p - line.at)) <= near; };
             for (const double end : {0.0, line.length}) {
+                bool split = false;
                 for (const auto f : faces) {
-                    bool split = false;
                     for (auto h : mesh.fh_range(f)) {
                         const Vec3 p = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
                         const Vec3 q = to_eigen(mesh.point(mesh.to_vertex_handle(h)));
@@ -507,7 +524,13 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
                     }
                     if (split) break;  // one edge holds the point
                 }
-                // The faces again (a split made new ones).
+                // The faces again, in order: those around the faces' corners where a split
+                // made new ones or faces may lack some (pieces never searched for). All
+                // pieces of a triangle share edges: a search found every one.
+                if (!split && found) {
+                    std::sort(faces.begin(), faces.end());
+                    continue;
+                }
                 work.clear();
                 for (const auto f : faces)
                     for (auto v : mesh.fv_range(f)) faces_of(u, v);
