@@ -1,5 +1,6 @@
 #include "scenes/scene.h"
 
+#include "scenes/buffer.h"
 #include "scenes/errors.h"
 #include "scenes/threads.h"
 
@@ -7,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
@@ -216,45 +218,88 @@ void Scene::finalize(int threads) {
         });
         for (auto h : mesh.halfedges()) flat[h.idx()] = mesh.to_vertex_handle(h).idx();
     } else {
-        // Union-find over the corners (the halfedges inside faces, by the vertex they end at).
-        std::vector<int> parent(mesh.n_halfedges());
-        for (std::size_t k = 0; k < parent.size(); ++k) parent[k] = static_cast<int>(k);
-        auto find = [&](int x) {
-            while (parent[x] != x) x = parent[x] = parent[parent[x]];
-            return x;
+        // Around each vertex (on the threads: a halfedge ends at one vertex), its corners
+        // (the halfedges into it inside faces) grouped across the edges that are not
+        // contact edges, or all one group where the vertex is on no contact edge (also
+        // where its patches meet only at it). Corner g and the one across the edge
+        // leaving the vertex after it, opposite(next(g)), are joined. A group is keyed by
+        // its first corner in face order: 3 f + the corner's place in fh_range(f).
+        auto key = [&](TriMesh::HalfedgeHandle h) {
+            const auto f = mesh.face_handle(h);
+            const auto h0 = mesh.halfedge_handle(f);
+            return 3 * f.idx() + (h == h0 ? 0 : h == mesh.next_halfedge_handle(h0) ? 1 : 2);
         };
-        auto unite = [&](TriMesh::HalfedgeHandle a, TriMesh::HalfedgeHandle b) { parent[find(a.idx())] = find(b.idx()); };
-        for (auto e : mesh.edges()) {
-            if (mesh.property(contact_edge_handle, e) || mesh.is_boundary(e)) continue;
-            const auto h = mesh.halfedge_handle(e, 0), o = mesh.halfedge_handle(e, 1);
-            unite(h, mesh.prev_halfedge_handle(o));  // both end at h's head
-            unite(mesh.prev_halfedge_handle(h), o);  // both end at h's tail
-        }
-        // A vertex on no contact edge stays one vertex, as without contacts (also where
-        // its patches meet only at it).
-        for (auto v : mesh.vertices()) {
-            bool on_contact = false;
-            for (auto e : mesh.ve_range(v)) on_contact = on_contact || mesh.property(contact_edge_handle, e);
-            if (on_contact) continue;
-            TriMesh::HalfedgeHandle first;
-            for (auto h : mesh.vih_range(v)) {
-                if (!mesh.face_handle(h).is_valid()) continue;
-                if (first.is_valid())
-                    unite(h, first);
-                else
-                    first = h;
-            }
-        }
-        std::vector<int> index(mesh.n_halfedges(), -1);
-        for (auto f : mesh.faces())
-            for (auto h : mesh.fh_range(f)) {
-                int& i = index[find(h.idx())];
-                if (i < 0) {
-                    i = static_cast<int>(positions.size());
-                    positions.push_back(to_eigen(mesh.point(mesh.to_vertex_handle(h))));
+        Buffer<int> first(mesh.n_halfedges());  // per corner: its group's key (scenes/buffer.h)
+        parallel_chunks(static_cast<int>(mesh.n_vertices()), threads, [&](int v0, int v1) {
+            std::vector<TriMesh::HalfedgeHandle> ring;
+            std::vector<int> up, least;
+            for (int v = v0; v < v1; ++v) {
+                const TriMesh::VertexHandle vh(v);
+                ring.clear();
+                bool on_contact = false;
+                for (auto h : mesh.vih_range(vh)) {
+                    if (mesh.face_handle(h).is_valid()) ring.push_back(h);
+                    on_contact = on_contact || mesh.property(contact_edge_handle, mesh.edge_handle(h));
                 }
-                flat[h.idx()] = i;
+                const int d = static_cast<int>(ring.size());
+                up.resize(ring.size());
+                for (int i = 0; i < d; ++i) up[i] = on_contact ? i : 0;
+                auto find = [&](int x) {
+                    while (up[x] != x) x = up[x] = up[up[x]];
+                    return x;
+                };
+                for (int i = 0; on_contact && i < d; ++i) {
+                    const auto out = mesh.next_halfedge_handle(ring[i]);
+                    const auto e = mesh.edge_handle(out);
+                    if (mesh.property(contact_edge_handle, e) || mesh.is_boundary(e)) continue;
+                    const auto across = mesh.opposite_halfedge_handle(out);  // into v, inside a face
+                    int j = ring[(i + 1) % d] == across ? (i + 1) % d : ring[(i + d - 1) % d] == across ? (i + d - 1) % d : -1;
+                    for (int k = 0; j < 0 && k < d; ++k)
+                        if (ring[k] == across) j = k;
+                    up[find(i)] = find(j);
+                }
+                least.assign(ring.size(), std::numeric_limits<int>::max());
+                for (int i = 0; i < d; ++i) least[find(i)] = std::min(least[find(i)], key(ring[i]));
+                for (int i = 0; i < d; ++i) first[ring[i].idx()] = least[find(i)];
             }
+        });
+        // The flat vertices numbered in face order: blocks of faces count the corners
+        // that begin a group, then number them from the counts before.
+        const int faces = static_cast<int>(mesh.n_faces()), block = 4096, blocks = (faces + block - 1) / block;
+        std::vector<int> begun(static_cast<std::size_t>(blocks) + 1, 0);
+        auto corners = [&](int f, auto&& visit) {
+            int k = 0;
+            for (auto h : mesh.fh_range(TriMesh::FaceHandle(f))) visit(h, 3 * f + k++);
+        };
+        parallel_chunks(blocks, threads, [&](int b0, int b1) {
+            for (int b = b0; b < b1; ++b)
+                for (int f = b * block; f < std::min(faces, (b + 1) * block); ++f)
+                    corners(f, [&](TriMesh::HalfedgeHandle h, int k) { begun[b + 1] += first[h.idx()] == k; });
+        });
+        for (int b = 0; b < blocks; ++b) begun[b + 1] += begun[b];
+        positions.resize(static_cast<std::size_t>(begun[blocks]));
+        parallel_chunks(blocks, threads, [&](int b0, int b1) {
+            for (int b = b0; b < b1; ++b) {
+                int next = begun[b];
+                for (int f = b * block; f < std::min(faces, (b + 1) * block); ++f)
+                    corners(f, [&](TriMesh::HalfedgeHandle h, int k) {
+                        if (first[h.idx()] != k) return;
+                        flat[h.idx()] = next;
+                        positions[static_cast<std::size_t>(next++)] = to_eigen(mesh.point(mesh.to_vertex_handle(h)));
+                    });
+            }
+        });
+        // The other corners take their group's number from its first corner.
+        parallel_chunks(faces, threads, [&](int f0, int f1) {
+            for (int f = f0; f < f1; ++f)
+                corners(f, [&](TriMesh::HalfedgeHandle h, int k) {
+                    const int g = first[h.idx()];
+                    if (g == k) return;
+                    auto at = mesh.halfedge_handle(TriMesh::FaceHandle(g / 3));
+                    for (int i = 0; i < g % 3; ++i) at = mesh.next_halfedge_handle(at);
+                    flat[h.idx()] = flat[at.idx()];
+                });
+        });
     }
 
     // The patches on the threads, each from its own face; their area summed in order.

@@ -322,6 +322,82 @@ TEST_CASE("contacts: the search on several threads cuts the scene as one thread 
     }
 }
 
+// The flat vertices as one union-find over all corners makes them (Scene::finalize
+// groups each vertex's corners on the threads instead): corners joined across every
+// edge that is neither a contact edge nor a boundary, all of a vertex's corners joined
+// where it is on no contact edge, numbered where face order first meets a group.
+std::pair<std::vector<Vec3>, std::vector<std::array<int, 3>>> flat_vertices_in_one_pass(const scenes::Scene& s) {
+    const auto& mesh = s.mesh;
+    std::vector<int> parent(mesh.n_halfedges());
+    for (std::size_t k = 0; k < parent.size(); ++k) parent[k] = static_cast<int>(k);
+    std::function<int(int)> find = [&](int x) { return parent[x] == x ? x : parent[x] = find(parent[x]); };
+    auto unite = [&](auto a, auto b) { parent[find(a.idx())] = find(b.idx()); };
+    for (auto e : mesh.edges()) {
+        if (mesh.property(s.contact_edge_handle, e) || mesh.is_boundary(e)) continue;
+        const auto h = mesh.halfedge_handle(e, 0), o = mesh.halfedge_handle(e, 1);
+        unite(h, mesh.prev_halfedge_handle(o));
+        unite(mesh.prev_halfedge_handle(h), o);
+    }
+    for (auto v : mesh.vertices()) {
+        bool on_contact = false;
+        for (auto e : mesh.ve_range(v)) on_contact = on_contact || mesh.property(s.contact_edge_handle, e);
+        if (on_contact) continue;
+        scenes::TriMesh::HalfedgeHandle first;
+        for (auto h : mesh.vih_range(v))
+            if (mesh.face_handle(h).is_valid()) {
+                if (first.is_valid()) unite(h, first);
+                else first = h;
+            }
+    }
+    std::vector<int> index(mesh.n_halfedges(), -1);
+    std::vector<Vec3> positions;
+    std::vector<std::array<int, 3>> patches;
+    for (auto f : mesh.faces()) {
+        std::array<int, 3> v{};
+        int k = 0;
+        for (auto h : mesh.fh_range(f)) {
+            int& i = index[static_cast<std::size_t>(find(h.idx()))];
+            if (i < 0) {
+                i = static_cast<int>(positions.size());
+                const auto p = mesh.point(mesh.to_vertex_handle(h));
+                positions.emplace_back(p[0], p[1], p[2]);
+            }
+            v[static_cast<std::size_t>(k++)] = i;
+        }
+        patches.push_back(v);
+    }
+    return {positions, patches};
+}
+
+TEST_CASE("contacts: each vertex's corners grouped on the threads number the flat vertices as one pass does",
+          "[scenes][contacts]") {
+    // The Cornell box (blocks on the floor, the light under the ceiling) and rooms with
+    // a partition: vertices split along contacts, joined elsewhere, open boundaries.
+    std::vector<std::pair<std::string, std::function<scenes::Scene(int)>>> cases = {
+        {"cornell-box", [](int threads) { return scenes::make_builtin("cornell-box", 40.0, threads); }},
+        {"rooms", [](int threads) {
+             scenes::LoadLimits limits;
+             limits.threads = threads;
+             char buf[2048];
+             std::snprintf(buf, sizeof buf, kRooms, ", \"patch_size\": 0.25");
+             return scenes::parse_scene(buf, "rooms.json", ".", {}, limits);
+         }}};
+    for (const auto& [name, make] : cases)
+        for (const int threads : {1, 3}) {
+            INFO(name << " on " << threads << " threads");
+            const auto scene = make(threads);
+            REQUIRE(scene.contact_edges > 0);
+            const auto [positions, patches] = flat_vertices_in_one_pass(scene);
+            CHECK(scene.vertex_positions() == positions);
+            REQUIRE(scene.patch_count() == patches.size());
+            std::size_t differ = 0;
+            for (std::size_t p = 0; p < patches.size(); ++p)
+                for (int k = 0; k < 3; ++k) differ += scene.patch_list()[p].v[k] != patches[p][static_cast<std::size_t>(k)];
+            CHECK(differ == 0);
+            CHECK(positions.size() > scene.mesh.n_vertices());  // some vertices split at contacts
+        }
+}
+
 TEST_CASE("contacts: a team's members each search a share and make the scene one process makes", "[scenes][contacts]") {
     // Ranks split the contact search (scenes/team.h) and swap their lines: every member
     // must end with the scene one process makes, vertex for vertex.
