@@ -13,11 +13,7 @@
 
 #include <cstdio>
 #include <iostream>
-#include <limits>
 #include <optional>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 namespace rb = raybundle;
 
@@ -105,15 +101,6 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
 }  // namespace
 
 int main(int argc, char** argv) {
-#if defined(__GLIBC__)
-    // Freed memory stays with the process until it exits, not given back heap by heap
-    // as arrays die (a command's arrays die when it ends): freeing the 121k-patch
-    // Cornell box and its run cost 6-11 ms on one thread, and 4 ms more with a worker
-    // thread's heap. Peak memory is the same (318 MB there). Setting the trim threshold
-    // fixes glibc's mmap threshold too: at its usual ceiling, 32 MiB.
-    mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
-    mallopt(M_MMAP_THRESHOLD, 32 << 20);
-#endif
     rb::render::install_signal_handlers();  // before MPI's threads: they inherit its mask
     std::optional<rb::apps::Ranks> ranks;
     try {

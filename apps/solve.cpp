@@ -14,6 +14,10 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <limits>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace raybundle::apps {
 
@@ -97,6 +101,13 @@ int solve(const Command& c, Ranks& ranks) {
         // The scene as solved: refined where the run refined it (--refine).
         write_outputs(c, result.scene(scene), result, seconds_scene);
         if (!c.quiet) print_summary(c, result.scene(scene), result);
+#if defined(__GLIBC__)
+        // What is freed from here on stays with the process, which ends: glibc gave it
+        // back heap by heap, 6-11 ms on one thread for the 121k-patch Cornell box. (Set
+        // for the whole run, it made the solve 1.4 % slower: this also fixes the mmap
+        // threshold, which glibc otherwise raises as large blocks are freed.)
+        mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+#endif
         // A signal that came while the outputs were written counts too.
         if (const int signal = result.signal != 0 ? result.signal : render::stop_requested(); signal != 0) {
             const bool cut = result.rounds.interrupted;
