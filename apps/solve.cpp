@@ -102,10 +102,10 @@ int solve(const Command& c, Ranks& ranks) {
         write_outputs(c, result.scene(scene), result, seconds_scene);
         if (!c.quiet) print_summary(c, result.scene(scene), result);
 #if defined(__GLIBC__)
-        // What is freed from here on stays with the process, which ends: glibc gave it
-        // back heap by heap, 6-11 ms on one thread for the 121k-patch Cornell box. (Set
-        // for the whole run, it made the solve 1.4 % slower: this also fixes the mmap
-        // threshold, which glibc otherwise raises as large blocks are freed.)
+        // What is freed from here on stays with the process (up to 2 GiB), which ends:
+        // glibc gave it back heap by heap, 6-11 ms on one thread for the 121k-patch
+        // Cornell box. Only here: this also fixes glibc's mmap threshold, which it
+        // otherwise raises as large blocks are freed, and the run is left as it was.
         mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
 #endif
         // A signal that came while the outputs were written counts too.

@@ -256,6 +256,7 @@ void Scene::finalize(int threads) {
                     int j = ring[(i + 1) % d] == across ? (i + 1) % d : ring[(i + d - 1) % d] == across ? (i + d - 1) % d : -1;
                     for (int k = 0; j < 0 && k < d; ++k)
                         if (ring[k] == across) j = k;
+                    if (j < 0) throw std::logic_error("Scene::finalize: a vertex's ring lacks a corner across an edge");
                     up[find(i)] = find(j);
                 }
                 least.assign(ring.size(), std::numeric_limits<int>::max());
