@@ -662,12 +662,13 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
         resume = 0;
         long every = std::max(1L, o.pause_every);
         while (done < per_chain) {
-            long count = next_record - done;
+            const long span = next_record - done;  // to the next snapshot or the round's end
+            long count = span;
             if (o.pause) {
                 count = std::min(count, every);
                 // Following the clock, a short rest joins this interval: each pause costs
                 // the chains' difference in speed over the interval before it.
-                if (o.pause_seconds > 0.0 && next_record - done - count < every / 2) count = next_record - done;
+                if (o.pause_seconds > 0.0 && span - count < every / 2) count = span;
             }
             const auto t_interval = Clock::now();
             // Each chain's steps so far in this call, and the progress of both as one.
@@ -688,24 +689,31 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                 return progress;
             };
             auto advance_chain = [&](int h) { chains[h]->advance(count, progress_of(h)); };
+            long ran = count;           // steps of each chain in this interval
+            bool freely = false;        // to the span's end, go_on asked at each step
             if (o.chains_side_by_side) {
                 // Both chains' steps on all the threads (solver/pipeline.h): a thread
                 // that has none of one chain's left helps with the other's, and the
                 // pause waits for a step, not for the slower chain. Else each chain on
                 // its share of the threads.
+                const long length = o.go_on ? span : count;
                 std::vector<solver::StepStream> both;
                 for (int h = 0; h < 2; ++h)
-                    if (auto s = chains[h]->stream(count, progress_of(h))) both.push_back(std::move(*s));
-                if (both.size() == 2)
-                    solver::run_step_streams(both, r.threads);
-                else
+                    if (auto s = chains[h]->stream(length, progress_of(h))) both.push_back(std::move(*s));
+                if (both.size() == 2) {
+                    freely = static_cast<bool>(o.go_on);
+                    count = length;
+                    const auto go_on = [&o](long) { return o.go_on(); };
+                    ran = solver::run_step_streams(both, r.threads, o.go_on ? go_on : std::function<bool(long)>());
+                } else {
                     run_threads(2, advance_chain);
+                }
             } else {
                 for (int h = 0; h < 2; ++h) advance_chain(h);
             }
-            done += count;
-            out.steps += 2 * count;
-            if (o.pause_seconds > 0.0) {
+            done += ran;
+            out.steps += 2 * ran;
+            if (o.pause_seconds > 0.0 && !freely) {
                 const double took = since(t_interval);
                 // Quick steps: at once to about half of pause_seconds (at least twice the
                 // steps, at most 64 times), not one doubling per pause.
@@ -729,7 +737,7 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
                     observe(s);
                 }
             }
-            if (o.pause && !o.pause(done)) {
+            if ((o.pause && !o.pause(done)) || ran < count) {
                 if (done == per_chain) return Advanced::last;
                 return a.averaged() > seen[0].n && b.averaged() > seen[1].n ? Advanced::cut : Advanced::nothing_new;
             }

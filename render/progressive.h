@@ -258,6 +258,14 @@ struct FieldImageOptions {
     // does not depend on where the pauses fall. Off on a team: its members must pause
     // at the same steps.
     double pause_seconds = 0.0;
+    // Where `pause` only asks whether to stop (no checkpoint, no team), go_on() asks
+    // the same without a pause: the chains side by side then run to the next snapshot
+    // or the round's end in one interval, ask go_on() before each step any of them
+    // begins, and stop together at the first step it says no to; pause(done) is
+    // called at the interval's end as above. (A pause waits for the last steps under
+    // way: every thread but one idles for up to a step.) The chains one after the
+    // other, or unable to share threads, pause as above.
+    std::function<bool()> go_on;
     // A solve going on from a checkpoint: the chains, restored, have each done this many
     // steps of the first round (before any image).
     long resume_steps = 0;

@@ -634,6 +634,10 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
     // team, whose members must pause at the same steps whatever their clocks say.
     image_options.pause_every = std::max(16L, 4L * c.run.threads);
     if (c.checkpoint_steps <= 0 && !team) image_options.pause_seconds = 1.0;
+    // Without checkpoints or a team, a pause only reads the stop request, which the
+    // chains side by side read at every step instead, without pausing.
+    if (c.checkpoint.empty() && !team && hooks.stop_requested)
+        image_options.go_on = [&hooks] { return hooks.stop_requested() == 0; };
     // From here a first stop request ends the solve and makes the image of the steps done.
     if (hooks.stoppable) hooks.stoppable();
     const PinholeCamera camera(scene.camera);

@@ -9,7 +9,7 @@
 
 namespace raybundle::solver {
 
-void run_step_streams(std::vector<StepStream>& streams, int threads) {
+long run_step_streams(std::vector<StepStream>& streams, int threads, const std::function<bool(long item)>& go_on) {
     std::vector<visibility::Backend*> backends;
     std::vector<std::size_t> home;  // per backend, the stream it came with
     for (std::size_t s = 0; s < streams.size(); ++s) {
@@ -28,15 +28,21 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
         std::vector<char> computed;  // per slot
     };
     std::vector<State> state(streams.size());
-    for (std::size_t s = 0; s < streams.size(); ++s)
+    std::vector<long> count(streams.size());  // the streams' counts, or where go_on said no
+    long longest = 0;
+    for (std::size_t s = 0; s < streams.size(); ++s) {
         state[s].computed.assign(static_cast<std::size_t>(std::max(1L, streams[s].window)), 0);
+        count[s] = std::max(0L, streams[s].count);
+        longest = std::max(longest, count[s]);
+    }
+    long asked = 0;  // go_on asked for items 1..asked
     std::mutex lock_all;
     std::condition_variable changed;
     bool failed = false;
     auto slot_of = [&](std::size_t s, long item) { return item % streams[s].window; };
     auto all_finished = [&] {
         for (std::size_t s = 0; s < streams.size(); ++s)
-            if (state[s].finished < streams[s].count) return false;
+            if (state[s].finished < count[s]) return false;
         return true;
     };
 
@@ -50,14 +56,14 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
                 std::size_t f = streams.size();
                 for (std::size_t s = 0; s < streams.size() && f == streams.size(); ++s) {
                     const State& st = state[s];
-                    if (!st.finishing && st.finished < streams[s].count &&
+                    if (!st.finishing && st.finished < count[s] &&
                         st.computed[static_cast<std::size_t>(slot_of(s, st.finished))])
                         f = s;
                 }
                 if (f < streams.size()) {
                     State& st = state[f];
                     st.finishing = true;
-                    while (!failed && st.finished < streams[f].count &&
+                    while (!failed && st.finished < count[f] &&
                            st.computed[static_cast<std::size_t>(slot_of(f, st.finished))]) {
                         const long item = st.finished, slot = slot_of(f, item);
                         lock.unlock();
@@ -76,7 +82,7 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
                 // none to begin, of the stream least far along that has room.
                 auto has_room = [&](std::size_t s) {
                     const State& st = state[s];
-                    return st.begun < streams[s].count && st.begun < st.finished + streams[s].window;
+                    return st.begun < count[s] && st.begun < st.finished + streams[s].window;
                 };
                 std::size_t b = streams.size();
                 if (has_room(mine)) {
@@ -85,8 +91,18 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
                     double least = 2.0;
                     for (std::size_t s = 0; s < streams.size(); ++s) {
                         if (!has_room(s)) continue;
-                        const double along = static_cast<double>(state[s].begun) / static_cast<double>(streams[s].count);
+                        const double along = static_cast<double>(state[s].begun) / static_cast<double>(count[s]);
                         if (along < least) least = along, b = s;
+                    }
+                }
+                if (b < streams.size() && go_on && state[b].begun > asked) {
+                    // The first stream to reach item k asks for all: none has begun it.
+                    asked = state[b].begun;
+                    if (!go_on(asked)) {
+                        for (long& c : count) c = std::min(c, asked);
+                        longest = asked;
+                        changed.notify_all();  // the streams may be done
+                        continue;
                     }
                 }
                 if (b < streams.size()) {
@@ -109,6 +125,7 @@ void run_step_streams(std::vector<StepStream>& streams, int threads) {
             throw;
         }
     });
+    return longest;
 }
 
 }  // namespace raybundle::solver

@@ -41,7 +41,16 @@ struct StepStream {
 // Runs the streams' items on min(threads, all their backends) threads, thread t with
 // backend t. The first exception a callback throws stops every thread (their items
 // under way end first) and is rethrown; the streams are then in no defined state.
-void run_step_streams(std::vector<StepStream>& streams, int threads);
+//
+// With `go_on`, the streams can be stopped together without waiting for them: before
+// any stream begins its item k (k >= 1), go_on(k) is asked, once for each k, under the
+// pipeline's lock (it must be quick: a stop request read). Where it says no, every
+// stream ends at k items: its items from k on are never begun, those before k are
+// finished. (Streams that stop together this way need no pause between their items, at
+// which every thread but the last waits for the last item under way.) Returns k where
+// go_on said no at k, else the largest count: each stream ran min(its count, that).
+long run_step_streams(std::vector<StepStream>& streams, int threads,
+                      const std::function<bool(long item)>& go_on = {});
 
 // One stream alone, a thread per backend of its own.
 inline void run_step_stream(StepStream stream) {

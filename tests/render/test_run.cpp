@@ -298,6 +298,37 @@ TEST_CASE("run: a stop asked for ends the solve at the next pause, the image mad
     CHECK(r.checkpointed == -1);  // none asked for
 }
 
+TEST_CASE("run: without checkpoints, the chains side by side read a stop at every step, not at pauses",
+          "[render][run]") {
+    // 400 steps per chain on 2 threads, the stop asked for once the progress reaches
+    // 100 steps: both chains stop at one count, within their window of steps under way
+    // (4 each) and their difference in speed of it. At pauses (the first after 16
+    // steps per chain, the next as far apart as the clock allows: here the rest of the
+    // round) it would have been read only after all 800.
+    const auto scene = small_box();
+    auto config = patch_image("iteration", 800);
+    std::atomic<bool> asked{false};
+    config.run.progress = [&](const sampling::Progress& p) {
+        if (p.phase == "solve" && p.done >= 100) asked = true;
+    };
+    render::RunHooks hooks;
+    hooks.stop_requested = [&] { return asked ? 15 : 0; };
+    const auto r = render::run(scene, config, hooks);
+    CHECK(r.signal == 15);
+    CHECK(r.rounds.interrupted);
+    CHECK(r.record.at("partial") == true);
+    CHECK(r.steps % 2 == 0);  // both chains at one count
+    CHECK(r.steps >= 100);
+    CHECK(r.steps <= 160);
+    // Never asked: the same image as where no stop can be asked for (pauses instead).
+    hooks.stop_requested = [] { return 0; };
+    config.run.progress = nullptr;
+    const auto read = render::run(scene, config, hooks);
+    const auto paused = render::run(scene, config);
+    CHECK(read.steps == 800);
+    CHECK(read.image.rgb == paused.image.rgb);
+}
+
 TEST_CASE("run: a warning that repeats is passed on once, then with its count", "[render][run]") {
     const auto scene = small_box();
     auto config = patch_image("iteration", 256);  // 4 pauses of 32 steps per chain on 2 threads

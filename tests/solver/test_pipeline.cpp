@@ -1,6 +1,7 @@
 // The pipeline that runs chains' steps on shared threads (solver/pipeline.h): every item
 // begun, computed and finished once, begun and finished in order, never more than the
-// window under way, one finisher per stream at a time; an exception stops it; and a
+// window under way, one finisher per stream at a time; go_on stops every stream at one
+// item; an exception stops it; and a
 // solver's steps run as a stream with another chain's are those it makes alone.
 #include "scenes/builtin.h"
 #include "solver/global_walks.h"
@@ -88,6 +89,45 @@ TEST_CASE("pipeline: every item once, begun and finished in order, within the wi
             CHECK(r->most_under_way <= window);
             CHECK(r->under_way == 0);
         }
+    }
+}
+
+TEST_CASE("pipeline: go_on stops every stream at the item it said no to, without a pause", "[solver][pipeline]") {
+    for (const int threads : {1, 2, 3, 5}) {
+        INFO(threads << " threads");
+        // No at item 13: each stream finishes items 0..12 and never begins the others;
+        // go_on is asked for items 1..13, once each, in order.
+        Recorded a, b;
+        std::vector<solver::StepStream> streams{a.stream(37, 3, 2), b.stream(23, 5, 1)};
+        std::vector<long> asked;
+        const long ran = solver::run_step_streams(streams, threads, [&](long item) {
+            asked.push_back(item);
+            return item < 13;
+        });
+        CHECK(ran == 13);
+        for (const Recorded* r : {&a, &b}) {
+            CHECK(r->breaches == 0);
+            CHECK(r->next_begin == 13);
+            CHECK(r->computed == 13);
+            CHECK(r->finished.size() == 13);
+            CHECK(r->under_way == 0);
+        }
+        REQUIRE(asked.size() == 13);
+        for (std::size_t k = 0; k < asked.size(); ++k) CHECK(asked[k] == static_cast<long>(k) + 1);
+        // Never no: every item of both, go_on asked up to the longest stream's last item.
+        Recorded c, d;
+        std::vector<solver::StepStream> all{c.stream(37, 3, 2), d.stream(23, 5, 1)};
+        long most = 0;
+        CHECK(solver::run_step_streams(all, threads, [&](long item) { return most = std::max(most, item), true; }) == 37);
+        CHECK(most == 36);
+        CHECK(c.finished.size() == 37);
+        CHECK(d.finished.size() == 23);
+        // No at an item past a stream's count: that stream ran all of its items.
+        Recorded e, f;
+        std::vector<solver::StepStream> past{e.stream(37, 3, 2), f.stream(23, 5, 1)};
+        CHECK(solver::run_step_streams(past, threads, [](long item) { return item < 30; }) == 30);
+        CHECK(e.finished.size() == 30);
+        CHECK(f.finished.size() == 23);
     }
 }
 
