@@ -110,8 +110,7 @@ Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
     return sum;
 }
 
-Rgb Transport::emitted(std::size_t j, const Vec3& out) const {
-    if (!patch_glossy_[j] || hits_.empty()) return emitted_diffuse_[j];
+Rgb Transport::emitted_glossy(std::size_t j, const Vec3& out) const {
     // (Glossy scenes have no diffuse shot.)
     return emission_[j] + shot_reflected(j, out);
 }
@@ -210,14 +209,37 @@ void Transport::exposure(const visibility::GeometryMatrix& m, std::vector<double
 void Transport::gather(const visibility::GeometryMatrix& m, const std::vector<Rgb>& outgoing, std::vector<Rgb>& next,
                        bool both, double weight) const {
     const double* inv = inv_area_.data();
+    const Rgb* out = outgoing.data();
+    Rgb* to = next.data();
+    const visibility::TransferEntry* entries = m.entries.data();
+    const std::size_t count = m.entries.size();
+    // The entries come receiver by receiver, their sources scattered: the sources' rows
+    // are asked for `ahead` entries early (with emitted() inline, a step's transport at
+    // 121k patches 3.5 -> 2.8 ms). The sums are those of the plain loop.
+    constexpr std::size_t ahead = 32;
+    const std::size_t asked = count > ahead ? count - ahead : 0;  // entries whose source is asked for
     if (both) {
-        for (const auto& e : m.entries) {
+        for (std::size_t k = 0; k < count; ++k) {
+            if (k < asked) {
+                const std::uint32_t s = entries[k + ahead].source;
+                __builtin_prefetch(&to[s], 1);
+                __builtin_prefetch(&out[s], 0);
+                __builtin_prefetch(&inv[s], 0);
+            }
+            const auto& e = entries[k];
             const double a = weight * e.area;
-            next[e.receiver] += (a * inv[e.receiver]) * outgoing[e.source];
-            next[e.source] += (a * inv[e.source]) * outgoing[e.receiver];
+            to[e.receiver] += (a * inv[e.receiver]) * out[e.source];
+            to[e.source] += (a * inv[e.source]) * out[e.receiver];
         }
     } else {
-        for (const auto& e : m.entries) next[e.receiver] += (weight * e.area * inv[e.receiver]) * outgoing[e.source];
+        for (std::size_t k = 0; k < count; ++k) {
+            if (k < asked) {
+                const std::uint32_t s = entries[k + ahead].source;
+                __builtin_prefetch(&out[s], 0);
+            }
+            const auto& e = entries[k];
+            to[e.receiver] += (weight * e.area * inv[e.receiver]) * out[e.source];
+        }
     }
 }
 

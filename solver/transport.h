@@ -82,7 +82,9 @@ public:
     // own emission plus the first shot's reflection (with the diffuse shot: its
     // reflection of the emitters' direct light instead of its own emission). For
     // diffuse patches it does not depend on `out`.
-    Rgb emitted(std::size_t j, const Vec3& out) const;
+    Rgb emitted(std::size_t j, const Vec3& out) const {
+        return !patch_glossy_[j] || hits_.empty() ? emitted_diffuse_[j] : emitted_glossy(j, out);
+    }
     // What the image shows of patch j besides the reflection of the solved
     // irradiance: emitted(), plus the own emission with the diffuse shot.
     Rgb displayed(std::size_t j, const Vec3& out) const {
@@ -141,6 +143,7 @@ public:
 
 private:
     void init(const FirstShot* shot, const std::vector<Rgb>* direct);
+    Rgb emitted_glossy(std::size_t j, const Vec3& out) const;  // emitted() of a glossy patch lit by the first shot
 
     const scenes::Scene& scene_;
     std::size_t n_;
