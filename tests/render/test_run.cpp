@@ -309,7 +309,7 @@ TEST_CASE("run: without checkpoints, the chains side by side read a stop at ever
     auto config = patch_image("iteration", 800);
     std::atomic<bool> asked{false};
     config.run.progress = [&](const sampling::Progress& p) {
-        if (p.phase == "solve" && p.done >= 100) asked = true;
+        if (std::strcmp(p.phase, "solve") == 0 && p.done >= 100) asked = true;
     };
     render::RunHooks hooks;
     hooks.stop_requested = [&] { return asked ? 15 : 0; };
