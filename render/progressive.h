@@ -261,7 +261,8 @@ struct FieldImageOptions {
     // Where `pause` only asks whether to stop (no checkpoint, no team), go_on() asks
     // the same without a pause: the chains side by side then run to the next snapshot
     // or the round's end in one interval, ask go_on() before each step any of them
-    // begins, and stop together at the first step it says no to; pause(done) is
+    // begins (the interval's first too: a stop that came during a round's image begins
+    // no step of the next), and stop together at the first step it says no to; pause(done) is
     // called at the interval's end as above. (A pause waits for the last steps under
     // way: every thread but one idles for up to a step.) The chains one after the
     // other, or unable to share threads, pause as above.

@@ -35,7 +35,7 @@ long run_step_streams(std::vector<StepStream>& streams, int threads, const std::
         count[s] = std::max(0L, streams[s].count);
         longest = std::max(longest, count[s]);
     }
-    long asked = 0;  // go_on asked for items 1..asked
+    long asked = -1;  // go_on asked for items 0..asked
     std::mutex lock_all;
     std::condition_variable changed;
     bool failed = false;
@@ -96,7 +96,8 @@ long run_step_streams(std::vector<StepStream>& streams, int threads, const std::
                     }
                 }
                 if (b < streams.size() && go_on && state[b].begun > asked) {
-                    // The first stream to reach item k asks for all: none has begun it.
+                    // The first stream to reach item k asks for all: none has begun it
+                    // (item 0 too: a stop between two calls begins nothing).
                     asked = state[b].begun;
                     if (!go_on(asked)) {
                         for (long& c : count) c = std::min(c, asked);

@@ -43,7 +43,7 @@ struct StepStream {
 // under way end first) and is rethrown; the streams are then in no defined state.
 //
 // With `go_on`, the streams can be stopped together without waiting for them: before
-// any stream begins its item k (k >= 1), go_on(k) is asked, once for each k, under the
+// any stream begins its item k (k >= 0), go_on(k) is asked, once for each k, under the
 // pipeline's lock (it must be quick: a stop request read). Where it says no, every
 // stream ends at k items: its items from k on are never begun, those before k are
 // finished. (Streams that stop together this way need no pause between their items, at

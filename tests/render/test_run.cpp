@@ -287,7 +287,11 @@ TEST_CASE("run: a stop asked for ends the solve at the next pause, the image mad
     render::RunHooks hooks;
     bool stoppable = false;
     hooks.stoppable = [&] { stoppable = true; };
-    hooks.stop_requested = [] { return 15; };
+    // Asked for from the 20th look on (the chains side by side look before each step;
+    // a stop asked for before the first step begins none, and a run with no step
+    // averaged has no image).
+    int looks = 0;
+    hooks.stop_requested = [&] { return ++looks >= 20 ? 15 : 0; };
     const auto r = render::run(scene, config, hooks);
     CHECK(stoppable);
     CHECK(r.signal == 15);

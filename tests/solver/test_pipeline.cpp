@@ -96,7 +96,7 @@ TEST_CASE("pipeline: go_on stops every stream at the item it said no to, without
     for (const int threads : {1, 2, 3, 5}) {
         INFO(threads << " threads");
         // No at item 13: each stream finishes items 0..12 and never begins the others;
-        // go_on is asked for items 1..13, once each, in order.
+        // go_on is asked for items 0..13, once each, in order.
         Recorded a, b;
         std::vector<solver::StepStream> streams{a.stream(37, 3, 2), b.stream(23, 5, 1)};
         std::vector<long> asked;
@@ -112,8 +112,8 @@ TEST_CASE("pipeline: go_on stops every stream at the item it said no to, without
             CHECK(r->finished.size() == 13);
             CHECK(r->under_way == 0);
         }
-        REQUIRE(asked.size() == 13);
-        for (std::size_t k = 0; k < asked.size(); ++k) CHECK(asked[k] == static_cast<long>(k) + 1);
+        REQUIRE(asked.size() == 14);
+        for (std::size_t k = 0; k < asked.size(); ++k) CHECK(asked[k] == static_cast<long>(k));
         // Never no: every item of both, go_on asked up to the longest stream's last item.
         Recorded c, d;
         std::vector<solver::StepStream> all{c.stream(37, 3, 2), d.stream(23, 5, 1)};
@@ -128,6 +128,12 @@ TEST_CASE("pipeline: go_on stops every stream at the item it said no to, without
         CHECK(solver::run_step_streams(past, threads, [](long item) { return item < 30; }) == 30);
         CHECK(e.finished.size() == 30);
         CHECK(f.finished.size() == 23);
+        // No at once (a stop before the call): nothing begun.
+        Recorded g, h;
+        std::vector<solver::StepStream> none{g.stream(37, 3, 2), h.stream(23, 5, 1)};
+        CHECK(solver::run_step_streams(none, threads, [](long) { return false; }) == 0);
+        CHECK(g.next_begin == 0);
+        CHECK(h.next_begin == 0);
     }
 }
 
