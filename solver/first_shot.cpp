@@ -170,8 +170,8 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
     long done = 0;
     const auto start = std::chrono::steady_clock::now();
     // A group of emitters (group_emitters), at each receiver point: its unoccluded form
-    // factor by Lambert's edge sum over its outline where all of it lies in front of
-    // the point's plane (else member by member, clipped, as for one emitter), times the
+    // factor by Lambert's edge sum over its outline, clipped to the point's plane
+    // (point_to_outline: the members clipped one by one give the same), times the
     // visible share of K shadow rays to members drawn by area (stratified, fixed:
     // (k + 1/2) / K along the running area), each ray weighed by the point-to-point
     // kernel cos cos / r^2 at its end; K = (4 r / d)^2 in 16..64 for a group of radius r
@@ -192,23 +192,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
         subtriangle_centroids(Ni, [&](double u, double v) {
             const Vec3 x = a + u * (b - a) + v * (c - a);
             if (normal.dot(x - group.outline.front()[0]) <= 0.0) return;  // behind the emitters
-            bool in_front = true;
-            for (const auto& e : group.outline) in_front = in_front && p.normal.dot(e[0] - x) > 0.0;
-            double F = 0.0;
-            if (in_front) {
-                for (const auto& e : group.outline) F += lambert_edge(x, p.normal, e[0], e[1]);
-                F = std::abs(F) / (2.0 * M_PI);
-            } else {
-                for (const std::uint32_t j : group.members) {
-                    if (j == i) continue;
-                    const auto& q = patches[j];
-                    std::array<Vec3, 4> poly;
-                    const int corners = clip_front({pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]}, x, p.normal, poly);
-                    if (corners < 3) continue;
-                    F += point_to_triangle(x, p.normal, {poly[0], poly[1], poly[2]});
-                    if (corners == 4) F += point_to_triangle(x, p.normal, {poly[0], poly[2], poly[3]});
-                }
-            }
+            const double F = point_to_outline(x, p.normal, group.outline);
             if (F <= 0.0) return;
             const Vec3 from = x + offset * p.normal;
             double seen = 0.0, weight = 0.0;
@@ -283,11 +267,11 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
         for (int c = 0, at = 0; c < 64; ++c) at += std::exchange(next[c], at);
         for (int k = 0; k < mine; ++k) order[static_cast<std::size_t>(next[63 - power[static_cast<std::size_t>(k)]]++)] = k;
     }
-    parallel_chunks(mine, run.threads, [&](int q0, int q1) {
+    parallel_chunks(mine, run.threads, [&](int o0, int o1) {
         long rays = 0;
         std::vector<Vec3> targets;
-        for (int q = q0; q < q1; ++q) {
-            const int k = order[static_cast<std::size_t>(q)];
+        for (int o = o0; o < o1; ++o) {
+            const int k = order[static_cast<std::size_t>(o)];
             const auto i = static_cast<std::size_t>(first) + static_cast<std::size_t>(k) * static_cast<std::size_t>(stride);
             const long rays_before = rays;
             if (run.progress) {

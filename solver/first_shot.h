@@ -49,8 +49,8 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
 // Many emitters (more than 64: a light panel refined with the scene) would make that
 // a ray per receiver point and emitter. Then the coplanar emissive patches of one
 // object and material form a group, and at each receiver point the group's
-// unoccluded form factor (Lambert's edge sum over its outline, where all of it lies in
-// front of the point; else member by member, clipped) is weighed by the visible share
+// unoccluded form factor (Lambert's edge sum over its outline, clipped to the point's
+// plane: solver/form_factor.h) is weighed by the visible share
 // of shadow rays shared by all members: K = (4 radius / distance)^2 in 16..64 rays to
 // members drawn by area in Morton order (stratified, fixed), each weighed by the
 // point-to-point kernel, and 256 where the first K disagree (a shadow's edge). On the

@@ -7,6 +7,7 @@
 #include "scenes/scene.h"
 #include "scenes/subdivide.h"
 #include "solver/first_shot.h"
+#include "solver/form_factor.h"
 #include "solver/global_walks.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
@@ -16,6 +17,8 @@
 #include <array>
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <random>
 #include <vector>
 
 using namespace raybundle;
@@ -254,6 +257,76 @@ scenes::Scene lamp_over_floor(int n) {
 }
 
 }  // namespace
+
+TEST_CASE("form factor of a region's outline clipped to the receiver's plane: the triangles clipped one by one",
+          "[solver][diffuse-shot]") {
+    // A lamp at z = 2 facing -z: a 6 x 6 grid of cells (two triangles each) with a hole
+    // of 2 x 2 cells and a corner notch, so that its outline is two loops and a plane
+    // can cross it up to six times. From random points below it with random normals,
+    // point_to_outline against the sum of Lambert's formula over each triangle's part in
+    // front of the point's plane, clipped here on its own.
+    std::vector<std::array<Vec3, 3>> tris;
+    for (int b = 0; b < 6; ++b)
+        for (int a = 0; a < 6; ++a) {
+            if ((a == 2 || a == 3) && (b == 2 || b == 3)) continue;  // the hole
+            if (a >= 4 && b >= 4) continue;                          // the notch
+            auto at = [](int u, int v) { return Vec3(-1.5 + 0.5 * u, -1.5 + 0.5 * v, 2.0); };
+            // Clockwise seen from above: the normal (p1 - p0) x (p2 - p0) points down.
+            tris.push_back({at(a, b), at(a, b + 1), at(a + 1, b + 1)});
+            tris.push_back({at(a, b), at(a + 1, b + 1), at(a + 1, b)});
+        }
+    // The outline: directed edges without their reverse.
+    std::map<std::array<double, 6>, int> edges;
+    auto key = [](const Vec3& p, const Vec3& q) { return std::array<double, 6>{p.x(), p.y(), p.z(), q.x(), q.y(), q.z()}; };
+    for (const auto& t : tris)
+        for (int k = 0; k < 3; ++k) {
+            const Vec3 &p = t[k], &q = t[(k + 1) % 3];
+            if (auto back = edges.find(key(q, p)); back != edges.end() && back->second > 0) --back->second;
+            else ++edges[key(p, q)];
+        }
+    std::vector<std::array<Vec3, 2>> outline;
+    for (const auto& [e, count] : edges)
+        for (int k = 0; k < count; ++k) outline.push_back({Vec3(e[0], e[1], e[2]), Vec3(e[3], e[4], e[5])});
+    REQUIRE(outline.size() == 4 * 6 + 4 * 2);  // the outer loop's 24 edges (notch included) and the hole's 8
+
+    auto clipped = [](const Vec3& x, const Vec3& n, const std::array<Vec3, 3>& t) {
+        std::vector<Vec3> poly;
+        for (int k = 0; k < 3; ++k) {
+            const Vec3 &p = t[k], &q = t[(k + 1) % 3];
+            const double dp = n.dot(p - x), dq = n.dot(q - x);
+            if (dp > 0.0) poly.push_back(p);
+            if ((dp > 0.0) != (dq > 0.0)) poly.push_back(p + dp / (dp - dq) * (q - p));
+        }
+        double F = 0.0;
+        for (std::size_t k = 2; k < poly.size(); ++k) F += solver::point_to_triangle(x, n, {poly[0], poly[k - 1], poly[k]});
+        return F;
+    };
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    int partly = 0, wholly = 0, none = 0;
+    double worst = 0.0;
+    for (int trial = 0; trial < 4000; ++trial) {
+        const Vec3 x(2.0 * uniform(rng), 2.0 * uniform(rng), 1.05 + 0.9 * uniform(rng));
+        Vec3 n(uniform(rng), uniform(rng), uniform(rng));
+        if (n.norm() < 0.1) continue;
+        n.normalize();
+        double by_triangle = 0.0, whole = 0.0;
+        for (const auto& t : tris) {
+            by_triangle += clipped(x, n, t);
+            whole += solver::point_to_triangle(x, n, t);
+        }
+        const double by_outline = solver::point_to_outline(x, n, outline);
+        worst = std::max(worst, std::abs(by_outline - by_triangle));
+        if (by_triangle == 0.0) ++none;
+        else if (std::abs(by_triangle - whole) < 1e-12) ++wholly;
+        else ++partly;
+    }
+    INFO("partly in front " << partly << ", wholly " << wholly << ", not at all " << none << "; worst difference " << worst);
+    CHECK(partly > 1000);
+    CHECK(wholly > 100);
+    CHECK(none > 100);
+    CHECK(worst < 1e-12);
+}
 
 TEST_CASE("diffuse shot: a light of many patches shares its shadow rays and keeps the answer", "[solver][diffuse-shot]") {
     // The lamp as 2 patches (each its own emitter) and as 2 * 12^2 = 288 (one group):
