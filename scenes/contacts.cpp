@@ -337,7 +337,8 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
             const Cell hi = (boxes[i].hi.array() / cell).floor().cast<long>();
             met.clear();
             list_cells(tris[i].p, lo, hi, cell, widest, met);
-            for (const auto& c : met) listed[i].push_back(key(c));
+            listed[i].resize(met.size());
+            std::transform(met.begin(), met.end(), listed[i].begin(), key);
         }
     });
     const ShareHeader header{tris.size(), members > 1 ? fingerprint(tris) : 0};
