@@ -29,12 +29,10 @@ GBuffer make_gbuffer(const scenes::Scene& scene, const scenes::RayCaster& caster
             if (!hit.valid()) continue;
             s->patch = hit.patch;
             s->point = camera.eye() + hit.t * d;
-            s->normal = patches[hit.patch].normal;
-            s->shading_normal = scene.shading_normal(hit.patch, hit.b1, hit.b2);
             s->depth = hit.t;
             s->b1 = hit.b1;
             s->b2 = hit.b2;
-            s->front = s->normal.dot(d) < 0.0;
+            s->front = patches[hit.patch].normal.dot(d) < 0.0;
         }
     });
     return g;
