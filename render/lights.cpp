@@ -62,14 +62,8 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         std::set<std::pair<int, int>> edges;
         for (auto j : light.patches)
             for (int k = 0; k < 3; ++k) edges.emplace(patches_[j].v[k], patches_[j].v[(k + 1) % 3]);
-        std::set<int> vertices;
         for (const auto& [a, b] : edges)
-            if (edges.count({b, a}) == 0) {
-                light.boundary.emplace_back(a, b);
-                vertices.insert(a);
-                vertices.insert(b);
-            }
-        light.boundary_vertices.assign(vertices.begin(), vertices.end());
+            if (edges.count({b, a}) == 0) light.boundary.emplace_back(a, b);
         for (auto j : light.patches) {
             light.area += patches_[j].area;
             light.area_cdf.push_back(light.area);
@@ -132,17 +126,37 @@ Rgb AreaLights::irradiance(std::size_t l, const Vec3& x, const Vec3& n) const {
     {
         const Light& light = lights_[l];
         if (light.normal.dot(x) - light.offset <= 0.0) return e;  // behind the light
-        const bool above = std::all_of(light.boundary_vertices.begin(), light.boundary_vertices.end(),
-                                       [&](int v) { return n.dot(pos[v] - x) > 0.0; });
-        double omega = 0.0;
-        if (above) {
-            for (const auto& [a, b] : light.boundary) omega += edge_term(n, pos[a] - x, pos[b] - x);
-        } else {
-            for (auto j : light.patches) {
-                const auto& q = patches_[j];
-                omega += projected_solid_angle(x, n, pos[q.v[0]], pos[q.v[1]], pos[q.v[2]]);
+        // The boundary's part on or above x's plane (a vertex on it kept, as
+        // projected_solid_angle clips a triangle), closed along the line where the two
+        // planes meet. A closing edge e -> s lies in x's plane, where edge_term is half
+        // the angle from s to e about n. All of them lie on that line, which misses x, so
+        // every point's angle from the first crossing is within pi of it: the closing
+        // edges add up to half the exits' angles less the returns', however they pair
+        // up. A light wholly above has no crossing: the plain edge sum.
+        double omega = 0.0, closing = 0.0;
+        Vec3 first = Vec3::Zero();  // the first crossing, relative to x
+        bool crossed = false;
+        auto angle = [&](const Vec3& r) { return std::atan2(n.dot(first.cross(r)), first.dot(r)); };
+        for (const auto& [a, b] : light.boundary) {
+            const Vec3 p = pos[a] - x, q = pos[b] - x;
+            const double dp = n.dot(p), dq = n.dot(q);
+            const bool in_p = dp >= 0.0, in_q = dq >= 0.0;
+            if (in_p && in_q) {
+                omega += edge_term(n, p, q);
+                continue;
+            }
+            if (in_p == in_q) continue;  // wholly below
+            const Vec3 cut = p + (dp / (dp - dq)) * (q - p);
+            if (!crossed) first = cut, crossed = true;
+            if (in_p) {  // leaves: a closing edge starts at the cut
+                omega += edge_term(n, p, cut);
+                closing += angle(cut);
+            } else {  // returns: one ends there
+                omega += edge_term(n, cut, q);
+                closing -= angle(cut);
             }
         }
+        omega += 0.5 * closing;
         e += light.emission * std::max(0.0, omega);
     }
     return e;

@@ -10,8 +10,9 @@
 // u_i the unit directions to its vertices, beta_i the angle between u_i and u_i+1, so
 // the irradiance from a polygon of radiance Le is Le Omega. The emissive patches are
 // grouped into planar lights (same object, material and plane); a light's Omega is the
-// sum over its boundary edges alone, since interior edges cancel, and only a light
-// that the plane of x cuts is clipped triangle by triangle. The final gather multiplies
+// sum over its boundary edges alone, since interior edges cancel; a light that the
+// plane of x cuts has its boundary clipped to that plane and closed along it (the
+// triangles clipped one by one give the same). The final gather multiplies
 // each light's exact value by that light's stochastic shadow ratio (Heitz, Hill,
 // McGuire, "Combining analytic direct illumination and stochastic shadows", 2018): noise
 // remains only where a light is partly hidden.
@@ -68,7 +69,6 @@ private:
         double offset;        // plane: normal . y = offset
         std::vector<std::uint32_t> patches;
         std::vector<std::pair<int, int>> boundary;  // directed vertex pairs, counter-clockwise about the normal
-        std::vector<int> boundary_vertices;         // the vertices the boundary touches
         std::vector<double> area_cdf;               // over its patches, normalised
         double area = 0.0;
     };

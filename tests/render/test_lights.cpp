@@ -6,7 +6,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
+#include <vector>
 
 using namespace raybundle;
 using render::AreaLights;
@@ -72,24 +74,67 @@ TEST_CASE("projected solid angle: clipped triangles against Monte Carlo", "[rend
 }
 
 TEST_CASE("area lights: the boundary sum equals the sum over the light's triangles", "[render][lights]") {
-    // The Cornell box's light panel refined into many patches: the irradiance from its
-    // boundary alone equals the per-triangle sum, above the panel's plane and cut by it.
-    const auto scene = scenes::make_builtin("cornell-box", 20.0);
-    const AreaLights lights(scene);
-    REQUIRE(lights.light_count() >= 1);
-    REQUIRE(lights.patch_count() > 8);
-    const auto& pos = scene.vertex_positions();
-    sampling::Rng rng(5, 2);
-    for (int t = 0; t < 50; ++t) {
-        const Vec3 x(550 * rng.uniform(), 540 * rng.uniform(), 560 * rng.uniform());
-        const Vec3 n = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5).normalized();
-        double per_triangle = 0.0;
-        for (std::size_t j = 0; j < scene.patch_count(); ++j) {
-            if (lights.probability(j) <= 0.0) continue;
-            const auto& p = scene.patch_list()[j];
-            per_triangle += scene.material_of(j).emission[0] *
-                            AreaLights::projected_solid_angle(x, n, pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]);
+    // Lights of many patches: the Cornell box's panel refined, and a lamp with a hole and
+    // a notch (its boundary two loops, which a plane crosses up to six times). The
+    // irradiance from the boundary alone (clipped where x's plane cuts the light)
+    // equals the sum over the triangles clipped one by one, from random points and
+    // normals, most of them cutting the light.
+    scenes::Scene lamp;
+    {
+        scenes::Material m;
+        m.name = "lamp";
+        m.emission = scenes::Rgb::Constant(2.0);
+        const int l = lamp.add_material(m);
+        std::vector<Vec3> v;
+        std::vector<std::array<int, 3>> t;
+        for (int b = 0; b <= 6; ++b)
+            for (int a = 0; a <= 6; ++a) v.emplace_back(-1.5 + 0.5 * a, -1.5 + 0.5 * b, 2.0);
+        for (int b = 0; b < 6; ++b)
+            for (int a = 0; a < 6; ++a) {
+                if (((a == 2 || a == 3) && (b == 2 || b == 3)) || (a >= 4 && b >= 4)) continue;  // hole, notch
+                const int k = b * 7 + a;
+                t.push_back({k, k + 7, k + 8});  // facing -z
+                t.push_back({k, k + 8, k + 1});
+            }
+        lamp.add_object(v, t, l, "lamp");
+        lamp.finalize();
+    }
+    const auto box = scenes::make_builtin("cornell-box", 20.0);
+    for (const scenes::Scene* scene : std::array<const scenes::Scene*, 2>{&box, &lamp}) {
+        const AreaLights lights(*scene);
+        REQUIRE(lights.light_count() == 1);
+        REQUIRE(lights.patch_count() > 8);
+        const auto& pos = scene->vertex_positions();
+        // Points within twice the light's size of its centre, in front of it.
+        Vec3 centre = Vec3::Zero(), front = Vec3::Zero();
+        double size = 0.0;
+        int corners = 0;
+        for (std::size_t j = 0; j < scene->patch_count(); ++j)
+            if (lights.probability(j) > 0.0)
+                for (int v : scene->patch_list()[j].v) centre += pos[v], ++corners, front = scene->patch_list()[j].normal;
+        centre /= corners;
+        for (std::size_t j = 0; j < scene->patch_count(); ++j)
+            if (lights.probability(j) > 0.0)
+                for (int v : scene->patch_list()[j].v) size = std::max(size, (pos[v] - centre).norm());
+        sampling::Rng rng(5, 2);
+        int cut = 0;
+        for (int t = 0; t < 400; ++t) {
+            Vec3 x = centre + 2.0 * size * Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5);
+            if (front.dot(x - centre) < 0.0) x -= 2.0 * front.dot(x - centre) * front;
+            const Vec3 n = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5).normalized();
+            double per_triangle = 0.0;
+            int above = 0, below = 0;
+            for (std::size_t j = 0; j < scene->patch_count(); ++j) {
+                if (lights.probability(j) <= 0.0) continue;
+                const auto& p = scene->patch_list()[j];
+                per_triangle += scene->material_of(j).emission[0] *
+                                AreaLights::projected_solid_angle(x, n, pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]);
+                for (int v : p.v) (n.dot(pos[v] - x) > 0.0 ? above : below) += 1;
+            }
+            if (above > 0 && below > 0 && per_triangle > 0.0) ++cut;
+            CHECK(lights.irradiance(x, n)[0] == Approx(per_triangle).epsilon(1e-9).margin(1e-12));
         }
-        CHECK(lights.irradiance(x, n)[0] == Approx(per_triangle).epsilon(1e-9).margin(1e-12));
+        INFO((scene == &lamp ? "the lamp" : "the Cornell box") << ": " << cut << " of 400 points' planes cut the light");
+        CHECK(cut > 100);
     }
 }
