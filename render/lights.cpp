@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <set>
 #include <tuple>
 
 namespace raybundle::render {
@@ -57,13 +56,10 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         for (auto& c : cdf_) c /= total;
         for (auto& p : power_) p /= total;
     }
-    // Each light's boundary: the directed edges whose reverse is not an edge of it.
+    // Each light's boundary: the directed edges whose reverse is not an edge of it, those
+    // that run straight on joined (scenes/scene.h).
     for (auto& light : lights_) {
-        std::set<std::pair<int, int>> edges;
-        for (auto j : light.patches)
-            for (int k = 0; k < 3; ++k) edges.emplace(patches_[j].v[k], patches_[j].v[(k + 1) % 3]);
-        for (const auto& [a, b] : edges)
-            if (edges.count({b, a}) == 0) light.boundary.emplace_back(a, b);
+        light.boundary = scenes::plane_outline(scene, light.patches);
         for (auto j : light.patches) {
             light.area += patches_[j].area;
             light.area_cdf.push_back(light.area);

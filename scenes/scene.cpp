@@ -7,6 +7,7 @@
 #include <OpenMesh/Core/System/omstream.hh>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -370,6 +371,58 @@ VertexCorners vertex_corners(const Scene& scene) {
     for (std::size_t i = 0; i < patches.size(); ++i)
         for (int k = 0; k < 3; ++k) vc.corners[fill[patches[i].v[k]]++] = static_cast<std::uint32_t>(3 * i + k);
     return vc;
+}
+
+std::vector<std::pair<int, int>> plane_outline(const Scene& scene, const std::vector<std::uint32_t>& patches) {
+    const auto& pos = scene.vertex_positions();
+    std::map<std::pair<int, int>, int> count;  // directed edge -> how often, less the reverse's
+    for (const std::uint32_t j : patches) {
+        const auto& v = scene.patch_list()[j].v;
+        for (int k = 0; k < 3; ++k) {
+            const int from = v[k], to = v[(k + 1) % 3];
+            if (auto back = count.find({to, from}); back != count.end() && back->second > 0) --back->second;
+            else ++count[{from, to}];
+        }
+    }
+    std::vector<std::pair<int, int>> edges;
+    for (const auto& [edge, n] : count)
+        for (int k = 0; k < n; ++k) edges.push_back(edge);
+    // A vertex is passed through where exactly one edge enters and one leaves it, in one
+    // direction (the sine of their angle within 1e-12: a midpoint's rounding).
+    std::map<int, std::pair<int, int>> degree;  // vertex -> (edges in, edges out)
+    std::map<int, std::size_t> leaving;         // vertex -> the edge that leaves it (one)
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+        ++degree[edges[e].second].first;
+        ++degree[edges[e].first].second;
+        leaving[edges[e].first] = e;
+    }
+    std::map<int, int> entered_from;  // vertex -> the one edge's start, where one enters
+    for (const auto& [from, to] : edges) entered_from[to] = from;
+    auto straight = [&](int v) {
+        const auto& [in, out] = degree[v];
+        if (in != 1 || out != 1) return false;
+        const Vec3 a = pos[entered_from[v]], b = pos[v], c = pos[edges[leaving[v]].second];
+        const Vec3 d1 = b - a, d2 = c - b;
+        return d1.dot(d2) > 0.0 && d1.cross(d2).norm() <= 1e-12 * d1.norm() * d2.norm();
+    };
+    std::vector<char> used(edges.size(), 0);
+    std::vector<std::pair<int, int>> joined;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+        if (used[e] || straight(edges[e].first)) continue;  // joined edges start where one turns
+        used[e] = 1;
+        int to = edges[e].second;
+        while (straight(to)) {
+            const std::size_t next = leaving[to];
+            if (used[next]) break;
+            used[next] = 1;
+            to = edges[next].second;
+        }
+        joined.emplace_back(edges[e].first, to);
+    }
+    for (std::size_t e = 0; e < edges.size(); ++e)  // a loop with no turn (degenerate): as it is
+        if (!used[e]) joined.push_back(edges[e]);
+    std::sort(joined.begin(), joined.end());
+    return joined;
 }
 
 }  // namespace raybundle::scenes

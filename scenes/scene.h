@@ -10,6 +10,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace raybundle::scenes {
@@ -207,6 +208,15 @@ struct VertexCorners {
     std::vector<std::uint32_t> corners;
 };
 VertexCorners vertex_corners(const Scene& scene);
+
+// The outline of some patches of one plane, all of one orientation (a light, a group
+// of emitters): their directed edges (vertex indices, each patch's corners in order)
+// less the reverse edges (an edge two of them share cancels), as (from, to) pairs.
+// Edges that run straight on through a vertex where nothing else meets are one edge
+// (a refined panel's rectangle is 4 edges, not hundreds): a sum over the outline, such
+// as Lambert's, is the same, since the angles that the parts of a straight edge
+// subtend add up. In order of each joined edge's first vertex, then its second.
+std::vector<std::pair<int, int>> plane_outline(const Scene& scene, const std::vector<std::uint32_t>& patches);
 
 inline Vec3 to_eigen(const OpenMesh::Vec3d& p) { return {p[0], p[1], p[2]}; }
 inline OpenMesh::Vec3d to_om(const Vec3& p) { return {p.x(), p.y(), p.z()}; }

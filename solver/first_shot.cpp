@@ -62,9 +62,9 @@ struct EmitterGroup {
     std::vector<std::uint32_t> members;
     Vec3 centre = Vec3::Zero();  // of the members' vertices' bounding sphere
     double radius = 0.0;
-    // The members' running sum of area, and the edges that only one member has, in
-    // its order (the outline: a form factor's edge sum over the members' edges is
-    // the sum over these, the inner edges cancelling).
+    // The members' running sum of area, and their outline (scenes::plane_outline: a
+    // form factor's edge sum over the members' edges is the sum over these, the inner
+    // edges cancelling).
     std::vector<double> area;
     std::vector<std::array<Vec3, 2>> outline;
 };
@@ -122,20 +122,12 @@ std::vector<EmitterGroup> group_emitters(const scenes::Scene& scene, const std::
             for (std::size_t k = 0; k < order.size(); ++k) g.members[k] = order[k].second;
         }
         Vec3 lo = pos[patches[g.members.front()].v[0]], hi = lo;
-        std::map<std::pair<int, int>, int> edges;  // directed edge -> how often, less the reverse's
         double area = 0.0;
         for (const std::uint32_t j : g.members) {
-            const auto& v = patches[j].v;
-            for (int k = 0; k < 3; ++k) {
-                lo = lo.cwiseMin(pos[v[k]]), hi = hi.cwiseMax(pos[v[k]]);
-                const int from = v[k], to = v[(k + 1) % 3];
-                if (auto back = edges.find({to, from}); back != edges.end() && back->second > 0) --back->second;
-                else ++edges[{from, to}];
-            }
+            for (const int v : patches[j].v) lo = lo.cwiseMin(pos[v]), hi = hi.cwiseMax(pos[v]);
             g.area.push_back(area += patches[j].area);
         }
-        for (const auto& [edge, count] : edges)
-            for (int k = 0; k < count; ++k) g.outline.push_back({pos[edge.first], pos[edge.second]});
+        for (const auto& [from, to] : scenes::plane_outline(scene, g.members)) g.outline.push_back({pos[from], pos[to]});
         g.centre = 0.5 * (lo + hi);
         g.radius = 0.5 * (hi - lo).norm();
     }

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 using namespace raybundle;
@@ -34,6 +35,31 @@ double monte_carlo(const Vec3& x, const Vec3& n, const Vec3& a, const Vec3& b, c
         if (cx > 0 && cy > 0) sum += cx * cy / r2n;
     }
     return sum * area / samples;
+}
+
+// A lamp at z = 2 facing -z: a 6 x 6 grid of cells of 0.5 (two triangles each) with a
+// hole of 2 x 2 cells and a corner notch of 2 x 2: its outline is two loops, an L-shaped
+// hexagon and a square, which a plane crosses up to six times.
+scenes::Scene holed_lamp() {
+    scenes::Scene lamp;
+    scenes::Material m;
+    m.name = "lamp";
+    m.emission = scenes::Rgb::Constant(2.0);
+    const int l = lamp.add_material(m);
+    std::vector<Vec3> v;
+    std::vector<std::array<int, 3>> t;
+    for (int b = 0; b <= 6; ++b)
+        for (int a = 0; a <= 6; ++a) v.emplace_back(-1.5 + 0.5 * a, -1.5 + 0.5 * b, 2.0);
+    for (int b = 0; b < 6; ++b)
+        for (int a = 0; a < 6; ++a) {
+            if (((a == 2 || a == 3) && (b == 2 || b == 3)) || (a >= 4 && b >= 4)) continue;  // hole, notch
+            const int k = b * 7 + a;
+            t.push_back({k, k + 7, k + 8});  // facing -z
+            t.push_back({k, k + 8, k + 1});
+        }
+    lamp.add_object(v, t, l, "lamp");
+    lamp.finalize();
+    return lamp;
 }
 
 }  // namespace
@@ -74,31 +100,11 @@ TEST_CASE("projected solid angle: clipped triangles against Monte Carlo", "[rend
 }
 
 TEST_CASE("area lights: the boundary sum equals the sum over the light's triangles", "[render][lights]") {
-    // Lights of many patches: the Cornell box's panel refined, and a lamp with a hole and
-    // a notch (its boundary two loops, which a plane crosses up to six times). The
+    // Lights of many patches: the Cornell box's panel refined, and holed_lamp(). The
     // irradiance from the boundary alone (clipped where x's plane cuts the light)
     // equals the sum over the triangles clipped one by one, from random points and
     // normals, most of them cutting the light.
-    scenes::Scene lamp;
-    {
-        scenes::Material m;
-        m.name = "lamp";
-        m.emission = scenes::Rgb::Constant(2.0);
-        const int l = lamp.add_material(m);
-        std::vector<Vec3> v;
-        std::vector<std::array<int, 3>> t;
-        for (int b = 0; b <= 6; ++b)
-            for (int a = 0; a <= 6; ++a) v.emplace_back(-1.5 + 0.5 * a, -1.5 + 0.5 * b, 2.0);
-        for (int b = 0; b < 6; ++b)
-            for (int a = 0; a < 6; ++a) {
-                if (((a == 2 || a == 3) && (b == 2 || b == 3)) || (a >= 4 && b >= 4)) continue;  // hole, notch
-                const int k = b * 7 + a;
-                t.push_back({k, k + 7, k + 8});  // facing -z
-                t.push_back({k, k + 8, k + 1});
-            }
-        lamp.add_object(v, t, l, "lamp");
-        lamp.finalize();
-    }
+    const scenes::Scene lamp = holed_lamp();
     const auto box = scenes::make_builtin("cornell-box", 20.0);
     for (const scenes::Scene* scene : std::array<const scenes::Scene*, 2>{&box, &lamp}) {
         const AreaLights lights(*scene);
@@ -136,5 +142,33 @@ TEST_CASE("area lights: the boundary sum equals the sum over the light's triangl
         }
         INFO((scene == &lamp ? "the lamp" : "the Cornell box") << ": " << cut << " of 400 points' planes cut the light");
         CHECK(cut > 100);
+    }
+}
+
+TEST_CASE("a plane's outline: straight runs of edges are one edge", "[render][lights]") {
+    // The Cornell box's light panel at patch size 10 (1,024 patches) is a rectangle; the
+    // holed lamp an L-shaped hexagon and a square hole. Each edge of the outline turns
+    // at both ends, and the outlines run counter-clockwise about the lights' normals.
+    const auto box = scenes::make_builtin("cornell-box", 10.0), lamp = holed_lamp();
+    for (const auto& [scene, corners] : {std::pair{&box, 4}, std::pair{&lamp, 10}}) {
+        std::vector<std::uint32_t> lit;
+        for (std::size_t j = 0; j < scene->patch_count(); ++j)
+            if (scene->material_of(j).emissive()) lit.push_back(static_cast<std::uint32_t>(j));
+        REQUIRE(lit.size() > 50);
+        const auto outline = scenes::plane_outline(*scene, lit);
+        CHECK(static_cast<int>(outline.size()) == corners);
+        const auto& pos = scene->vertex_positions();
+        const Vec3 normal = scene->patch_list()[lit.front()].normal;
+        double area = 0.0, light = 0.0;  // the outline's signed area about the normal, and the patches'
+        for (const auto& [a, b] : outline) area += 0.5 * normal.dot(pos[a].cross(pos[b]));
+        for (const std::uint32_t j : lit) light += scene->patch_list()[j].area;
+        CHECK(area == Approx(light).epsilon(1e-12));
+        for (const auto& [a, b] : outline) {  // each edge meets the next one at an angle
+            std::size_t next = 0;
+            for (std::size_t e = 0; e < outline.size(); ++e)
+                if (outline[e].first == b) next = e;
+            const Vec3 d1 = pos[b] - pos[a], d2 = pos[outline[next].second] - pos[b];
+            CHECK(d1.cross(d2).norm() > 0.1 * d1.norm() * d2.norm());
+        }
     }
 }
