@@ -30,6 +30,10 @@ double edge_term(const Vec3& n, const Vec3& p, const Vec3& q) {
 }  // namespace
 
 AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(scene.patch_list()) {
+    auto corners_of = [&](std::uint32_t j) {
+        const auto& pos = scene.vertex_positions();
+        return std::array<Vec3, 3>{pos[patches_[j].v[0]], pos[patches_[j].v[1]], pos[patches_[j].v[2]]};
+    };
     double total = 0.0;
     power_.assign(patches_.size(), 0.0);
     // Lights: emissive patches of one object and material on one plane.
@@ -42,18 +46,18 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         total += power;
         power_[j] = power;
         emitters_.push_back(static_cast<std::uint32_t>(j));
-        cdf_.push_back(total);
+        cdf_.values.push_back(total);
         const auto& p = patches_[j];
         const double offset = p.normal.dot(scene.vertex_positions()[p.v[0]]);
         const auto key = std::make_tuple(p.object, p.material, std::lround(p.normal.x() * scale),
                                          std::lround(p.normal.y() * scale), std::lround(p.normal.z() * scale),
                                          std::lround(offset * plane_scale));
         auto [it, added] = index.emplace(key, lights_.size());
-        if (added) lights_.push_back({m.emission, p.normal, offset, {}, {}, {}});
+        if (added) lights_.push_back({m.emission, p.normal, offset, {}, {}, {}, {}});
         lights_[it->second].patches.push_back(static_cast<std::uint32_t>(j));
     }
     if (total > 0.0) {
-        for (auto& c : cdf_) c /= total;
+        for (auto& c : cdf_.values) c /= total;
         for (auto& p : power_) p /= total;
     }
     // Each light's boundary: the directed edges whose reverse is not an edge of it, those
@@ -62,20 +66,39 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         light.boundary = scenes::plane_outline(scene, light.patches);
         for (auto j : light.patches) {
             light.area += patches_[j].area;
-            light.area_cdf.push_back(light.area);
+            light.area_cdf.values.push_back(light.area);
+            light.corners.push_back(corners_of(j));
         }
-        for (auto& c : light.area_cdf) c /= light.area;
+        for (auto& c : light.area_cdf.values) c /= light.area;
+        light.area_cdf.finish();
     }
+    for (const std::uint32_t j : emitters_) corners_.push_back(corners_of(j));
+    cdf_.finish();
+}
+
+void AreaLights::Cdf::finish() {
+    const std::size_t n = values.size();
+    guide.resize(n + 1);
+    for (std::size_t c = 0; c <= n; ++c)
+        guide[c] = static_cast<std::uint32_t>(
+            std::upper_bound(values.begin(), values.end(), static_cast<double>(c) / static_cast<double>(n)) -
+            values.begin());
+}
+
+std::size_t AreaLights::Cdf::index(double u) const {
+    const std::size_t n = values.size();
+    // u's cell, give or take one for the rounding of u n against c / n.
+    const double at = u * static_cast<double>(n);
+    const std::size_t c = at > 0.0 ? std::min(static_cast<std::size_t>(at), n - 1) : 0;
+    const auto first = values.begin() + guide[c > 0 ? c - 1 : 0], last = values.begin() + guide[std::min(c + 2, n)];
+    return std::min(static_cast<std::size_t>(std::upper_bound(first, last, u) - values.begin()), n - 1);
 }
 
 AreaLights::Sample AreaLights::sample(double pick, double u1, double u2) const {
-    const std::size_t e = std::min<std::size_t>(
-        static_cast<std::size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), pick) - cdf_.begin()), emitters_.size() - 1);
-    const std::uint32_t j = emitters_[e];
+    const std::size_t e = cdf_.index(pick);
+    const auto& p = corners_[e];
     const double r1 = std::sqrt(u1);
-    const auto& q = patches_[j];
-    const auto& pos = scene_.vertex_positions();
-    return {j, (1.0 - r1) * pos[q.v[0]] + r1 * (1.0 - u2) * pos[q.v[1]] + r1 * u2 * pos[q.v[2]]};
+    return {emitters_[e], (1.0 - r1) * p[0] + r1 * (1.0 - u2) * p[1] + r1 * u2 * p[2]};
 }
 
 double AreaLights::projected_solid_angle(const Vec3& x, const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -99,15 +122,10 @@ double AreaLights::projected_solid_angle(const Vec3& x, const Vec3& n, const Vec
 
 AreaLights::Sample AreaLights::sample_light(std::size_t l, double pick, double u1, double u2) const {
     const Light& light = lights_[l];
-    const std::size_t k = std::min<std::size_t>(
-        static_cast<std::size_t>(std::upper_bound(light.area_cdf.begin(), light.area_cdf.end(), pick) -
-                                 light.area_cdf.begin()),
-        light.patches.size() - 1);
-    const std::uint32_t j = light.patches[k];
+    const std::size_t k = light.area_cdf.index(pick);
+    const auto& p = light.corners[k];
     const double r1 = std::sqrt(u1);
-    const auto& q = patches_[j];
-    const auto& pos = scene_.vertex_positions();
-    return {j, (1.0 - r1) * pos[q.v[0]] + r1 * (1.0 - u2) * pos[q.v[1]] + r1 * u2 * pos[q.v[2]]};
+    return {light.patches[k], (1.0 - r1) * p[0] + r1 * (1.0 - u2) * p[1] + r1 * u2 * p[2]};
 }
 
 Rgb AreaLights::irradiance(const Vec3& x, const Vec3& n) const {

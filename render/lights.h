@@ -18,6 +18,7 @@
 // remains only where a light is partly hidden.
 #include "scenes/scene.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -63,19 +64,31 @@ public:
                                         const scenes::Vec3& b, const scenes::Vec3& c);
 
 private:
+    // A cumulative distribution (non-decreasing, ending at about 1), and for each of
+    // size() equal cells of [0, 1) the range of entries where a pick in it can land:
+    // index(u) is std::upper_bound's answer (at most size() - 1) from a search of a
+    // few entries, not of all (a light of 1,024 patches).
+    struct Cdf {
+        std::vector<double> values;
+        std::vector<std::uint32_t> guide;  // per cell boundary c / size(): upper_bound of it
+        void finish();                     // after the values
+        std::size_t index(double u) const;
+    };
     struct Light {
         scenes::Rgb emission;
         scenes::Vec3 normal;  // unit, front
         double offset;        // plane: normal . y = offset
         std::vector<std::uint32_t> patches;
         std::vector<std::pair<int, int>> boundary;  // directed vertex pairs, counter-clockwise about the normal
-        std::vector<double> area_cdf;               // over its patches, normalised
+        Cdf area_cdf;                               // over its patches, normalised
+        std::vector<std::array<scenes::Vec3, 3>> corners;  // its patches', in that order
         double area = 0.0;
     };
     const scenes::Scene& scene_;
     const Buffer<scenes::Patch>& patches_;
     std::vector<std::uint32_t> emitters_;
-    std::vector<double> cdf_;
+    Cdf cdf_;                                              // over emitters_, by power
+    std::vector<std::array<scenes::Vec3, 3>> corners_;  // emitters_' corners, in that order
     std::vector<double> power_;
     std::vector<Light> lights_;
 };
