@@ -139,7 +139,10 @@ Rgb AreaLights::irradiance(std::size_t l, const Vec3& x, const Vec3& n) const {
     Rgb e = Rgb::Zero();
     {
         const Light& light = lights_[l];
-        if (light.normal.dot(x) - light.offset <= 0.0) return e;  // behind the light
+        // Behind the light, or in its plane (within 1e-9 of the scene: a point of the light
+        // itself, which rounding puts on either side, would see the whole boundary around
+        // it, and the boundary's clipping needs a point off the plane).
+        if (light.normal.dot(x) - light.offset <= 1e-9 * scene_.bounds_radius()) return e;
         // The boundary's part on or above x's plane (a vertex on it kept, as
         // projected_solid_angle clips a triangle), closed along the line where the two
         // planes meet. A closing edge e -> s lies in x's plane, where edge_term is half

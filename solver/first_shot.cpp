@@ -183,7 +183,10 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
         double sum = 0.0;
         subtriangle_centroids(Ni, [&](double u, double v) {
             const Vec3 x = a + u * (b - a) + v * (c - a);
-            if (normal.dot(x - group.outline.front()[0]) <= 0.0) return;  // behind the emitters
+            // Behind the emitters, or in their plane (within 1e-9 of the scene: a member's
+            // own points, which rounding puts on either side, would see the whole outline
+            // around them, and the outline's clipping needs a point off the plane).
+            if (normal.dot(x - group.outline.front()[0]) <= tiny) return;
             const double F = point_to_outline(x, p.normal, group.outline);
             if (F <= 0.0) return;
             const Vec3 from = x + offset * p.normal;

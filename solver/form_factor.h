@@ -32,7 +32,7 @@ inline double point_to_triangle(const scenes::Vec3& x, const scenes::Vec3& n, co
 // Form factor from a differential area at x with unit normal n to the part in front of
 // x's plane (n . (p - x) > 0) of a plane region, given by its outline: directed edges
 // that form closed loops, all of one orientation as seen from x (the outline of
-// coplanar triangles of one normal, x off their plane). Each edge's front part is
+// coplanar triangles of one normal, x off their plane by more than rounding). Each edge's front part is
 // summed, and the clipped region is closed along the line where the two planes meet:
 // its closing edges run in x's plane, where edge e -> s adds the angle from e to s
 // about n. They all lie on that line, which misses x, so every point's angle from one

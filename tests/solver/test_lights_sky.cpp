@@ -1,6 +1,7 @@
 // The first shot (point lights, 004 section 9) and the sky (section 6) against
 // closed-form answers.
 #include "reference.h"
+#include "render/lights.h"
 #include "sampling/run.h"
 #include "scenes/builtin.h"
 #include "scenes/ray_caster.h"
@@ -430,4 +431,65 @@ TEST_CASE("glossy scenes keep the first shot of diffuse patches that face away f
     const auto field = t.field_from(std::vector<Rgb>(s.patch_count(), Rgb::Zero()), 1, t.directions_to_eye());
     for (std::size_t i = 0; i < s.patch_count(); ++i)
         if (s.patch_list()[i].material == d) CHECK(field.radiance[i][0] > 0.0);
+}
+
+TEST_CASE("diffuse shot and area lights: a tilted light's own points get none of its light", "[solver][diffuse-shot]") {
+    // A lamp of 2 x 12^2 patches (one group) in a plane of no axis, over a floor: its
+    // points lie on its plane up to rounding, on either side of it. Neither the shot's
+    // group sum nor the final gather's area light may give them any of its light (with
+    // only the sign of the distance tested, they got 7e-17 here; a point inside the
+    // outline can get a form factor of 1, the clipping's closing angles wrapping).
+    scenes::Scene s;
+    scenes::Material white, lamp;
+    white.name = "white";
+    white.albedo = Rgb::Constant(0.5);
+    lamp.name = "lamp";
+    lamp.emission = Rgb::Constant(1.0);
+    lamp.albedo = Rgb::Constant(0.5);
+    const int w = s.add_material(white), l = s.add_material(lamp);
+    auto grid = [&](Vec3 origin, Vec3 du, Vec3 dv, int cells, int material) {
+        std::vector<Vec3> v;
+        std::vector<std::array<int, 3>> t;
+        for (int b = 0; b <= cells; ++b)
+            for (int a = 0; a <= cells; ++a) v.push_back(origin + (a * du + b * dv) / cells);
+        for (int b = 0; b < cells; ++b)
+            for (int a = 0; a < cells; ++a) {
+                const int k = b * (cells + 1) + a;
+                t.push_back({k, k + 1, k + cells + 2});
+                t.push_back({k, k + cells + 2, k + cells + 1});
+            }
+        s.add_object(v, t, material);
+    };
+    grid({-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 8, w);                                  // faces +z
+    grid({-0.5, -0.5, 2}, {0.1, 1, 0.3}, {1, 0.13, -0.2}, 12, l);                     // faces about -z
+    s.finalize();
+    const std::size_t floor_patches = 2 * 8 * 8;
+    long rays = 0;
+    std::vector<Rgb> E;
+    {
+        const scenes::RayCaster caster(s);
+        std::size_t groups = 0;
+        E = solver::diffuse_shot(s, caster, rays, {}, &groups);
+        REQUIRE(groups == 1);
+    }
+    int lit_floor = 0;
+    for (std::size_t i = 0; i < floor_patches; ++i) lit_floor += E[i][0] > 0.0;
+    CHECK(lit_floor > 100);
+    double worst = 0.0;
+    for (std::size_t i = floor_patches; i < s.patch_count(); ++i) worst = std::max(worst, E[i][0]);
+    INFO("worst " << std::scientific << worst);
+    CHECK(worst == 0.0);
+
+    const render::AreaLights lights(s);
+    const auto& pos = s.vertex_positions();
+    double worst_point = 0.0;
+    for (std::size_t i = floor_patches; i < s.patch_count(); ++i) {
+        const auto& p = s.patch_list()[i];
+        for (const auto& [u, v] : {std::pair{0.2, 0.3}, std::pair{0.6, 0.1}, std::pair{1.0 / 3, 1.0 / 3}}) {
+            const Vec3 x = (1 - u - v) * pos[p.v[0]] + u * pos[p.v[1]] + v * pos[p.v[2]];
+            worst_point = std::max(worst_point, lights.irradiance(x, p.normal)[0]);
+        }
+    }
+    INFO("worst point " << std::scientific << worst_point);
+    CHECK(worst_point == 0.0);
 }
