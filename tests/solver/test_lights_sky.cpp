@@ -225,10 +225,10 @@ TEST_CASE("diffuse shot: the direct light in a closed box is rho Le sum F = 0.25
 namespace {
 
 // A 4 x 4 floor of 8 x 8 cells (two triangles each) facing up, a 1 x 1 lamp at height 2
-// facing down, of n x n cells (one object, so that its patches form one group when
+// facing down (its sides lamp_u and lamp_v: tilted where they are not the axes), of n x n cells (one object, so that its patches form one group when
 // there are many), and a 1 x 1 blocker at height 1 over a corner of the lamp's
 // footprint: lit, penumbra and umbra on the floor.
-scenes::Scene lamp_over_floor(int n) {
+scenes::Scene lamp_over_floor(int n, const Vec3& lamp_u = {0, 1, 0}, const Vec3& lamp_v = {1, 0, 0}) {
     scenes::Scene s;
     scenes::Material white, lamp;
     white.name = "white";
@@ -250,7 +250,7 @@ scenes::Scene lamp_over_floor(int n) {
         s.add_object(v, t, material);
     };
     grid({-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 8, w);                 // faces +z
-    grid({-0.5, -0.5, 2}, {0, 1, 0}, {1, 0, 0}, n, l);             // faces -z
+    grid({-0.5, -0.5, 2}, lamp_u, lamp_v, n, l);                   // faces -z (tilted by lamp_u, lamp_v)
     grid({0.2, 0.2, 1}, {0, 1, 0}, {1, 0, 0}, 1, w);               // blocker, faces -z
     s.finalize();
     s.camera.eye = Vec3(0, -6, 3);
@@ -439,30 +439,7 @@ TEST_CASE("diffuse shot and area lights: a tilted light's own points get none of
     // group sum nor the final gather's area light may give them any of its light (with
     // only the sign of the distance tested, they got 7e-17 here; a point inside the
     // outline can get a form factor of 1, the clipping's closing angles wrapping).
-    scenes::Scene s;
-    scenes::Material white, lamp;
-    white.name = "white";
-    white.albedo = Rgb::Constant(0.5);
-    lamp.name = "lamp";
-    lamp.emission = Rgb::Constant(1.0);
-    lamp.albedo = Rgb::Constant(0.5);
-    const int w = s.add_material(white), l = s.add_material(lamp);
-    auto grid = [&](Vec3 origin, Vec3 du, Vec3 dv, int cells, int material) {
-        std::vector<Vec3> v;
-        std::vector<std::array<int, 3>> t;
-        for (int b = 0; b <= cells; ++b)
-            for (int a = 0; a <= cells; ++a) v.push_back(origin + (a * du + b * dv) / cells);
-        for (int b = 0; b < cells; ++b)
-            for (int a = 0; a < cells; ++a) {
-                const int k = b * (cells + 1) + a;
-                t.push_back({k, k + 1, k + cells + 2});
-                t.push_back({k, k + cells + 2, k + cells + 1});
-            }
-        s.add_object(v, t, material);
-    };
-    grid({-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 8, w);                                  // faces +z
-    grid({-0.5, -0.5, 2}, {0.1, 1, 0.3}, {1, 0.13, -0.2}, 12, l);                     // faces about -z
-    s.finalize();
+    const auto s = lamp_over_floor(12, {0.1, 1, 0.3}, {1, 0.13, -0.2});
     const std::size_t floor_patches = 2 * 8 * 8;
     long rays = 0;
     std::vector<Rgb> E;
@@ -475,15 +452,17 @@ TEST_CASE("diffuse shot and area lights: a tilted light's own points get none of
     int lit_floor = 0;
     for (std::size_t i = 0; i < floor_patches; ++i) lit_floor += E[i][0] > 0.0;
     CHECK(lit_floor > 100);
+    const std::size_t lamp_end = floor_patches + 2 * 12 * 12;  // then the blocker
+    for (std::size_t i = floor_patches; i < lamp_end; ++i) REQUIRE(s.material_of(i).emissive());
     double worst = 0.0;
-    for (std::size_t i = floor_patches; i < s.patch_count(); ++i) worst = std::max(worst, E[i][0]);
+    for (std::size_t i = floor_patches; i < lamp_end; ++i) worst = std::max(worst, E[i][0]);
     INFO("worst " << std::scientific << worst);
     CHECK(worst == 0.0);
 
     const render::AreaLights lights(s);
     const auto& pos = s.vertex_positions();
     double worst_point = 0.0;
-    for (std::size_t i = floor_patches; i < s.patch_count(); ++i) {
+    for (std::size_t i = floor_patches; i < lamp_end; ++i) {
         const auto& p = s.patch_list()[i];
         for (const auto& [u, v] : {std::pair{0.2, 0.3}, std::pair{0.6, 0.1}, std::pair{1.0 / 3, 1.0 / 3}}) {
             const Vec3 x = (1 - u - v) * pos[p.v[0]] + u * pos[p.v[1]] + v * pos[p.v[2]];
