@@ -1,5 +1,7 @@
 #include "render/lights.h"
 
+#include "solver/form_factor.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -60,10 +62,11 @@ AreaLights::AreaLights(const scenes::Scene& scene) : scene_(scene), patches_(sce
         for (auto& c : cdf_.values) c /= total;
         for (auto& p : power_) p /= total;
     }
-    // Each light's boundary: the directed edges whose reverse is not an edge of it, those
+    // Each light's outline: the directed edges whose reverse is not an edge of it, those
     // that run straight on joined (scenes/scene.h).
     for (auto& light : lights_) {
-        light.boundary = scenes::plane_outline(scene, light.patches);
+        const auto& pos = scene.vertex_positions();
+        for (const auto& [from, to] : scenes::plane_outline(scene, light.patches)) light.outline.push_back({pos[from], pos[to]});
         for (auto j : light.patches) {
             light.area += patches_[j].area;
             light.area_cdf.values.push_back(light.area);
@@ -135,48 +138,15 @@ Rgb AreaLights::irradiance(const Vec3& x, const Vec3& n) const {
 }
 
 Rgb AreaLights::irradiance(std::size_t l, const Vec3& x, const Vec3& n) const {
-    const auto& pos = scene_.vertex_positions();
-    Rgb e = Rgb::Zero();
-    {
-        const Light& light = lights_[l];
-        // Behind the light, or in its plane (within 1e-9 of the scene: a point of the light
-        // itself, which rounding puts on either side, would see the whole boundary around
-        // it, and the boundary's clipping needs a point off the plane).
-        if (light.normal.dot(x) - light.offset <= 1e-9 * scene_.bounds_radius()) return e;
-        // The boundary's part on or above x's plane (a vertex on it kept, as
-        // projected_solid_angle clips a triangle), closed along the line where the two
-        // planes meet. A closing edge e -> s lies in x's plane, where edge_term is half
-        // the angle from s to e about n. All of them lie on that line, which misses x, so
-        // every point's angle from the first crossing is within pi of it: the closing
-        // edges add up to half the exits' angles less the returns', however they pair
-        // up. A light wholly above has no crossing: the plain edge sum.
-        double omega = 0.0, closing = 0.0;
-        Vec3 first = Vec3::Zero();  // the first crossing, relative to x
-        bool crossed = false;
-        auto angle = [&](const Vec3& r) { return std::atan2(n.dot(first.cross(r)), first.dot(r)); };
-        for (const auto& [a, b] : light.boundary) {
-            const Vec3 p = pos[a] - x, q = pos[b] - x;
-            const double dp = n.dot(p), dq = n.dot(q);
-            const bool in_p = dp >= 0.0, in_q = dq >= 0.0;
-            if (in_p && in_q) {
-                omega += edge_term(n, p, q);
-                continue;
-            }
-            if (in_p == in_q) continue;  // wholly below
-            const Vec3 cut = p + (dp / (dp - dq)) * (q - p);
-            if (!crossed) first = cut, crossed = true;
-            if (in_p) {  // leaves: a closing edge starts at the cut
-                omega += edge_term(n, p, cut);
-                closing += angle(cut);
-            } else {  // returns: one ends there
-                omega += edge_term(n, cut, q);
-                closing -= angle(cut);
-            }
-        }
-        omega += 0.5 * closing;
-        e += light.emission * std::max(0.0, omega);
-    }
-    return e;
+    const Light& light = lights_[l];
+    // Behind the light, or in its plane (within 1e-9 of the scene: a point of the light
+    // itself, which rounding puts on either side, would see the whole outline around it,
+    // and the outline's clipping needs a point off the plane).
+    if (light.normal.dot(x) - light.offset <= 1e-9 * scene_.bounds_radius()) return Rgb::Zero();
+    // The projected solid angle is pi times the form factor to the light's part in front
+    // of x's plane: its outline clipped to that plane (solver/form_factor.h, as the
+    // diffuse shot's groups of emitters).
+    return light.emission * (M_PI * solver::point_to_outline(x, n, light.outline));
 }
 
 }  // namespace raybundle::render

@@ -10,9 +10,10 @@
 // u_i the unit directions to its vertices, beta_i the angle between u_i and u_i+1, so
 // the irradiance from a polygon of radiance Le is Le Omega. The emissive patches are
 // grouped into planar lights (same object, material and plane); a light's Omega is the
-// sum over its boundary edges alone, since interior edges cancel; a light that the
-// plane of x cuts has its boundary clipped to that plane and closed along it (the
-// triangles clipped one by one give the same). The final gather multiplies
+// sum over its outline alone, since interior edges cancel; a light that the plane of x
+// cuts has its outline clipped to that plane and closed along it (the triangles clipped
+// one by one give the same). That sum is pi times the form factor of
+// solver::point_to_outline, which the diffuse shot's groups of emitters share. The final gather multiplies
 // each light's exact value by that light's stochastic shadow ratio (Heitz, Hill,
 // McGuire, "Combining analytic direct illumination and stochastic shadows", 2018): noise
 // remains only where a light is partly hidden.
@@ -79,8 +80,8 @@ private:
         scenes::Vec3 normal;  // unit, front
         double offset;        // plane: normal . y = offset
         std::vector<std::uint32_t> patches;
-        std::vector<std::pair<int, int>> boundary;  // directed vertex pairs, counter-clockwise about the normal
-        Cdf area_cdf;                               // over its patches, normalised
+        std::vector<std::array<scenes::Vec3, 2>> outline;  // directed edges, counter-clockwise about the normal
+        Cdf area_cdf;                                      // over its patches, normalised
         std::vector<std::array<scenes::Vec3, 3>> corners;  // its patches', in that order
         double area = 0.0;
     };

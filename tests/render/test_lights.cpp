@@ -146,6 +146,58 @@ TEST_CASE("area lights: the boundary sum equals the sum over the light's triangl
     }
 }
 
+TEST_CASE("area lights: receivers whose plane runs through the light's corners, and receivers next to its plane",
+          "[render][lights]") {
+    // The outline's clipping counts a corner on x's plane as behind it (a cut at the
+    // corner itself) and an edge along the plane as no edge, where the triangles clipped
+    // one by one keep both (AreaLights::projected_solid_angle): the two must agree. And a
+    // receiver a hair below the light sees its outline's edges at angles near pi.
+    const scenes::Scene lamp = holed_lamp();  // z = 2, facing -z, corners on a grid of 0.5
+    const AreaLights lights(lamp);
+    const auto& pos = lamp.vertex_positions();
+    auto per_triangle = [&](const Vec3& x, const Vec3& n) {
+        double sum = 0.0;
+        for (std::size_t j = 0; j < lamp.patch_count(); ++j) {
+            const auto& p = lamp.patch_list()[j];
+            sum += 2.0 * AreaLights::projected_solid_angle(x, n, pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]);
+        }
+        return sum;
+    };
+    sampling::Rng rng(11, 3);
+    int on_plane = 0, lit = 0;
+    // Planes x = c, y = c and x +- y = c through rows, columns and diagonals of corners:
+    // the offsets below are multiples of 1/64, so that n . (corner - x) is exactly 0.
+    for (int t = 0; t < 600; ++t) {
+        const double c = -1.5 + 0.5 * std::floor(7.0 * rng.uniform()), s = std::floor(64.0 * rng.uniform() - 32.0) / 64.0;
+        const double h = 2.0 - 0.05 - 2.0 * rng.uniform(), k = 1.0 / std::sqrt(2.0);
+        const double sign = rng.uniform() < 0.5 ? 1.0 : -1.0;
+        Vec3 x, n;
+        switch (t % 4) {
+            case 0: x = Vec3(c, s, h), n = Vec3(sign, 0.0, 0.0); break;
+            case 1: x = Vec3(s, c, h), n = Vec3(0.0, sign, 0.0); break;
+            case 2: x = Vec3(c + s, c - s, h), n = Vec3(sign * k, sign * k, 0.0); break;
+            default: x = Vec3(c + s, s - c, h), n = Vec3(sign * k, -sign * k, 0.0); break;
+        }
+        int touching = 0;
+        for (const auto& v : pos) touching += n.dot(v - x) == 0.0;
+        on_plane += touching > 0;
+        const double expected = per_triangle(x, n);
+        lit += expected > 0.0;
+        CHECK(lights.irradiance(x, n)[0] == Approx(expected).epsilon(1e-9).margin(1e-12));
+    }
+    INFO(on_plane << " of 600 receivers' planes run through corners of the light, " << lit << " see some of it");
+    CHECK(on_plane == 600);
+    CHECK(lit > 300);
+    // Receivers 1e-8 to 1e-2 below the light (its guard is 1e-9 of the scene's size),
+    // under it, its hole and its notch, with random normals.
+    for (int t = 0; t < 400; ++t) {
+        const double d = std::pow(10.0, -8.0 + 6.0 * rng.uniform());
+        const Vec3 x(3.4 * rng.uniform() - 1.7, 3.4 * rng.uniform() - 1.7, 2.0 - d);
+        const Vec3 n = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5).normalized();
+        CHECK(lights.irradiance(x, n)[0] == Approx(per_triangle(x, n)).epsilon(1e-9).margin(1e-12));
+    }
+}
+
 TEST_CASE("a plane's outline: straight runs of edges are one edge", "[render][lights]") {
     // The Cornell box's light panel at patch size 10 (1,024 patches) is a rectangle; the
     // holed lamp an L-shaped hexagon and a square hole. Each edge of the outline turns
