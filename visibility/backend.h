@@ -102,8 +102,13 @@ inline const char* const kDefaultBackend = "exact-painter";
 // Makes a backend by name (see backend_infos()). Throws OptionError for an unknown
 // name (listing the known ones), a backend this build lacks, or options it does not
 // support.
+// `arrays`, where given, are the scene's patch arrays (visibility/patch_arrays.h) that
+// the pixel backends read, shared with other backends (BackendSet makes them once for
+// all its threads); without, a backend makes its own.
+struct PatchArrays;
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
-                                      const BackendOptions& options);
+                                      const BackendOptions& options,
+                                      std::shared_ptr<const PatchArrays> arrays = nullptr);
 
 // The default map resolution for a scene: a small patch (the 10th percentile of
 // patch areas) covers about 16 pixels when seen face-on; clamped to [64, 2048].

@@ -31,23 +31,13 @@ inline bool is_receiver(std::uint32_t id) { return !is_source(id) && id < Backen
 
 }  // namespace
 
-ExactPainterBackend::ExactPainterBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+ExactPainterBackend::ExactPainterBackend(const scenes::Scene& scene, const BackendOptions& options,
+                                         std::shared_ptr<const PatchArrays> arrays)
+    : arrays_(patch_arrays(scene, std::move(arrays))),
+      grid_(scene, arrays_, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
       sky_(options.sky),
-      positions_(scene.vertex_positions()),
       kernels_(&best_span_kernels()) {
-    const std::size_t patches = scene.patch_count();
-    normals_.reserve(patches);
-    centroids_.reserve(patches);
-    offsets_.reserve(patches);
-    corners_.reserve(3 * patches);
-    for (const auto& p : scene.patch_list()) {
-        normals_.push_back(p.normal);
-        centroids_.push_back(p.centroid);
-        offsets_.push_back(p.normal.dot(positions_[p.v[0]]));
-        for (int k : p.v) corners_.push_back(static_cast<std::uint32_t>(k));
-    }
-    const std::size_t n = normals_.size();
+    const std::size_t n = arrays_->patches();
     if (n + 2 >= kMarked) throw std::length_error("exact-painter: more patches than ids");
     counts_.assign(n + 2, 0);
     sky_counts_.assign(n, 0);
@@ -69,7 +59,7 @@ ExactPainterBackend::ExactPainterBackend(const scenes::Scene& scene, const Backe
 
 std::uint32_t ExactPainterBackend::key_of(std::uint32_t id, int x, int y) const {
     const std::uint32_t i = id & kIndex;
-    return i < normals_.size() ? span_key(items_[i].plane, x, y) : 0;  // nothing, the sky: upstream of all
+    return i < arrays_->patches() ? span_key(items_[i].plane, x, y) : 0;  // nothing, the sky: upstream of all
 }
 
 bool ExactPainterBackend::after(std::uint32_t g, std::uint32_t kg, std::uint32_t a, std::uint32_t ka) {
@@ -134,7 +124,7 @@ void ExactPainterBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter,
     repairs_ = {};
     grid_.project(w, jitter);
     const int W = grid_.width();
-    const std::size_t n = normals_.size();
+    const std::size_t n = arrays_->patches();
     initial_ = sky_ ? static_cast<std::uint32_t>(n) | kSource : kNone;
 
     // Per patch, in index order (the arrays are read in sequence; drawing then visits
@@ -150,21 +140,22 @@ void ExactPainterBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter,
     const Vec3 origin = grid_.pixel_point(0, 0);
     const Vec3 du = grid_.pixel_point(1, 0) - origin, dv = grid_.pixel_point(0, 1) - origin;
     const Vec3 center = grid_.center();
-    vertex_keys_.resize(positions_.size());
-    for (std::size_t v = 0; v < positions_.size(); ++v)
-        vertex_keys_[v] = (w.dot(positions_[v] - center) + radius) * scale;
+    const auto& [positions, corners, normals, centroids, offsets] = *arrays_;
+    vertex_keys_.resize(positions.size());
+    for (std::size_t v = 0; v < positions.size(); ++v)
+        vertex_keys_[v] = (w.dot(positions[v] - center) + radius) * scale;
     for (std::uint32_t i = 0; i < n; ++i) {
         Item& it = items_[i];
         rows_[i] = {1, 0};  // none, unless it covers pixel centres
-        const double nw = normals_[i].dot(w);
+        const double nw = normals[i].dot(w);
         if (nw == 0.0) continue;  // edge-on: no projected area, blocks nothing
         DepthPlane& pl = it.plane;
         const double inv = scale / nw;
-        pl.row0 = (offsets_[i] - normals_[i].dot(origin)) * inv + radius * scale;
-        pl.dx = -normals_[i].dot(du) * inv;
-        pl.dy = -normals_[i].dot(dv) * inv;
-        const double k0 = vertex_keys_[corners_[3 * i]], k1 = vertex_keys_[corners_[3 * i + 1]],
-                     k2 = vertex_keys_[corners_[3 * i + 2]];
+        pl.row0 = (offsets[i] - normals[i].dot(origin)) * inv + radius * scale;
+        pl.dx = -normals[i].dot(du) * inv;
+        pl.dy = -normals[i].dot(dv) * inv;
+        const double k0 = vertex_keys_[corners[3 * i]], k1 = vertex_keys_[corners[3 * i + 1]],
+                     k2 = vertex_keys_[corners[3 * i + 2]];
         // floor and ceil of the range, clamped (conversions truncate: no libm calls here)
         const double lo = std::max(std::min({k0, k1, k2}), kLowest), hi = std::min(std::max({k0, k1, k2}), kHighest);
         const auto lo_floor = static_cast<std::int64_t>(lo), hi_trunc = static_cast<std::int64_t>(hi);
@@ -185,7 +176,7 @@ void ExactPainterBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter,
         it.id = nw > 0.0 ? i | kSource : i;
         it.pending_begin = it.pending_end = 0;
     }
-    sort_by_centre(w, normals_, centroids_, center, radius, keys_, scratch_);
+    sort_by_centre(w, normals, centroids, center, radius, keys_, scratch_);
 
     // Each band's patches, in the painter's order: a counting sort by band.
     const int bands = ((W - 1) >> band_shift_) + 1;
@@ -271,7 +262,7 @@ void ExactPainterBackend::draw_band(int band, GeometryMatrix& out) {
     if (!marked_.empty()) resolve_marked(band);
     if (sky_) {
         // Sources left as occupants see the open sky along -w (marked pixels' in resolve_marked()).
-        const std::size_t n = normals_.size();
+        const std::size_t n = arrays_->patches();
         for (std::size_t p = 0; p < pixels; ++p)
             if (k_[p] != 0 && is_source(a_[p]) && (a_[p] & kIndex) < n) count_sky_back(a_[p] & kIndex);
     }
@@ -318,7 +309,7 @@ void ExactPainterBackend::resolve_marked(int band) {
         return f.pixel < g.pixel || (f.pixel == g.pixel && f.order < g.order);
     });
 
-    const std::size_t n = normals_.size();
+    const std::size_t n = arrays_->patches();
     for (std::size_t f0 = 0; f0 < fragments_.size();) {
         std::size_t f1 = f0;
         while (f1 < fragments_.size() && fragments_[f1].pixel == fragments_[f0].pixel) ++f1;
@@ -348,7 +339,7 @@ void ExactPainterBackend::resolve_marked(int band) {
 // The sky pairs of the sources nothing covers downstream, the corrections merged into
 // their receivers' entries, and pixel counts turned into areas.
 void ExactPainterBackend::finish_entries(GeometryMatrix& out) {
-    const std::size_t n = normals_.size();
+    const std::size_t n = arrays_->patches();
     std::sort(sky_touched_.begin(), sky_touched_.end());
     for (const std::uint32_t j : sky_touched_) {
         out.entries.push_back({static_cast<std::uint32_t>(n + 1), j, static_cast<double>(sky_counts_[j])});

@@ -41,6 +41,7 @@
 #include "visibility/backend.h"
 #include "visibility/exact_spans.h"
 #include "visibility/map_grid.h"
+#include "visibility/patch_arrays.h"
 
 #include <cstdint>
 #include <unordered_map>
@@ -50,7 +51,10 @@ namespace raybundle::visibility {
 
 class ExactPainterBackend final : public Backend {
 public:
-    ExactPainterBackend(const scenes::Scene& scene, const BackendOptions& options);
+    // `arrays`: the scene's patch arrays shared with the other backends of a set (made
+    // here where none is given).
+    ExactPainterBackend(const scenes::Scene& scene, const BackendOptions& options,
+                        std::shared_ptr<const PatchArrays> arrays = nullptr);
     std::string name() const override { return "exact-painter"; }
     int resolution() const override { return grid_.resolution(); }
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
@@ -95,14 +99,11 @@ private:
     void count_sky_back(std::uint32_t source);
     void finish_entries(GeometryMatrix& out);
 
+    std::shared_ptr<const PatchArrays> arrays_;  // read only
     MapGrid grid_;
     bool sky_;
-    std::vector<Vec3> positions_;
     const SpanKernels* kernels_;
-    std::vector<Vec3> normals_, centroids_;
-    std::vector<double> offsets_;         // n . p0 per patch
-    std::vector<std::uint32_t> corners_;  // 3 vertex indices per patch
-    int band_shift_ = 0, band_rows_;      // rows per band of the map: 2^band_shift_
+    int band_shift_ = 0, band_rows_;  // rows per band of the map: 2^band_shift_
 
     // Per direction.
     std::uint32_t initial_ = kNone;  // what a pixel starts with: nothing, or the open sky

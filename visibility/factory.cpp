@@ -53,7 +53,7 @@ const BackendInfo& backend_info(const std::string& name) {
 }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Scene& scene,
-                                      const BackendOptions& options) {
+                                      const BackendOptions& options, std::shared_ptr<const PatchArrays> arrays) {
     const BackendInfo& info = backend_info(name);
     if (options.resolution < 0 || options.resolution > 16384)
         throw scenes::OptionError("resolution", "must be in 1..16384, got " + std::to_string(options.resolution));
@@ -63,10 +63,10 @@ std::unique_ptr<Backend> make_backend(const std::string& name, const scenes::Sce
             if (i.sky) with_sky += (with_sky.empty() ? "" : ", ") + i.name;
         throw scenes::OptionError("visibility", "backend '" + name + "' does not support a sky (use " + with_sky + ")");
     }
-    if (name == "exact-painter") return std::make_unique<ExactPainterBackend>(scene, options);
-    if (name == "painter") return std::make_unique<PainterBackend>(scene, options);
-    if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options);
-    if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options);
+    if (name == "exact-painter") return std::make_unique<ExactPainterBackend>(scene, options, std::move(arrays));
+    if (name == "painter") return std::make_unique<PainterBackend>(scene, options, std::move(arrays));
+    if (name == "global-zbuffer") return std::make_unique<GlobalZBufferBackend>(scene, options, std::move(arrays));
+    if (name == "raycast") return std::make_unique<RaycastBackend>(scene, options, std::move(arrays));
 #ifdef RAYBUNDLE_HAVE_OPENGL
     if (name == "zbuffer") return std::make_unique<ZBufferBackend>(scene, options);
 #endif

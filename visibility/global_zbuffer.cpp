@@ -6,29 +6,27 @@
 
 namespace raybundle::visibility {
 
-GlobalZBufferBackend::GlobalZBufferBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
-      sky_(options.sky) {
-    const auto& pos = scene.vertex_positions();
-    for (const auto& p : scene.patch_list()) {
-        normals_.push_back(p.normal);
-        plane_.push_back(p.normal.dot(pos[p.v[0]]));
-    }
-}
+GlobalZBufferBackend::GlobalZBufferBackend(const scenes::Scene& scene, const BackendOptions& options,
+                                           std::shared_ptr<const PatchArrays> arrays)
+    : arrays_(patch_arrays(scene, std::move(arrays))),
+      grid_(scene, arrays_, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+      sky_(options.sky) {}
 
 void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
     out.direction = w;
     out.entries.clear();
     grid_.project(w, jitter);
     const int W = grid_.width();
-    const std::size_t n = normals_.size();
+    const auto& normals = arrays_->normals;
+    const auto& plane = arrays_->offsets;  // n . p0 per patch
+    const std::size_t n = normals.size();
 
     // Pass 1: fragments per pixel; then offsets by prefix sum.
     offsets_.assign(static_cast<std::size_t>(W) * W + 1, 0);
     std::uint32_t* count = offsets_.data() + 1;
     double X[3], Y[3];
     for (std::uint32_t i = 0; i < n; ++i) {
-        if (normals_[i].dot(w) == 0.0) continue;  // edge-on: no projected area, blocks nothing
+        if (normals[i].dot(w) == 0.0) continue;  // edge-on: no projected area, blocks nothing
         grid_.triangle(i, X, Y);
         rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
             std::uint32_t* row = count + static_cast<std::size_t>(y) * W;
@@ -45,12 +43,12 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
     const Vec3 origin = grid_.pixel_point(0, 0);
     const Vec3 du = grid_.pixel_point(1, 0) - origin, dv = grid_.pixel_point(0, 1) - origin;
     for (std::uint32_t i = 0; i < n; ++i) {
-        const double nw = normals_[i].dot(w);
+        const double nw = normals[i].dot(w);
         if (nw == 0.0) continue;  // skipped in pass 1 too
         grid_.triangle(i, X, Y);
         // t(x, y) = t0 + tx x + ty y
-        const double t0 = (plane_[i] - normals_[i].dot(origin)) / nw;
-        const double tx = -normals_[i].dot(du) / nw, ty = -normals_[i].dot(dv) / nw;
+        const double t0 = (plane[i] - normals[i].dot(origin)) / nw;
+        const double tx = -normals[i].dot(du) / nw, ty = -normals[i].dot(dv) / nw;
         const bool source = nw > 0.0;
         rasterize_triangle(X, Y, W, W, [&](int y, int x0, int x1) {
             const std::size_t row = static_cast<std::size_t>(y) * W;

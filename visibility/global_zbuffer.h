@@ -12,6 +12,7 @@
 // right. Costs about twice the painter's rasterisation plus the per-pixel sorts.
 #include "visibility/backend.h"
 #include "visibility/map_grid.h"
+#include "visibility/patch_arrays.h"
 
 #include <cstdint>
 #include <vector>
@@ -20,7 +21,9 @@ namespace raybundle::visibility {
 
 class GlobalZBufferBackend final : public Backend {
 public:
-    GlobalZBufferBackend(const scenes::Scene& scene, const BackendOptions& options);
+    // `arrays`: shared with the other backends of a set (made here where none is given).
+    GlobalZBufferBackend(const scenes::Scene& scene, const BackendOptions& options,
+                         std::shared_ptr<const PatchArrays> arrays = nullptr);
     std::string name() const override { return "global-zbuffer"; }
     int resolution() const override { return grid_.resolution(); }
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
@@ -32,10 +35,9 @@ private:
         bool source;         // faces w
     };
 
+    std::shared_ptr<const PatchArrays> arrays_;  // read only
     MapGrid grid_;
     bool sky_;
-    std::vector<Vec3> normals_;
-    std::vector<double> plane_;  // n . p0 per patch
 
     // Scratch, reused between directions.
     std::vector<std::uint32_t> offsets_;

@@ -5,27 +5,27 @@
 // discrete backends so that they rasterise exactly the same pixel sets.
 #include "scenes/frame.h"
 #include "scenes/scene.h"
+#include "visibility/patch_arrays.h"
 #include "visibility/raster.h"
 
 #include <Eigen/Core>
 
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace raybundle::visibility {
 
 class MapGrid {
 public:
-    MapGrid(const scenes::Scene& scene, int resolution, bool jitter)
+    // The patches' vertices and corners are read from `arrays` (shared, read only).
+    MapGrid(const scenes::Scene& scene, std::shared_ptr<const PatchArrays> arrays, int resolution, bool jitter)
         : resolution_(resolution),
           jitter_(jitter),
           center_(scene.bounds_center()),
           radius_(scene.bounds_radius()),
-          positions_(scene.vertex_positions()) {
-        for (const auto& p : scene.patch_list())
-            for (int k : p.v) indices_.push_back(static_cast<std::uint32_t>(k));
-    }
+          arrays_(std::move(arrays)) {}
 
     // Projects every vertex for direction w and jitter in [0,1)^2 (ignored without
     // jitter: the grid then sits at half a pixel).
@@ -34,11 +34,12 @@ public:
         jy_ = jitter_ ? jitter.y() : 0.5;
         scenes::orthonormal_basis(w, u_, v_);
         const double scale = kSubpixel / pixel();
-        const std::size_t nv = positions_.size();
+        const auto& positions = arrays_->positions;
+        const std::size_t nv = positions.size();
         px_.resize(nv);
         py_.resize(nv);
         for (std::size_t k = 0; k < nv; ++k) {
-            const scenes::Vec3 d = positions_[k] - center_;
+            const scenes::Vec3 d = positions[k] - center_;
             // Rounded to the nearest sub-pixel unit (the values are positive: no libm call).
             px_[k] = std::floor((u_.dot(d) + radius_) * scale + jx_ * kSubpixel + 0.5);
             py_[k] = std::floor((v_.dot(d) + radius_) * scale + jy_ * kSubpixel + 0.5);
@@ -52,7 +53,7 @@ public:
 
     // Patch i's projected corners in sub-pixel units.
     void triangle(std::uint32_t i, double X[3], double Y[3]) const {
-        const std::uint32_t* t = &indices_[3 * i];
+        const std::uint32_t* t = &arrays_->corners[3 * i];
         for (int k = 0; k < 3; ++k) {
             X[k] = px_[t[k]];
             Y[k] = py_[t[k]];
@@ -78,8 +79,7 @@ private:
     bool jitter_;
     scenes::Vec3 center_;
     double radius_;
-    std::vector<scenes::Vec3> positions_;
-    std::vector<std::uint32_t> indices_;  // 3 per patch
+    std::shared_ptr<const PatchArrays> arrays_;
     scenes::Vec3 u_ = scenes::Vec3::UnitX(), v_ = scenes::Vec3::UnitY();
     double jx_ = 0.5, jy_ = 0.5;
     std::vector<double> px_, py_;

@@ -28,13 +28,11 @@ inline void fill_run(std::int32_t* row, int n, std::int32_t v) {
 
 }  // namespace
 
-PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+PainterBackend::PainterBackend(const scenes::Scene& scene, const BackendOptions& options,
+                               std::shared_ptr<const PatchArrays> arrays)
+    : arrays_(patch_arrays(scene, std::move(arrays))),
+      grid_(scene, arrays_, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
       sky_(options.sky) {
-    for (const auto& p : scene.patch_list()) {
-        normals_.push_back(p.normal);
-        centroids_.push_back(p.centroid);
-    }
     counts_.assign(scene.patch_count() + 2, 0);
 }
 
@@ -48,13 +46,14 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     const double radius = grid_.radius();
 
     // Upstream (where the light comes from) first, by the patches' centres.
-    const std::size_t n = normals_.size();
+    const auto& normals = arrays_->normals;
+    const std::size_t n = normals.size();
     side_.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-        const double facing = normals_[i].dot(direction);
+        const double facing = normals[i].dot(direction);
         side_[i] = facing > 0.0 ? 1 : (facing < 0.0 ? -1 : 0);
     }
-    sort_by_centre(direction, normals_, centroids_, center, radius, keys_, scratch_);
+    sort_by_centre(direction, normals, arrays_->centroids, center, radius, keys_, scratch_);
 
     const auto open_sky = static_cast<std::int32_t>(n);
     map_.assign(static_cast<std::size_t>(W) * W, sky_ ? open_sky : -1);
@@ -122,28 +121,26 @@ void PainterBackend::transfer(const Vec3& direction, const Eigen::Vector2d& jitt
     }
 }
 
-GouraudPainter::GouraudPainter(const scenes::Scene& scene, const BackendOptions& options)
-    : grid_(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {
-    for (const auto& p : scene.patch_list()) {
-        normals_.push_back(p.normal);
-        centroids_.push_back(p.centroid);
-    }
-}
+GouraudPainter::GouraudPainter(const scenes::Scene& scene, const BackendOptions& options,
+                               std::shared_ptr<const PatchArrays> arrays)
+    : arrays_(patch_arrays(scene, std::move(arrays))),
+      grid_(scene, arrays_, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter) {}
 
 void GouraudPainter::transfer(const Vec3& w, const Eigen::Vector2d& jitter, const std::vector<scenes::Rgb>& corner_out,
                               const scenes::Rgb& sky, std::vector<scenes::Rgb>& corner_in) {
     using scenes::Rgb;
     grid_.project(w, jitter);
     const int W = grid_.width();
-    const std::size_t n = normals_.size();
-    sort_by_centre(w, normals_, centroids_, grid_.center(), grid_.radius(), keys_, scratch_);
+    const auto& normals = arrays_->normals;
+    const std::size_t n = normals.size();
+    sort_by_centre(w, normals, arrays_->centroids, grid_.center(), grid_.radius(), keys_, scratch_);
     map_.assign(static_cast<std::size_t>(W) * W, sky);
     corner_in.assign(3 * n, Rgb::Zero());
     const double S = kSubpixel, H = 0.5 * kSubpixel;
     const double pixel_area = grid_.pixel_area();
     for (const std::uint64_t key : keys_) {
         const std::uint32_t i = sorted_patch(key);
-        const double facing = normals_[i].dot(w);
+        const double facing = normals[i].dot(w);
         double X[3], Y[3];
         grid_.triangle(i, X, Y);
         // Barycentric coordinates as affine functions of the pixel centre (sub-pixels).

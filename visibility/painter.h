@@ -16,6 +16,7 @@
 // reading it sees the sky, and the sources left in the map at the end see it along -w.
 #include "visibility/backend.h"
 #include "visibility/map_grid.h"
+#include "visibility/patch_arrays.h"
 
 #include <cstdint>
 #include <vector>
@@ -24,15 +25,17 @@ namespace raybundle::visibility {
 
 class PainterBackend final : public Backend {
 public:
-    PainterBackend(const scenes::Scene& scene, const BackendOptions& options);
+    // `arrays`: shared with the other backends of a set (made here where none is given).
+    PainterBackend(const scenes::Scene& scene, const BackendOptions& options,
+                   std::shared_ptr<const PatchArrays> arrays = nullptr);
     std::string name() const override { return "painter"; }
     int resolution() const override { return grid_.resolution(); }
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
 
 private:
+    std::shared_ptr<const PatchArrays> arrays_;  // read only
     MapGrid grid_;
     bool sky_;
-    std::vector<Vec3> normals_, centroids_;
 
     // Scratch, reused between directions.
     std::vector<std::int8_t> side_;              // sign of n . w per patch
@@ -56,7 +59,8 @@ private:
 // pixel of the receiver and has neither problem.)
 class GouraudPainter {
 public:
-    GouraudPainter(const scenes::Scene& scene, const BackendOptions& options);
+    GouraudPainter(const scenes::Scene& scene, const BackendOptions& options,
+                   std::shared_ptr<const PatchArrays> arrays = nullptr);
     int resolution() const { return grid_.resolution(); }
 
     // corner_out[3 j + k]: radiance source j sends along w at its corner k.
@@ -66,8 +70,8 @@ public:
                   const scenes::Rgb& sky, std::vector<scenes::Rgb>& corner_in);
 
 private:
+    std::shared_ptr<const PatchArrays> arrays_;  // read only
     MapGrid grid_;
-    std::vector<Vec3> normals_, centroids_;
     std::vector<std::uint64_t> keys_, scratch_;
     std::vector<scenes::Rgb> map_;
 };

@@ -1,6 +1,7 @@
 #include "visibility/parallel.h"
 
 #include "scenes/threads.h"
+#include "visibility/patch_arrays.h"
 
 #include <algorithm>
 #include <atomic>
@@ -11,10 +12,19 @@ BackendSet::BackendSet(const std::string& name, const scenes::Scene& scene, cons
                        int threads)
     : threads_(std::max(1, threads)) {
     // Made side by side too: each holds vectors the size of the scene (at 121k
-    // patches, 16 backends made one after another took a quarter of a second).
-    const int n = backend_info(name).side_by_side ? std::max(1, threads) : 1;
+    // patches, 16 backends made one after another took a quarter of a second). What
+    // they only read is made once and shared: the scene's patch arrays, and the map's
+    // resolution where the scene decides it.
+    const BackendInfo& info = backend_info(name);
+    const int n = info.side_by_side ? std::max(1, threads) : 1;
+    BackendOptions shared = options;
+    std::shared_ptr<const PatchArrays> arrays;
+    if (info.discrete && n > 1) {
+        if (shared.resolution <= 0) shared.resolution = default_resolution(scene);
+        arrays = std::make_shared<const PatchArrays>(scene);
+    }
     owned_.resize(static_cast<std::size_t>(n));
-    run_threads(n, [&](int k) { owned_[static_cast<std::size_t>(k)] = make_backend(name, scene, options); });
+    run_threads(n, [&](int k) { owned_[static_cast<std::size_t>(k)] = make_backend(name, scene, shared, arrays); });
     for (const auto& b : owned_) all_.push_back(b.get());
 }
 

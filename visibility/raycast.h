@@ -14,6 +14,7 @@
 #include "scenes/ray_caster.h"
 #include "visibility/backend.h"
 #include "visibility/map_grid.h"
+#include "visibility/patch_arrays.h"
 
 #include <cstdint>
 #include <vector>
@@ -22,16 +23,18 @@ namespace raybundle::visibility {
 
 class RaycastBackend final : public Backend {
 public:
-    RaycastBackend(const scenes::Scene& scene, const BackendOptions& options);
+    // `arrays`: shared with the other backends of a set (made here where none is given).
+    RaycastBackend(const scenes::Scene& scene, const BackendOptions& options,
+                   std::shared_ptr<const PatchArrays> arrays = nullptr);
     std::string name() const override { return "raycast"; }
     int resolution() const override { return grid_.resolution(); }
     void transfer(const Vec3& direction, const Eigen::Vector2d& jitter, GeometryMatrix& out) override;
 
 private:
+    std::shared_ptr<const PatchArrays> arrays_;  // read only
     MapGrid grid_;
     bool sky_;
     scenes::RayCaster caster_;
-    std::vector<Vec3> normals_;
 
     // Scratch, reused between directions.
     std::vector<scenes::RayHit> hits_;

@@ -425,7 +425,8 @@ struct ZBufferBackend::Impl {
     long timed = 0;    // directions with GPU timestamps (those run alone)
 
     Impl(const scenes::Scene& scene, const BackendOptions& options)
-        : grid(scene, options.resolution > 0 ? options.resolution : default_resolution(scene), options.jitter),
+        : grid(scene, patch_arrays(scene), options.resolution > 0 ? options.resolution : default_resolution(scene),
+               options.jitter),
           sky(options.sky) {}
 
     GLuint compile(GLenum type, const char* source) {

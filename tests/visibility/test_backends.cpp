@@ -5,6 +5,7 @@
 #include "scenes/loader.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
+#include "visibility/parallel.h"
 
 #include <catch2/catch.hpp>
 
@@ -74,6 +75,40 @@ TEST_CASE("every backend: closed-box row sums are the projected areas", "[visibi
         }
         INFO(name << ", direction " << d);
         CHECK(total == Approx(exact_total).epsilon(0.003));
+    }
+}
+
+TEST_CASE("every backend: a set's backends, sharing the scene's arrays, give a lone backend's matrices",
+          "[visibility][backends]") {
+    // BackendSet makes the scene's patch arrays (and the map's resolution) once for the
+    // backends of all its threads; each of them must compute what a backend made alone,
+    // with arrays of its own, computes: the same entries in the same order.
+    const std::string name = GENERATE(from_range(visibility::backend_names()));
+    if (!visibility::backend_info(name).side_by_side) return;  // one backend a set: nothing shared
+    const auto scene = scenes::make_builtin("cornell-box", 120.0);
+    auto alone = visibility::make_backend(name, scene, {});
+    visibility::BackendSet set(name, scene, {}, 3);
+    REQUIRE(set.threads() == 3);
+    sampling::RandomDirections dirs(4);
+    sampling::Rng rng(9);
+    for (int d = 0; d < 4; ++d) {
+        const Vec3 w = dirs.next();
+        const Eigen::Vector2d jitter(rng.uniform(), rng.uniform());
+        visibility::GeometryMatrix expected;
+        alone->transfer(w, jitter, expected);
+        REQUIRE(!expected.entries.empty());
+        for (int t = 0; t < set.threads(); ++t) {
+            INFO(name << ", thread " << t << ", direction " << d);
+            CHECK(set.at(t).resolution() == alone->resolution());
+            visibility::GeometryMatrix got;
+            set.at(t).transfer(w, jitter, got);
+            REQUIRE(got.entries.size() == expected.entries.size());
+            bool same = true;
+            for (std::size_t k = 0; k < got.entries.size(); ++k)
+                same = same && got.entries[k].receiver == expected.entries[k].receiver &&
+                       got.entries[k].source == expected.entries[k].source && got.entries[k].area == expected.entries[k].area;
+            CHECK(same);
+        }
     }
 }
 
