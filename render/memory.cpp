@@ -16,7 +16,7 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene) {
     MemoryNeed need;
     const double threads = std::max(1, c.run.threads);
     const bool traced = c.solver.method == "pathtrace";
-    need.patches = static_cast<double>(scene.patch_count()) * (600.0 + (traced ? 0.0 : 700.0 * threads));
+    need.patches = static_cast<double>(scene.patch_count()) * (traced ? 600.0 : 1400.0 + 250.0 * threads);
     const double per_pixel = traced ? 100.0 : c.gather.gather_rays > 0 ? 340.0 : 230.0;
     need.pixels = per_pixel * static_cast<double>(scene.camera.width) * static_cast<double>(scene.camera.height);
     if (!traced) {
@@ -26,7 +26,7 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene) {
         const double side = c.solver.map.resolution > 0 ? c.solver.map.resolution : visibility::default_resolution(scene);
         need.maps = per_map_pixel * side * side * threads;
     }
-    need.bytes = 30e6 + need.patches + need.pixels + need.maps;
+    need.bytes = 30e6 + 2e6 * threads + need.patches + need.pixels + need.maps;
     return need;
 }
 

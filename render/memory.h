@@ -5,13 +5,16 @@
 // instead of letting the kernel kill it minutes later. The coefficients were measured on the development
 // machine (peak resident memory, /usr/bin/time; README "Memory"):
 //
-//   about 30 MB + patches x (0.6 KB + 0.7 KB per thread)
+//   about 30 MB + 2 MB per thread + patches x (1.4 KB + 0.25 KB per thread; 0.6 KB
+//         path traced)
 //       + pixels x (340 B with the final gather, 230 B for the patch image, 100 B
 //         path traced)
 //       + map pixels x threads x (58 B global z-buffer, 14 B centre-sorted painter and
 //         z-buffer; the exact painter, ray casting and arrangements keep no map)
 //
-// The estimate is a mean over the scenes measured, within 25 % of each of them.
+// Refitted on 2026-11-29 (the backends of a set sharing the scene's arrays since):
+// the Cornell box of 3,722 to 482,224 patches on 1 to 16 threads peaked between 4 %
+// above and 24 % below it (docs/benchmarks.md, "Memory per thread").
 #include "render/run.h"
 
 #include <cstdint>
