@@ -13,8 +13,8 @@
 //         z-buffer; the exact painter, ray casting and arrangements keep no map)
 //
 // Refitted on 2026-11-29 (the backends of a set sharing the scene's arrays since):
-// the Cornell box of 3,722 to 482,224 patches on 1 to 16 threads peaked between 4 %
-// above and 24 % below it (docs/benchmarks.md, "Memory per thread").
+// the Cornell box of 3,722 to 482,224 patches on 1 to 16 threads peaked between 19 %
+// below and 4 % above it (docs/benchmarks.md, "Memory per thread").
 #include "render/run.h"
 
 #include <cstdint>

@@ -923,9 +923,9 @@ void ZBufferBackend::transfer_many(const std::vector<Vec3>& directions, const st
             continue;
         }
         s.reserve_batch(K);
-        // Each preparing thread holds a copy of the map's grid (the scene's vertices): at
-        // most 256 MiB of them.
-        const std::size_t grid_bytes = 64 + s.vertices.size() * 20 + s.records.size() * 3;
+        // Each preparing thread holds a copy of the map's grid (its projected vertices, two
+        // doubles each; the scene's arrays are shared): at most 256 MiB of them.
+        const std::size_t grid_bytes = 64 + s.vertices.size() * 8;
         const int T = std::max(1, std::min({threads, K, static_cast<int>(std::max<std::size_t>(1, (std::size_t{256} << 20) / grid_bytes))}));
         if (static_cast<int>(s.grids.size()) < T) s.grids.resize(static_cast<std::size_t>(T), s.grid);
         if (static_cast<int>(s.scratch.size()) < K) s.scratch.resize(static_cast<std::size_t>(K));
