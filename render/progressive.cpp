@@ -796,8 +796,14 @@ FieldImage field_image(const scenes::Scene& scene, const scenes::RayCaster& cast
     };
     auto after = [&](long round, const Image& image, double estimate, double seconds) {
         out.image = image;
+        // The chains' fields as this round's passes read them (run_rounds renders both
+        // halves before it calls after()): each chain's field is made once a round, on
+        // ranks an exchange each, not again here.
+        for (int h = 0; h < 2; ++h)
+            if (seen[h].n != chains[h]->averaged())
+                throw std::logic_error("field_image: chain " + std::to_string(h) + " moved on after its pass");
         std::tie(out.field, out.field_estimate) =
-            combine(scene, a.field(run.threads), a.averaged(), b.field(run.threads), b.averaged(), run.threads);
+            combine(scene, seen[0].field, seen[0].n, seen[1].field, seen[1].n, run.threads);
         if (!observe) return;
         Snapshot s;
         s.steps = out.steps;
