@@ -308,7 +308,9 @@ TEST_CASE("run: without checkpoints, the chains side by side read a stop at ever
     // 100 steps: both chains stop at one count, within their window of steps under way
     // (4 each) and their difference in speed of it. At pauses (the first after 16
     // steps per chain, the next as far apart as the clock allows: here the rest of the
-    // round) it would have been read only after all 800.
+    // round) it would have been read only after all 800. On a loaded machine the
+    // threads run on after the progress that asks (with a busy loop beside the test, 4
+    // of 28 runs went past 160, up to 180 steps): half the run is the bound.
     const auto scene = small_box();
     auto config = patch_image("iteration", 800);
     std::atomic<bool> asked{false};
@@ -323,7 +325,7 @@ TEST_CASE("run: without checkpoints, the chains side by side read a stop at ever
     CHECK(r.record.at("partial") == true);
     CHECK(r.steps % 2 == 0);  // both chains at one count
     CHECK(r.steps >= 100);
-    CHECK(r.steps <= 160);
+    CHECK(r.steps <= 400);
     // Never asked: the same image as where no stop can be asked for (pauses instead).
     hooks.stop_requested = [] { return 0; };
     config.run.progress = nullptr;
