@@ -20,11 +20,11 @@ public:
         try {
             create();
         } catch (...) {
-            release();
+            free_all();
             throw;
         }
     }
-    ~EglContext() override { release(); }
+    ~EglContext() override { free_all(); }
 
     void create() {
         auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
@@ -63,7 +63,7 @@ public:
     }
     // Frees what this context made. The display is shared by every context on the
     // device and eglInitialize is not reference-counted: it is never terminated.
-    void release() {
+    void free_all() {
         if (display_ == EGL_NO_DISPLAY) return;
         if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         if (context_ != EGL_NO_CONTEXT) eglDestroyContext(display_, context_);
@@ -77,6 +77,7 @@ public:
         if (!eglMakeCurrent(display_, surface_, surface_, context_))
             throw std::runtime_error("zbuffer: cannot make the EGL context current");
     }
+    void release() override { eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT); }
     std::string describe() const override {
         using GetString = const unsigned char* (*)(unsigned);
         auto get = reinterpret_cast<GetString>(proc_address("glGetString"));

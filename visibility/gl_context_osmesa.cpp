@@ -57,6 +57,7 @@ public:
         if (!make_current_(context_, buffer_.data(), GL_UNSIGNED_BYTE, 1, 1))
             throw std::runtime_error("zbuffer: cannot make the OSMesa context current");
     }
+    void release() override { make_current_(nullptr, nullptr, 0, 0, 0); }  // OSMesa's way to unbind
     std::string describe() const override {
         using GetString = const unsigned char* (*)(unsigned);
         auto get = reinterpret_cast<GetString>(proc_address("glGetString"));

@@ -16,6 +16,7 @@
 #include <initializer_list>
 #include <iterator>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -726,6 +727,7 @@ ZBufferBackend::ZBufferBackend(const scenes::Scene& scene, const BackendOptions&
     : impl_(std::make_unique<Impl>(scene, options)) {
     Impl& s = *impl_;
     s.context = make_gl_context();
+    const CurrentContext current(*s.context);
     s.gl = std::make_unique<Gl>(*s.context);
     const Gl& gl = *s.gl;
 
@@ -824,9 +826,10 @@ ZBufferBackend::~ZBufferBackend() {
     if (!impl_ || !impl_->gl) return;
     Impl& s = *impl_;
     const Gl& gl = *s.gl;
-    // Names are per context: delete in ours, whichever another backend left current.
+    // Names are per context: delete in ours (and leave this thread with none current).
+    std::optional<CurrentContext> current;
     try {
-        s.context->make_current();
+        current.emplace(*s.context);
     } catch (...) {
         return;  // destroying the context frees them anyway
     }
@@ -855,7 +858,7 @@ ZBufferBackend::~ZBufferBackend() {
 int ZBufferBackend::resolution() const { return impl_->grid.resolution(); }
 
 std::string ZBufferBackend::details() const {
-    impl_->context->make_current();
+    const CurrentContext current(*impl_->context);
     std::string d = impl_->context->describe();
     if (impl_->directions > 0) {
         char buf[64];
@@ -869,7 +872,7 @@ std::string ZBufferBackend::details() const {
 void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, GeometryMatrix& out) {
     Impl& s = *impl_;
     const Gl& gl = *s.gl;
-    s.context->make_current();
+    const CurrentContext current(*s.context);
     out.direction = w;
     out.entries.clear();
     const auto start = std::chrono::steady_clock::now();
@@ -913,7 +916,7 @@ void ZBufferBackend::transfer_many(const std::vector<Vec3>& directions, const st
     out.resize(n);
     bool along = static_cast<bool>(alongside);
     for (std::size_t b0 = 0, step = 0; b0 < n; b0 += step) {
-        s.context->make_current();
+        const CurrentContext current(*s.context);
         step = std::min<std::size_t>(static_cast<std::size_t>(s.batch_capacity()), n - b0);
         const int K = static_cast<int>(step);
         if (K == 1) {  // no slots for one direction: the buffers of transfer()

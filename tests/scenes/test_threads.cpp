@@ -3,8 +3,13 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <chrono>
+#include <atomic>
 #include <cstdint>
 #include <random>
+#include <stdexcept>
+#include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -39,4 +44,69 @@ TEST_CASE("parallel_sort gives std::sort's sequence for any thread count", "[thr
             CHECK(sorted == expected);
         }
     }
+}
+
+TEST_CASE("run_threads: every index once, on the same thread in every region, also in nested and concurrent regions", "[threads]") {
+    using raybundle::run_threads;
+    // Regions of growing and shrinking size: each t runs once, t = 0 on the caller, and
+    // t on one thread in every region (the workers are kept: worker k runs t = k).
+    std::vector<std::thread::id> first(8);
+    for (const int count : {8, 3, 1, 5, 8, 2}) {
+        std::vector<int> runs(static_cast<std::size_t>(count), 0);
+        std::vector<std::thread::id> ids(static_cast<std::size_t>(count));
+        run_threads(count, [&](int t) {
+            ++runs[static_cast<std::size_t>(t)];
+            ids[static_cast<std::size_t>(t)] = std::this_thread::get_id();
+        });
+        CHECK(std::all_of(runs.begin(), runs.end(), [](int r) { return r == 1; }));
+        CHECK(ids[0] == std::this_thread::get_id());
+        for (int t = 1; t < count; ++t) {
+            INFO("region of " << count << ", t = " << t);
+            CHECK(ids[static_cast<std::size_t>(t)] != std::this_thread::get_id());
+            if (first[static_cast<std::size_t>(t)] == std::thread::id()) first[static_cast<std::size_t>(t)] = ids[static_cast<std::size_t>(t)];
+            CHECK(ids[static_cast<std::size_t>(t)] == first[static_cast<std::size_t>(t)]);
+        }
+    }
+    // A body's own region (the workers are busy with the outer one) gets threads of its
+    // own: every inner index runs once, on a thread other than the outer ones'.
+    std::atomic<int> inner{0};
+    std::vector<int> sums(3, 0);
+    run_threads(3, [&](int t) {
+        std::vector<int> part(4, 0);
+        run_threads(4, [&](int u) {
+            part[static_cast<std::size_t>(u)] = 10 * t + u;
+            inner.fetch_add(1);
+        });
+        for (int v : part) sums[static_cast<std::size_t>(t)] += v;
+    });
+    CHECK(inner.load() == 12);
+    CHECK(sums == std::vector<int>{6, 46, 86});
+    // Two threads starting regions at once: both complete, each index once.
+    std::atomic<long> total{0};
+    auto regions = [&total] {
+        for (int r = 0; r < 200; ++r) run_threads(3, [&total](int t) { total.fetch_add(t + 1); });
+    };
+    std::thread other(regions);
+    regions();
+    other.join();
+    CHECK(total.load() == 2L * 200 * (1 + 2 + 3));
+}
+
+TEST_CASE("run_threads: the first exception in t order, after every body has returned, and the workers go on", "[threads]") {
+    using raybundle::run_threads;
+    std::vector<int> finished(4, 0);
+    try {
+        run_threads(4, [&](int t) {
+            if (t == 1 || t == 3) throw std::runtime_error("body " + std::to_string(t));
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));  // still running when the others throw
+            finished[static_cast<std::size_t>(t)] = 1;
+        });
+        FAIL("no exception");
+    } catch (const std::runtime_error& e) {
+        CHECK(std::string(e.what()) == "body 1");
+    }
+    CHECK(finished == std::vector<int>{1, 0, 1, 0});
+    std::vector<int> runs(4, 0);
+    run_threads(4, [&](int t) { runs[static_cast<std::size_t>(t)] = t + 1; });
+    CHECK(runs == std::vector<int>{1, 2, 3, 4});
 }
