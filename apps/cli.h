@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+namespace raybundle::render {
+class Ranks;  // render/ranks.h
+}  // namespace raybundle::render
+
 namespace raybundle::apps {
 
 // The images --aov DIR writes, DIR/<name>.exr.
@@ -27,7 +31,7 @@ struct UsageError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-class Ranks;  // apps/ranks.h
+using render::Ranks;
 
 // The command line's options, one row per flag (apps/options.cpp): the library option
 // it sets and whether it is part of the run's identity.

@@ -3,7 +3,7 @@
 //   2  the user's input is wrong (flags, scene file, meshes, an option a library refuses)
 //   1  anything else (an output that cannot be written, a missing run-time library, a bug)
 #include "cli.h"
-#include "ranks.h"
+#include "render/ranks.h"
 #include "render/signals.h"
 
 #include "render/run_record.h"
@@ -22,14 +22,14 @@ namespace {
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
-int run(int argc, char** argv, rb::apps::Ranks& ranks) {
-    // One line for the user, on rank 0, whichever rank failed (apps/ranks.h).
+int run(int argc, char** argv, rb::render::Ranks& ranks) {
+    // One line for the user, on rank 0, whichever rank failed (render/ranks.h).
     auto fail = [&ranks](const std::string& what, int code) {
         return ranks.fail(rb::scenes::printable(what), code);  // one line, whatever the names in it
     };
     CLI::App app{"raybundle: global ray-bundle radiance solver (see `raybundle help`)"};
     app.set_version_flag("--version", [] {
-        std::printf("%sranks      %s\n", rb::render::build_info().c_str(), rb::apps::Ranks::library().c_str());
+        std::printf("%sranks      %s\n", rb::render::build_info().c_str(), rb::render::Ranks::library().c_str());
         return std::string();
     });
     rb::apps::Command c;
@@ -82,7 +82,7 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
         CLI::App* cmd = solve->parsed() ? solve : check;
         rb::apps::check_command(*cmd, c);
         return solve->parsed() ? rb::apps::solve(c, ranks) : rb::apps::check_scene(c);
-    } catch (const rb::apps::RankFailed& e) {
+    } catch (const rb::render::RankFailed& e) {
         if (ranks.leader()) std::cerr << "raybundle: error: " << e.what() << "\n";
         return e.code;
     } catch (const rb::apps::UsageError& e) {
@@ -102,10 +102,10 @@ int run(int argc, char** argv, rb::apps::Ranks& ranks) {
 
 int main(int argc, char** argv) {
     rb::render::install_signal_handlers();  // before MPI's threads: they inherit its mask
-    std::optional<rb::apps::Ranks> ranks;
+    std::optional<rb::render::Ranks> ranks;
     try {
         ranks.emplace(argc, argv);
-    } catch (const rb::apps::RankFailed& e) {
+    } catch (const rb::render::RankFailed& e) {
         return e.code;  // ranks running different commands: rank 0 has said so
     } catch (const std::exception& e) {
         std::cerr << "raybundle: error: " << e.what() << "\n";

@@ -1,7 +1,7 @@
 // `raybundle solve`: load -> check memory -> render::run -> write, and the summary line.
 #include "cli.h"
 #include "progress.h"
-#include "ranks.h"
+#include "render/ranks.h"
 #include "render/signals.h"
 
 #include "render/image_io.h"

@@ -48,7 +48,7 @@ struct Checkpoint {
 // patches, materials, lights, sky and camera) and the program's version.
 nlohmann::json run_identity(const nlohmann::json& options, const scenes::Scene& scene);
 // A 64-bit hash (FNV-1a) of an identity, for comparing runs without sending it whole
-// (apps/ranks.h: every rank's against rank 0's).
+// (render/ranks.h: every rank's against rank 0's).
 std::uint64_t identity_hash(const nlohmann::json& identity);
 
 // Writes atomically (render::write_atomically; fsynced before the rename), its

@@ -40,7 +40,7 @@ int track_temporary(const std::string& path);
 void untrack_temporary(int slot);
 // Called on the signal thread when a signal arrives, before it acts; true: the run
 // cannot go on (the signal ends the process at once, as a second one does).
-// apps/ranks.cpp: rank 0 names the ranks on its host that died, whose death made
+// render/ranks.cpp: rank 0 names the ranks on its host that died, whose death made
 // mpirun signal it.
 void set_signal_reporter(std::function<bool(int sig)> report);
 // While held, a signal that would end the process waits.

@@ -24,7 +24,7 @@ struct Progress {
 };
 using ProgressCallback = std::function<void(const Progress&)>;
 
-// The processes a run is spread over (MPI ranks, apps/ranks.h), as the computations
+// The processes a run is spread over (MPI ranks, render/ranks.h), as the computations
 // that split their work by rows see them (the final gather). Member k owns the rows
 // k, k + size, k + 2 size, ... (dealt out in turn: neighbouring rows cost alike, so
 // every member gets a like share of the sky, the floor, the light).
@@ -37,7 +37,7 @@ public:
     int rows_of(int member, int rows) const { return (rows - member + size() - 1) / size(); }
     // Every member calls it at the same point with the same `rows` and `row_bytes`,
     // its own rows of `data` filled; on return every member holds every row. Throws
-    // (apps/ranks.h: RankFailed) where another member failed before it got there.
+    // (render/ranks.h: RankFailed) where another member failed before it got there.
     virtual void share_rows(void* data, std::size_t row_bytes, int rows) const = 0;
     // The collectives of a run spread over the team (render/run.h), each called by every
     // member at the same point: sums and maxima over the members, member 0's value, and

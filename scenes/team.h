@@ -1,5 +1,5 @@
 #pragma once
-// Processes that prepare one scene together: MPI ranks (apps/ranks.h), each holding the
+// Processes that prepare one scene together: MPI ranks (render/ranks.h), each holding the
 // whole scene. Where a preparation step splits its items among them, member rank() of
 // size() takes items rank(), rank() + size(), rank() + 2 size(), ... (dealt out in turn:
 // neighbouring items cost alike) and the members then swap their results, so that every

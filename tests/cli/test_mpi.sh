@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The solver on MPI ranks (apps/ranks.h, docs/ranks.md), as a user starts it:
+# The solver on MPI ranks (render/ranks.h, docs/ranks.md), as a user starts it:
 #   - one rank under mpirun writes byte for byte what the program alone writes, and
 #     what the same program built without MPI writes;
 #   - two ranks on the homogeneous box converge to 1 like one process, sharing out

@@ -82,7 +82,7 @@ scenes::Scene two_rooms(bool cut) {
     return scenes::parse_scene(text, "rooms.json", ".");
 }
 
-// A team of threads standing in for MPI ranks (apps/ranks.h): share_rows() copies each
+// A team of threads standing in for MPI ranks (render/ranks.h): share_rows() copies each
 // member's block into a common buffer, waits for all, and copies the whole back.
 class ThreadTeam {
 public:

@@ -20,7 +20,7 @@ using scenes::Vec3;
 
 namespace {
 
-// A team of threads in one process, standing in for MPI ranks (apps/ranks.h): every
+// A team of threads in one process, standing in for MPI ranks (render/ranks.h): every
 // member's bytes reach every member when the last one arrives.
 class ThreadTeam {
 public:

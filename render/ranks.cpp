@@ -1,4 +1,4 @@
-#include "ranks.h"
+#include "render/ranks.h"
 
 #include "render/signals.h"
 
@@ -22,7 +22,7 @@
 #include <mpi.h>
 #endif
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 namespace {
 
@@ -301,4 +301,4 @@ int Ranks::fail(const std::string& message, int code) {
     return code;  // not reached: agree() throws for a failure
 }
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render

@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-namespace raybundle::apps {
+namespace raybundle::render {
 
 // Another rank failed: its message (prefixed with its rank), and the exit code of all.
 struct RankFailed : std::runtime_error {
@@ -88,4 +88,4 @@ private:
     mutable bool finished_ = false;
 };
 
-}  // namespace raybundle::apps
+}  // namespace raybundle::render
