@@ -214,17 +214,19 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     // What the filter and the field take from the truth, as the image reads them.
     r.bias = Image(W, H);
     r.bias_probed = probe || o.correction > 0.0;
-    for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-            const int patch = guide_patch[static_cast<std::size_t>(y) * W + x];
-            if (patch < 0) continue;
-            const Rgb albedo = scene.material_of(patch).albedo;
-            put(r.bias, x, y,
-                albedo * (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
-            if (corrected)
-                put(r.corrected_bias, x, y,
-                    albedo * (get(corrected_filtered, x, y) - get(corrected_indirect, x, y)));
-        }
+    parallel_bands(H, run.threads, [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < W; ++x) {
+                const int patch = guide_patch[static_cast<std::size_t>(y) * W + x];
+                if (patch < 0) continue;
+                const Rgb albedo = scene.material_of(patch).albedo;
+                put(r.bias, x, y,
+                    albedo * (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
+                if (corrected)
+                    put(r.corrected_bias, x, y,
+                        albedo * (get(corrected_filtered, x, y) - get(corrected_indirect, x, y)));
+            }
+    });
     // What the probe's corrections add to the guide's filtered E.
     auto added = [&](int x, int y) {
         return corrected ? Rgb(get(corrected_filtered, x, y) - get(r.indirect_filtered, x, y)) : Rgb(Rgb::Zero());

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include "scenes/errors.h"
+#include "scenes/threads.h"
 
 namespace raybundle::render {
 
@@ -32,30 +33,34 @@ Image filter_indirect(const Image& indirect, const Image& normal, const Image& d
     if (o.filter == Filter::none) return indirect;
     if (o.filter == Filter::atrous) {
         Guide guide(indirect.width, indirect.height, 6);
-        for (int y = 0; y < indirect.height; ++y)
-            for (int x = 0; x < indirect.width; ++x) {
-                float* g = guide.at(x, y);
-                const float* n = normal.at(x, y);
-                const float* p = position.at(x, y);
-                const bool hit = n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;  // background: all zero
-                for (int k = 0; k < 3; ++k) {
-                    g[k] = n[k];
-                    g[3 + k] = hit ? static_cast<float>((p[k] - origin[k]) * position_scale) : 0.0f;
+        parallel_bands(indirect.height, threads, [&](int y0, int y1) {
+            for (int y = y0; y < y1; ++y)
+                for (int x = 0; x < indirect.width; ++x) {
+                    float* g = guide.at(x, y);
+                    const float* n = normal.at(x, y);
+                    const float* p = position.at(x, y);
+                    const bool hit = n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;  // background: all zero
+                    for (int k = 0; k < 3; ++k) {
+                        g[k] = n[k];
+                        g[3 + k] = hit ? static_cast<float>((p[k] - origin[k]) * position_scale) : 0.0f;
+                    }
                 }
-            }
+        });
         return atrous_filter(indirect, guide, o.atrous_iterations, o.sigma_colour, o.sigma_normal, o.sigma_depth,
                              threads);
     }
     Guide guide(indirect.width, indirect.height, 4);
-    for (int y = 0; y < indirect.height; ++y)
-        for (int x = 0; x < indirect.width; ++x) {
-            float* g = guide.at(x, y);
-            const float* n = normal.at(x, y);
-            g[0] = n[0];
-            g[1] = n[1];
-            g[2] = n[2];
-            g[3] = static_cast<float>(depth.at(x, y)[0] * depth_scale);
-        }
+    parallel_bands(indirect.height, threads, [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < indirect.width; ++x) {
+                float* g = guide.at(x, y);
+                const float* n = normal.at(x, y);
+                g[0] = n[0];
+                g[1] = n[1];
+                g[2] = n[2];
+                g[3] = static_cast<float>(depth.at(x, y)[0] * depth_scale);
+            }
+    });
     switch (o.filter) {
         case Filter::guided:
             return guided_filter(indirect, guide, o.radius, {o.eps_normal, o.eps_normal, o.eps_normal, o.eps_depth},
