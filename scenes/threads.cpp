@@ -6,6 +6,9 @@
 #include <mutex>
 #include <thread>
 
+#include <pthread.h>
+#include <signal.h>
+
 namespace raybundle::detail {
 namespace {
 
@@ -14,8 +17,9 @@ namespace {
 // region at a time: the caller that finds them busy runs its region on threads of its
 // own. Made on first use and never destroyed: its threads sleep in it until the process
 // ends (joining them in a static destructor would race with whatever else runs at exit).
-// A worker inherits the signal mask of the thread that starts it, as a region's own
-// thread did (the program blocks its signals before it starts any: render/signals.h).
+// Workers block SIGINT, SIGTERM and SIGHUP whatever the mask of the thread that starts
+// them: those reach the program's signal thread (render/signals.h) or, in a program
+// without one, its other threads, never a worker that lives on with them unblocked.
 class Workers {
 public:
     // Runs the region and returns true, or returns false at once where the workers are
@@ -55,12 +59,18 @@ private:
         while (static_cast<int>(workers_.size()) < n) {
             workers_.push_back(std::make_unique<Worker>());
             const int t = static_cast<int>(workers_.size());
+            sigset_t blocked, old;
+            sigemptyset(&blocked);
+            for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&blocked, sig);
+            ::pthread_sigmask(SIG_BLOCK, &blocked, &old);  // the new thread inherits it
             try {
                 std::thread(&Workers::serve, this, workers_.back().get(), t).detach();
             } catch (...) {
+                ::pthread_sigmask(SIG_SETMASK, &old, nullptr);
                 workers_.pop_back();
                 throw;
             }
+            ::pthread_sigmask(SIG_SETMASK, &old, nullptr);
         }
     }
 

@@ -24,7 +24,8 @@ public:
 // The context current on the calling thread for the guard's life, then none: the
 // threads that use it are the process's workers, which live on and run other work
 // (scenes/threads.h). Left current there, EGL would refuse to make it current on
-// another thread, and OSMesa would flush it there after it is destroyed.
+// another thread, and OSMesa would flush it there after it is destroyed. Guards do not
+// nest: the inner one's end leaves no context current (so no GL call after it).
 class CurrentContext {
 public:
     explicit CurrentContext(GlContext& context) : context_(context) { context_.make_current(); }

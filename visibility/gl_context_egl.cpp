@@ -65,6 +65,7 @@ public:
     // device and eglInitialize is not reference-counted: it is never terminated.
     void free_all() {
         if (display_ == EGL_NO_DISPLAY) return;
+        eglBindAPI(EGL_OPENGL_API);
         if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         if (context_ != EGL_NO_CONTEXT) eglDestroyContext(display_, context_);
         if (surface_ != EGL_NO_SURFACE) eglDestroySurface(display_, surface_);
@@ -74,10 +75,15 @@ public:
 
     void* proc_address(const char* name) const override { return reinterpret_cast<void*>(eglGetProcAddress(name)); }
     void make_current() override {
-        if (!eglMakeCurrent(display_, surface_, surface_, context_))
+        if (!eglBindAPI(EGL_OPENGL_API) || !eglMakeCurrent(display_, surface_, surface_, context_))
             throw std::runtime_error("zbuffer: cannot make the EGL context current");
     }
-    void release() override { eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT); }
+    // The API is per thread (ES where a thread has not chosen), and eglMakeCurrent binds
+    // and releases the context of the thread's API: each thread that uses ours says so.
+    void release() override {
+        eglBindAPI(EGL_OPENGL_API);
+        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    }
     std::string describe() const override {
         using GetString = const unsigned char* (*)(unsigned);
         auto get = reinterpret_cast<GetString>(proc_address("glGetString"));

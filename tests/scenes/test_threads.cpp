@@ -67,6 +67,13 @@ TEST_CASE("run_threads: every index once, on the same thread in every region, al
             CHECK(ids[static_cast<std::size_t>(t)] == first[static_cast<std::size_t>(t)]);
         }
     }
+    // The workers are kept: a worker's thread has run every region of 3 (started one by
+    // one, a thread would have run one).
+    static thread_local int regions_here = 0;
+    std::vector<int> seen(3, 0);
+    for (int r = 0; r < 5; ++r) run_threads(3, [&](int t) { seen[static_cast<std::size_t>(t)] = ++regions_here; });
+    CHECK(seen[1] >= 5);
+    CHECK(seen[2] >= 5);
     // A body's own region (the workers are busy with the outer one) gets threads of its
     // own: every inner index runs once, on a thread other than the outer ones'.
     std::atomic<int> inner{0};
