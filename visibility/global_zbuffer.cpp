@@ -81,7 +81,7 @@ void GlobalZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter
     }
 
     // One entry per (receiver, source).
-    entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);
+    entries_from_pairs(pairs_, sort_, grid_.pixel_area(), out.entries);
 }
 
 }  // namespace raybundle::visibility

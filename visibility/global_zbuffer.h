@@ -43,6 +43,7 @@ private:
     std::vector<std::uint32_t> offsets_;
     std::vector<Fragment> fragments_;
     std::vector<std::uint64_t> pairs_;  // receiver << 32 | source, one per pixel
+    std::vector<std::uint64_t> sort_;   // the sort's second buffer
 };
 
 }  // namespace raybundle::visibility

@@ -1,8 +1,10 @@
 #pragma once
 // Geometry-matrix entries from per-pixel (receiver, source) pairs: the discrete
 // backends that find pairs pixel by pixel (global z-buffer, ray casting) record one
-// key per pixel and turn them into one entry per pair, grouped by receiver.
+// key per pixel and turn them into one entry per pair, grouped by receiver
+// (entries_from_pairs, pair_entries.h).
 #include "visibility/backend.h"
+#include "visibility/pair_entries.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -50,20 +52,6 @@ void pairs_along(It first, It last, Patch patch, IsSource is_source, bool sky, s
     if (sky) {
         if (!is_source(*first)) emit(static_cast<std::uint32_t>(patch(*first)), patches);
         if (is_source(*(last - 1))) emit(patches + 1, static_cast<std::uint32_t>(patch(*(last - 1))));
-    }
-}
-
-// Sorts `pairs` and appends one entry per distinct pair: its pixel count times
-// pixel_area.
-inline void entries_from_pairs(std::vector<std::uint64_t>& pairs, double pixel_area,
-                               std::vector<TransferEntry>& out) {
-    std::sort(pairs.begin(), pairs.end());
-    for (std::size_t k = 0; k < pairs.size();) {
-        std::size_t e = k;
-        while (e < pairs.size() && pairs[e] == pairs[k]) ++e;
-        out.push_back({static_cast<std::uint32_t>(pairs[k] >> 32), static_cast<std::uint32_t>(pairs[k]),
-                       static_cast<double>(e - k) * pixel_area});
-        k = e;
     }
 }
 

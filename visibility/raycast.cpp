@@ -38,7 +38,7 @@ void RaycastBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
                         static_cast<std::uint32_t>(normals.size()),
                         [&](std::uint32_t r, std::uint32_t src) { pairs_.push_back(pixel_pair(r, src)); });
         }
-    entries_from_pairs(pairs_, grid_.pixel_area(), out.entries);
+    entries_from_pairs(pairs_, sort_, grid_.pixel_area(), out.entries);
 }
 
 }  // namespace raybundle::visibility

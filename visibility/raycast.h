@@ -39,6 +39,7 @@ private:
     // Scratch, reused between directions.
     std::vector<scenes::RayHit> hits_;
     std::vector<std::uint64_t> pairs_;  // receiver << 32 | source, one per ray
+    std::vector<std::uint64_t> sort_;   // the sort's second buffer
 };
 
 }  // namespace raybundle::visibility

@@ -3,7 +3,7 @@
 #include "scenes/frame.h"
 #include "visibility/gl_context.h"
 #include "visibility/map_grid.h"
-#include "visibility/pixel_pairs.h"
+#include "visibility/pair_entries.h"
 #include "scenes/threads.h"
 
 #include <GL/glcorearb.h>
@@ -336,42 +336,6 @@ void main() {
 
 #undef RAYBUNDLE_ZBUFFER_BUFFERS
 
-// Sorts (key, count) records by key, least significant 11 bits first, skipping the
-// digits that all keys share.
-void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& counts,
-                std::vector<std::uint64_t>& key_tmp, std::vector<std::uint32_t>& count_tmp) {
-    const std::size_t n = keys.size();
-    if (n < 2) return;
-    std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
-    for (std::uint64_t k : keys) {
-        all_or |= k;
-        all_and &= k;
-    }
-    key_tmp.resize(n);
-    count_tmp.resize(n);
-    constexpr int kBits = 11;
-    std::vector<std::size_t> offset(std::size_t{1} << kBits);
-    for (int shift = 0; shift < 64; shift += kBits) {
-        const std::uint64_t digit_mask = ((std::uint64_t{1} << kBits) - 1) << shift;
-        if (((all_or ^ all_and) & digit_mask) == 0) continue;  // the same digit everywhere
-        std::fill(offset.begin(), offset.end(), 0);
-        for (std::uint64_t k : keys) ++offset[(k >> shift) & ((1u << kBits) - 1)];
-        std::size_t sum = 0;
-        for (std::size_t& o : offset) {
-            const std::size_t c = o;
-            o = sum;
-            sum += c;
-        }
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::size_t at = offset[(keys[i] >> shift) & ((1u << kBits) - 1)]++;
-            key_tmp[at] = keys[i];
-            count_tmp[at] = counts[i];
-        }
-        keys.swap(key_tmp);
-        counts.swap(count_tmp);
-    }
-}
-
 std::uint32_t next_power_of_two(std::uint32_t x) {
     std::uint32_t p = 1;
     while (p < x) p <<= 1;
@@ -402,8 +366,7 @@ struct ZBufferBackend::Impl {
     std::vector<double> stage_records;
     std::vector<MapGrid> grids;              // one per thread of the CPU's preparation
     struct Scratch {
-        std::vector<std::uint64_t> keys, key_tmp;
-        std::vector<std::uint32_t> counts, count_tmp;
+        PairCountScratch sort;
         std::vector<std::uint32_t> words;
     };
     std::vector<Scratch> scratch;            // one per direction of a submission
@@ -414,8 +377,7 @@ struct ZBufferBackend::Impl {
     std::uint32_t table_size = 0;   // slots of the hash table (a power of two)
     std::vector<float> vertices;    // x, y per vertex, per direction
     std::vector<double> records;    // t0, tx, ty, kind per patch, per direction
-    std::vector<std::uint64_t> keys, key_tmp;
-    std::vector<std::uint32_t> counts, count_tmp;
+    PairCountScratch sort;          // transfer()'s sorting
     long directions = 0, layers = 0;  // surfaces at each direction's deepest pixel, summed
     // RAYBUNDLE_ZBUFFER_PROFILE=1: seconds spent per stage, CPU and GPU (timestamps), printed
     // to stderr when the backend goes.
@@ -651,27 +613,6 @@ struct ZBufferBackend::Impl {
         }
     }
 
-    // One entry per (receiver, source) from the read-back words, in that order whatever
-    // the GPU's scheduling.
-    void store(const std::vector<std::uint32_t>& words, std::uint32_t m, std::vector<std::uint64_t>& keys_,
-               std::vector<std::uint32_t>& counts_, std::vector<std::uint64_t>& key_tmp_,
-               std::vector<std::uint32_t>& count_tmp_, GeometryMatrix& out) const {
-        keys_.resize(m);
-        counts_.resize(m);
-        const std::uint32_t* e = words.data();
-        for (std::uint32_t j = 0; j < m; ++j) {
-            keys_[j] = pixel_pair(e[3 * j], e[3 * j + 1]);
-            counts_[j] = e[3 * j + 2];
-        }
-        radix_sort(keys_, counts_, key_tmp_, count_tmp_);
-        const double area = grid.pixel_area();
-        out.entries.clear();
-        out.entries.reserve(m);
-        for (std::uint32_t j = 0; j < m; ++j)
-            out.entries.push_back({static_cast<std::uint32_t>(keys_[j] >> 32), static_cast<std::uint32_t>(keys_[j]),
-                                   static_cast<double>(counts_[j]) * area});
-    }
-
     // Directions one submission takes: kBatch, fewer where their slots would pass
     // 256 MiB (a large scene's read-back parts are 12 bytes per slot of its table).
     int batch_capacity() const {
@@ -897,7 +838,7 @@ void ZBufferBackend::transfer(const Vec3& w, const Eigen::Vector2d& jitter, Geom
 
     // A table more than half full is grown for the next direction.
     if (back.count > s.table_size / 2 && s.table_size < kMaxTable) s.make_table(std::min(4 * s.table_size, kMaxTable));
-    s.store(s.entry_words, back.count, s.keys, s.counts, s.key_tmp, s.count_tmp, out);
+    entries_from_counts(s.entry_words.data(), back.count, s.grid.pixel_area(), s.sort, out.entries);
     if (s.profile) {
         const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
         s.cpu_prepare += seconds(start, prepared);
@@ -1001,7 +942,8 @@ void ZBufferBackend::transfer_many(const std::vector<Vec3>& directions, const st
                 auto& x = s.scratch[static_cast<std::size_t>(k)];
                 GeometryMatrix& m = out[b0 + static_cast<std::size_t>(k)];
                 m.direction = directions[b0 + k];
-                s.store(x.words, backs[static_cast<std::size_t>(k)].count, x.keys, x.counts, x.key_tmp, x.count_tmp, m);
+                entries_from_counts(x.words.data(), backs[static_cast<std::size_t>(k)].count, s.grid.pixel_area(), x.sort,
+                                    m.entries);
             }
         });
         if (s.profile) {

@@ -5,6 +5,7 @@
 #include "scenes/loader.h"
 #include "solver/stochastic_iteration.h"
 #include "visibility/backend.h"
+#include "visibility/pair_entries.h"
 #include "visibility/parallel.h"
 
 #include <catch2/catch.hpp>
@@ -12,6 +13,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
+#include <random>
 #include <utility>
 
 using namespace raybundle;
@@ -335,4 +338,100 @@ TEST_CASE("the solver reaches the same radiance with every backend on the Cornel
 TEST_CASE("the solver reaches the same radiance with every exact backend on the Cornell box as modelled",
           "[visibility][backends][solver]") {
     same_radiance_with_every_backend("cornell-box");
+}
+
+TEST_CASE("counted pairs arriving in any order become entries sorted by receiver and source",
+          "[visibility][backends][pairs]") {
+    // As the z-buffer's GPU table hands them over: distinct (receiver, source, count)
+    // records in the order its slots were claimed. Ids of 12, 17, 26 and 32 bits (the
+    // last two too wide to pack beside a 22-bit count), counts up to a 2048-pixel map.
+    std::mt19937_64 random(7);
+    for (const std::uint32_t id_limit : {3722u + 2u, 121324u + 2u, 40000000u, 0xffffffffu})
+        for (const std::uint32_t m : {0u, 1u, 200u, 5000u, 200000u}) {
+            CAPTURE(id_limit, m);
+            std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> truth;
+            while (truth.size() < m) {
+                const auto r = static_cast<std::uint32_t>(random() % id_limit);
+                const auto s = static_cast<std::uint32_t>(random() % id_limit);
+                truth.emplace(std::make_pair(r, s), static_cast<std::uint32_t>(1 + random() % (2048u * 2048u)));
+            }
+            std::vector<std::uint32_t> words;
+            for (const auto& [pair, count] : truth) words.insert(words.end(), {pair.first, pair.second, count});
+            const double area = 0.25;
+            visibility::PairCountScratch scratch;
+            std::vector<visibility::TransferEntry> first, again, wide;
+            for (int order = 0; order < 2; ++order) {
+                // Records shuffled (as whole records) before each call.
+                std::vector<std::uint32_t> index(m);
+                std::iota(index.begin(), index.end(), 0u);
+                std::shuffle(index.begin(), index.end(), random);
+                std::vector<std::uint32_t> shuffled;
+                for (std::uint32_t j : index) shuffled.insert(shuffled.end(), words.begin() + 3 * j, words.begin() + 3 * j + 3);
+                visibility::entries_from_counts(shuffled.data(), m, area, scratch, order == 0 ? first : again);
+                if (order == 0) visibility::entries_from_counts_wide(shuffled.data(), m, area, scratch, wide);
+            }
+            REQUIRE(first.size() == m);
+            auto t = truth.begin();
+            for (std::size_t j = 0; j < m; ++j, ++t) {
+                REQUIRE(first[j].receiver == t->first.first);
+                REQUIRE(first[j].source == t->first.second);
+                REQUIRE(first[j].area == static_cast<double>(t->second) * area);
+                for (const auto* other : {&again, &wide}) {
+                    REQUIRE((*other)[j].receiver == first[j].receiver);
+                    REQUIRE((*other)[j].source == first[j].source);
+                    REQUIRE((*other)[j].area == first[j].area);
+                }
+            }
+        }
+}
+
+TEST_CASE("the radix sort orders keys by their bits above the ignored ones", "[visibility][backends][pairs]") {
+    std::mt19937_64 random(11);
+    for (const int low : {0, 7, 22, 40, 63})
+        for (const std::size_t n : {std::size_t{0}, std::size_t{3}, std::size_t{255}, std::size_t{256}, std::size_t{100000}})
+            for (const std::uint64_t spread : {std::uint64_t{0xff}, std::uint64_t{0xfff0f0000}, ~std::uint64_t{0}}) {
+                CAPTURE(low, n, spread);
+                std::vector<std::uint64_t> keys(n), tmp;
+                for (auto& k : keys) k = random() & spread;
+                std::vector<std::uint64_t> expected = keys;
+                visibility::radix_sort(keys, tmp, low);
+                REQUIRE(keys.size() == n);
+                const auto high = [low](std::uint64_t k) { return k >> low; };
+                for (std::size_t j = 1; j < n; ++j) REQUIRE(high(keys[j - 1]) <= high(keys[j]));
+                // A permutation of the keys.
+                std::sort(expected.begin(), expected.end());
+                std::sort(keys.begin(), keys.end());
+                REQUIRE(keys == expected);
+            }
+}
+
+TEST_CASE("per-pixel pairs become one entry per distinct pair, counted and sorted", "[visibility][backends][pairs]") {
+    // As the global z-buffer and ray casting record them: one key per pixel, repeated
+    // over the pixels a pair covers. Entries are appended after what `out` holds.
+    std::mt19937_64 random(5);
+    for (const std::uint32_t id_limit : {1u, 3724u, 121326u, 0xffffffffu})
+        for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{300}, std::size_t{400000}}) {
+            CAPTURE(id_limit, n);
+            std::vector<std::pair<std::uint32_t, std::uint32_t>> distinct(1 + n / 50);
+            for (auto& [r, s] : distinct)
+                r = static_cast<std::uint32_t>(random() % id_limit), s = static_cast<std::uint32_t>(random() % id_limit);
+            std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> truth;
+            std::vector<std::uint64_t> pairs(n), tmp;
+            for (auto& k : pairs) {
+                const auto& p = distinct[random() % distinct.size()];
+                ++truth[p];
+                k = static_cast<std::uint64_t>(p.first) << 32 | p.second;
+            }
+            std::vector<visibility::TransferEntry> out{{7, 8, 9.0}};
+            visibility::entries_from_pairs(pairs, tmp, 0.5, out);
+            REQUIRE(out.size() == 1 + truth.size());
+            CHECK((out[0].receiver == 7 && out[0].source == 8 && out[0].area == 9.0));
+            std::size_t j = 1;
+            for (const auto& [p, count] : truth) {
+                REQUIRE(out[j].receiver == p.first);
+                REQUIRE(out[j].source == p.second);
+                REQUIRE(out[j].area == 0.5 * static_cast<double>(count));
+                ++j;
+            }
+        }
 }
