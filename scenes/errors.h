@@ -37,9 +37,14 @@ public:
     // file: the scene or mesh file ("" for built-in scenes); where: the object path
     // inside it (e.g. "objects[2].material"); what: the problem with the value.
     SceneError(const std::string& file, const std::string& where, const std::string& what)
-        : std::runtime_error(compose(file, where, what)) {}
+        : std::runtime_error(compose(file, where, what)), file_(file), where_(where), problem_(what) {}
+    const std::string& file() const { return file_; }
+    const std::string& where() const { return where_; }
+    const std::string& problem() const { return problem_; }
 
 private:
+    std::string file_, where_, problem_;
+
     static std::string compose(const std::string& file, const std::string& where,
                                const std::string& what) {
         std::string s;

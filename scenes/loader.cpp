@@ -435,8 +435,10 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
 
 }  // namespace
 
-Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
-                  const Overrides& overrides, const LoadLimits& limits) {
+namespace {
+
+Scene parse_document(const std::string& text, const std::string& shown, const std::string& base_dir,
+                     const Overrides& overrides, const LoadLimits& limits) {
     json doc;
     try {
         doc = parse_json(text, shown);
@@ -612,6 +614,51 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
     return scene;
 }
 
+// How a -D setting `key` bears on error e: 2 where e is at the setting's path or inside
+// it, at the array the setting is an element of, or at a parent of it and names the
+// setting's own key (an unknown key); 1 where e is
+// at a parent of it (a check of the values together, e.g. albedo + specular); else 0.
+int bearing(const std::string& key, const SceneError& e) {
+    const std::string& where = e.where();
+    const auto below = [](const std::string& path, const std::string& top) {
+        return top.empty() || (path.size() > top.size() && path.compare(0, top.size(), top) == 0 &&
+                               (path[top.size()] == '.' || path[top.size()] == '['));
+    };
+    if (where == key || (!where.empty() && below(where, key))) return 2;
+    if (!below(key, where)) return 0;  // elsewhere in the document
+    if (!where.empty() && key[where.size()] == '[') return 2;  // an element of the value at fault
+    const std::size_t from = where.empty() ? 0 : where.size() + 1;
+    const std::string part = key.substr(from, key.find_first_of(".[", from) - from);
+    if (!part.empty() && e.problem().find("'" + part + "'") != std::string::npos) return 2;
+    return where.empty() ? 0 : 1;
+}
+
+// Runs `body`; an error in the scene `shown` that a -D setting caused, or may have,
+// names the setting, which the file does not hold.
+template <class Body>
+Scene naming_overrides(const Overrides& overrides, const std::string& shown, Body body) {
+    try {
+        return body();
+    } catch (const SceneError& e) {
+        if (e.file() != shown || e.problem().find("-D ") != std::string::npos) throw;
+        const Override* with = nullptr;
+        for (const Override& o : overrides) {
+            const int b = bearing(o.key, e);
+            if (b == 2) throw SceneError(e.file(), e.where(), e.problem() + " (from -D " + o.key + "=" + o.value + ")");
+            if (b == 1 && !with) with = &o;
+        }
+        if (with) throw SceneError(e.file(), e.where(), e.problem() + " (with -D " + with->key + "=" + with->value + ")");
+        throw;
+    }
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,
+                  const Overrides& overrides, const LoadLimits& limits) {
+    return naming_overrides(overrides, shown, [&] { return parse_document(text, shown, base_dir, overrides, limits); });
+}
+
 namespace {
 
 // The extension of a path, lower case ("obj"), or "".
@@ -664,7 +711,9 @@ Scene load_scene(const std::string& path, const Overrides& overrides, int thread
     return scene;
 }
 
-Scene load_builtin(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
+namespace {
+
+Scene builtin_with(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
     std::optional<double> default_size;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
@@ -690,6 +739,12 @@ Scene load_builtin(const std::string& name, const Overrides& overrides, int thre
         scene.camera = parse_camera(Node(camera, name, "").child("camera"));
     }
     return scene;
+}
+
+}  // namespace
+
+Scene load_builtin(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
+    return naming_overrides(overrides, name, [&] { return builtin_with(name, overrides, threads, team); });
 }
 
 }  // namespace raybundle::scenes

@@ -83,7 +83,7 @@ for v in 0 16385 -4 1.5; do
 done
 printf '{%s, %s, "objects": [%s], "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [1, 1, 1]}]}\n' \
   "$camera" "$materials" "$quad" >lit.json
-expect_bad "NaN light intensity (-D)" "point_lights[0].intensity: expected [x, y, z], got [\"nan\",1,1]" \
+expect_bad "NaN light intensity (-D)" "point_lights[0].intensity: expected [x, y, z], got [\"nan\",1,1] (from -D" \
   solve lit.json -D "point_lights[0].intensity[0]=nan"
 printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0], "up": [0, 0, 0]}, %s, "objects": [%s]}\n' \
   "$materials" "$quad" >up.json
@@ -126,8 +126,11 @@ expect_bad "aov not a directory" "--aov afile: not a directory" solve good.json 
 expect_bad "unknown image format" "-o x.jpg: unknown image format" solve good.json -o x.jpg
 expect_bad "bad define" "-D camera.width: expected key=value" solve good.json -D camera.width
 expect_bad "define of an unknown key" "unknown key 'patchsize'" solve good.json -D patchsize=3
-expect_bad "define of a bad value" "camera.fov_y: must be in (0, 180) degrees, got 200" solve good.json -D camera.fov_y=200
+expect_bad "define of an unknown key named" "(from -D patchsize=3)" solve good.json -D patchsize=3
+expect_bad "define of a bad value" "camera.fov_y: must be in (0, 180) degrees, got 200 (from -D camera.fov_y=200)" \
+  solve good.json -D camera.fov_y=200
 expect_bad "define of a non-number" "camera.width" solve good.json -D camera.width=wide
+expect_bad "define of a non-number named" "(from -D camera.width=wide)" solve good.json -D camera.width=wide
 expect_bad "bad fov flag" "--fov" solve good.json --fov -3
 expect_bad "width 0" "--width" solve good.json --width 0
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json

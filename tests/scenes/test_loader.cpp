@@ -265,6 +265,39 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
     }
 }
 
+TEST_CASE("an error a -D setting made names the setting, not only the file", "[scenes][errors]") {
+    const std::string text = scene_text(kCamera, kMaterials, kQuad);
+    const auto message = [&](const Overrides& overrides) {
+        try {
+            parse_scene(text, "s.json", ".", overrides);
+        } catch (const SceneError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    // At the setting's path, at the array it is an element of, or an unknown key.
+    CHECK(message({{"camera.width", "abc"}}) == "s.json: camera.width: expected an integer, got \"abc\" (from -D camera.width=abc)");
+    CHECK_THAT(message({{"camera.eye[1]", "nan"}}), Contains("camera.eye: ") && Contains("(from -D camera.eye[1]=nan)"));
+    CHECK_THAT(message({{"materials.white.albdeo", "0.5"}}),
+               Contains("materials.white: unknown key 'albdeo'") && Contains("(from -D materials.white.albdeo=0.5)"));
+    CHECK_THAT(message({{"patch_sise", "3"}}), Contains("unknown key 'patch_sise'") && Contains("(from -D patch_sise=3)"));
+    // The setting among others: the one at fault is named.
+    CHECK_THAT(message({{"camera.width", "100"}, {"camera.fov_y", "200"}}),
+               Contains("camera.fov_y: ") && Contains("(from -D camera.fov_y=200)") && !Contains("width"));
+    // A check of a material's values together, one of them set: "with".
+    CHECK_THAT(message({{"materials.white.albedo", "[0.9, 0.9, 0.9]"}, {"materials.white.specular", "[0.5, 0.5, 0.5]"},
+                        {"materials.white.exponent", "10"}}),
+               Contains("materials.white: albedo + specular") && Contains("(with -D materials.white.albedo=[0.9, 0.9, 0.9])"));
+    // An error the settings did not touch names none of them.
+    const std::string bad = scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "wood"})");
+    try {
+        parse_scene(bad, "s.json", ".", {{"camera.width", "100"}, {"materials.white.albedo", "[0.2, 0.2, 0.2]"}});
+        FAIL("no error");
+    } catch (const SceneError& e) {
+        CHECK_THAT(e.what(), Contains("wood") && !Contains("-D"));
+    }
+}
+
 TEST_CASE("built-in scenes", "[scenes]") {
     const Scene box = make_builtin("homogeneous-box");
     CHECK(box.exact_radiance == 1.0);
