@@ -75,6 +75,7 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
                    "): no visibility map can order them; the higher patch index is in front");
     for (const auto& line : scene.warnings) hooks.warn(line);
     for (const auto& line : winding_warnings(summary)) hooks.warn(scene.name + ": " + line);
+    if (!has_light(scene)) hooks.warn(scene.name + ": " + kNoLight);
 }
 
 // A result with a non-finite value is a failure that names where it appeared (an
@@ -536,8 +537,8 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
     t_phase = Clock::now();
     const SceneSummary summary = summarize(scene, caster, c.run.threads, 128 * 128);
     phase("scene_check", since(t_phase), c.run.threads);
-    warn_about(scene, summary, hooks);
     if (c.solver.method == "pathtrace") {
+        warn_about(scene, summary, hooks);
         RunResult traced = path_trace_run(scene, caster, c, rounds_left(c, since(t_start), hooks), t_start);
         phase("path_trace", traced.rounds.seconds_render, c.run.threads);
         traced.record["phases"] = phases;
@@ -580,6 +581,9 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
         }
     });
     SolverChain &chain_a = *made_a, &chain_b = *made_b;
+    // The scene's warnings once the transport and the solvers have accepted the options
+    // (a refused option is the run's one line), before the steps.
+    warn_about(scene, summary, hooks);
     std::optional<TeamChain> team_a, team_b;
     if (team) team_a.emplace(chain_a, *team), team_b.emplace(chain_b, *team);
     FieldChain& field_a = team ? static_cast<FieldChain&>(*team_a) : chain_a;

@@ -120,6 +120,16 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
     return s;
 }
 
+bool has_light(const scenes::Scene& scene) {
+    const bool point = std::any_of(scene.point_lights.begin(), scene.point_lights.end(),
+                                   [](const scenes::PointLight& l) { return (l.intensity > 0.0).any(); });
+    const auto& patches = scene.patch_list();
+    const bool emission = std::any_of(patches.begin(), patches.end(), [&scene](const scenes::Patch& p) {
+        return scene.materials[static_cast<std::size_t>(p.material)].emissive();
+    });
+    return point || emission || (scene.sky && (scene.sky->radiance > 0.0).any());
+}
+
 std::vector<std::string> winding_warnings(const SceneSummary& summary) {
     std::vector<std::string> lines;
     const auto percent = [](double part, double whole) { return std::lround(100.0 * part / whole); };
@@ -198,6 +208,7 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
                     s.overlaps.pairs, s.overlaps.first, s.overlaps.second);
     for (const auto& w : scene.warnings) print("warning     %s\n", w.c_str());
     for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
+    if (!has_light(scene)) print("warning     %s\n", kNoLight);
     return out;
 }
 

@@ -48,6 +48,11 @@ struct SceneSummary {
 SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1,
                        long max_pixels = 0);
 
+// Whether anything lights the scene: an emissive patch, a point light or a sky of
+// positive radiance; kNoLight says why the image is black otherwise.
+bool has_light(const scenes::Scene& scene);
+inline constexpr const char* kNoLight = "no light (no emissive patch, point light or sky above zero): the image is black";
+
 // One line per object that shows a sign of inverted winding.
 std::vector<std::string> winding_warnings(const SceneSummary& summary);
 

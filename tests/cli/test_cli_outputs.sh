@@ -124,6 +124,21 @@ scene "$quad, {\"quad\": [[0,0,5], [1,0,5], [1,1,5], [0,1,5]], \"material\": \"w
 "$bin" check away.json >chk.txt 2>&1
 grep -q "warning     panel: the front side of 100 % of its area faces nothing" chk.txt && ! grep -q "objects\[0\].*warning" chk.txt
 check $? "check of a panel facing nothing: $(cat chk.txt)"
+# Nothing lights a scene: the black image it gets is said in one warning, by check too.
+# A light whose emission is all zero is no light; a zero point light or a black sky
+# neither.
+printf '{%s, "materials": {"m": {"albedo": [0.5, 0.5, 0.5], "emission": [0, 0, 0]}}, "objects": [%s], "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [0, 0, 0]}], "sky": {"radiance": [0, 0, 0]}}\n' \
+  "$camera" "${quad/\"w\"/\"m\"}" > dark.json
+"$bin" solve dark.json --iterations 20 --gather 0 -o dark.png >/dev/null 2>err.txt
+rc=$?
+[ "$rc" -eq 0 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "warning: dark.json: no light (no emissive patch, point light or sky above zero): the image is black" err.txt
+check $? "a scene without light: exit $rc, $(cat err.txt)"
+"$bin" check dark.json >chk.txt 2>&1
+grep -q "^warning     no light" chk.txt
+check $? "check of a scene without light: $(cat chk.txt)"
+"$bin" check good.json >chk.txt 2>&1
+! grep -q "no light" chk.txt
+check $? "a lit scene said to have no light: $(cat chk.txt)"
 # A block's bottom lying on the floor faces it from within the contact distance: hidden,
 # not inverted (covered, no warning). Lifted 0.1 above the floor, the same bottom sees
 # the floor: neither covered nor unseen. (The patches as modelled: refined, the far
