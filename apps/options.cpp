@@ -102,7 +102,7 @@ nlohmann::json Flags::identity() const {
 
 void add_scene_options(CLI::App& cmd, Command& c) {
     Flags& f = c.flags;
-    f.row("", Identity::no, cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md), or an OBJ model with its MTL"));
+    f.row("", Identity::no, cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md), an OBJ model with its MTL, or a glTF 2.0 file (.gltf, .glb)"));
     f.row("", Identity::yes, cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)"));
     f.row("", Identity::yes, cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)"));
     auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check) {

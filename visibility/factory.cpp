@@ -25,7 +25,8 @@ const std::vector<BackendInfo>& backend_infos() {
         {"raycast", true, true, true, true, "one Embree ray per pixel, all crossings in order"},
 #ifdef RAYBUNDLE_HAVE_OPENGL
         {"zbuffer", true, true, true, false,
-         "OpenGL depth peeling (004 5.1.4) on the GPU, layers ordered by exact depth and paired by compute shaders"},
+         "OpenGL (004 5.1.4): one draw appends every fragment to its pixel's list, compute passes order the lists by "
+         "exact depth and count the pairs (OSMesa in software, or EGL on a GPU)"},
 #endif
 #ifdef RAYBUNDLE_HAVE_CGAL
         {"arrangement", true, false, true, true, "CGAL planar arrangement: exact areas, no pixels (004 5.1.2)"},
