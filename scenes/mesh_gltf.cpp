@@ -7,10 +7,12 @@
 #include "scenes/errors.h"
 #include "scenes/mesh_readers.h"
 
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -136,6 +138,45 @@ bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, in
     if (image->bufferView < 0 && size > 0) image->image.assign(bytes, bytes + size);
     image->width = image->height = 0;
     return true;
+}
+
+// The files the asset names (buffers[i].uri, images[i].uri other than data URIs),
+// checked before tinygltf reads them: one missing or outside the asset's folder is
+// named with its object (tinygltf says "File not found" of both, and of no object).
+void check_resources(std::string_view json_text, const std::string& shown, const Files& files) {
+    if (!files.folder) return;
+    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+    if (!doc.is_object()) return;  // tinygltf says what is wrong with it
+    const auto decoded = [](const std::string& uri) {  // %XX, as tinygltf decodes it
+        std::string out;
+        for (std::size_t i = 0; i < uri.size(); ++i) {
+            const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
+            if (uri[i] == '%' && i + 2 < uri.size() && hex(uri[i + 1]) && hex(uri[i + 2])) {
+                out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+                i += 2;
+            } else {
+                out += uri[i];
+            }
+        }
+        return out;
+    };
+    for (const char* kind : {"buffers", "images"}) {
+        const auto list = doc.find(kind);
+        if (list == doc.end() || !list->is_array()) continue;
+        for (std::size_t i = 0; i < list->size(); ++i) {
+            const auto& item = (*list)[i];
+            if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
+            const std::string uri = item["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) == 0) continue;
+            const std::string where = std::string(kind) + "[" + std::to_string(i) + "].uri";
+            const std::string path = (std::filesystem::path(*files.folder) / decoded(uri)).string();
+            std::error_code ec;
+            if (!inside_folder(files, path))
+                throw SceneError(shown, where, "'" + uri + "' lies outside the asset's folder (refused)");
+            if (!std::filesystem::exists(path, ec))
+                throw SceneError(shown, where, "'" + uri + "': no such file beside the asset");
+        }
+    }
 }
 
 // The first line of tinygltf's message, without its trailing newline.
@@ -673,8 +714,10 @@ private:
 
 MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
                    const std::optional<std::string>& folder, std::size_t max_triangles) {
-    check_nesting(binary ? glb_json(content, shown) : content, shown);
+    const std::string_view json_text = binary ? glb_json(content, shown) : content;
+    check_nesting(json_text, shown);
     Files files{folder, {}, 0};
+    check_resources(json_text, shown, files);
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
     loader.SetImageLoader(&keep_image, nullptr);

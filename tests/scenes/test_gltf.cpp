@@ -377,10 +377,12 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     escape["buffers"][0]["uri"] = "../outside.bin";
     const std::string nested = (dir.path / "sub" / "x.gltf").string();
     std::ofstream(nested) << escape.dump();
-    CHECK_THROWS_WITH(load_scene(nested), Contains("x.gltf") && Contains("outside.bin"));
-    // A missing buffer file names the scene, the object and the file.
+    CHECK_THROWS_WITH(load_scene(nested), Contains("x.gltf: buffers[0].uri: '../outside.bin' lies outside the asset's folder"));
+    // A missing buffer file names the scene, the object, the buffer and the file.
     std::filesystem::remove(dir.path / "tri.bin");
-    CHECK_THROWS_WITH(load_scene(scene), Contains("s.json") && Contains("objects[0]") && Contains("tri.bin"));
+    CHECK_THROWS_WITH(load_scene(scene), Contains("s.json") && Contains("objects[0]") &&
+                                             Contains("buffers[0].uri: 'tri.bin': no such file beside the asset"));
+    CHECK_THROWS_WITH(load_scene(path), Contains("tri.gltf: buffers[0].uri: 'tri.bin': no such file beside the asset"));
 }
 
 TEST_CASE("baked glb: the patches with their radiance, COLOR_0 after the exposure", "[render][gltf]") {
