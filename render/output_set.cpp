@@ -243,6 +243,20 @@ void check_output_path(const NamedFile& out) {
     if (!std::filesystem::is_directory(dir, ec)) throw OutputError(named + dir.string() + " is not a directory");
     if (::access(dir.c_str(), W_OK) != 0)
         throw OutputError(named + "cannot write in " + dir.string() + " (" + std::strerror(errno) + ")");
+    // Where the file's own directory exists, a file made there and removed at once: some
+    // file systems (/proc, /sys) pass the access check and refuse to create files. (Named
+    // as a temporary of this process, so a run killed meanwhile leaves nothing another
+    // run would not remove.)
+    if (dir == full.parent_path()) {
+        const fs::path probe = dir / (".raybundle-" + std::to_string(::getpid()) + "-probe");
+        const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+        if (fd < 0 && errno != EEXIST)
+            throw OutputError(named + "cannot create a file in " + dir.string() + " (" + std::strerror(errno) + ")");
+        if (fd >= 0) {
+            ::close(fd);
+            ::unlink(probe.c_str());
+        }
+    }
     // Names the file system takes, with the temporary's additions: checked now, not
     // when the outputs are written after the whole run.
     const long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX), path_max = ::pathconf(dir.c_str(), _PC_PATH_MAX);
@@ -291,8 +305,16 @@ void check_outputs(const std::vector<NamedFile>& outputs, const std::vector<Name
 }
 
 std::vector<NamedFile> with_scene_files(std::vector<NamedFile> inputs, const scenes::Scene& scene) {
-    for (std::size_t k = 0; k < scene.files.size(); ++k)
-        inputs.push_back({scene.files[k], scene.files[k] == scene.name ? "the scene file" : "a mesh of the scene"});
+    for (std::size_t k = 0; k < scene.files.size(); ++k) {
+        std::string ext = fs::path(scene.files[k]).extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+        const char* what = scene.files[k] == scene.name ? "the scene file"
+                           : ext == ".mtl"               ? "a material library of the scene"
+                           : ext == ".png" || ext == ".jpg" || ext == ".jpeg" ? "a texture of the scene"
+                           : ext == ".bin"               ? "a buffer of the scene"
+                                                         : "a mesh of the scene";
+        inputs.push_back({scene.files[k], what});
+    }
     return inputs;
 }
 

@@ -104,6 +104,7 @@ for case in "-o same.exr -o same.exr|-o same.exr and -o same.exr name the same f
             "-o fifo.exr|-o fifo.exr: is a device, a FIFO or a socket" \
             "-o ro.exr|-o ro.exr: is read-only" \
             "-o afile/x.exr|-o afile/x.exr: Not a directory" \
+            "-o /proc/raybundle-x.exr|-o /proc/raybundle-x.exr: cannot" \
             "--stats good.json|--stats good.json: is the scene file (it would be overwritten)"; do
   args=${case%%|*}
   text=${case#*|}
