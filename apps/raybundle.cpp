@@ -11,9 +11,12 @@
 #include "scenes/errors.h"
 #include "visibility/backend.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace rb = raybundle;
 
@@ -21,6 +24,62 @@ namespace {
 
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
+
+// Edits (insertions, deletions, substitutions) between a and b.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+// The option of `cmd` whose long name is nearest to `arg` ("--iteration=5" against
+// "iterations"): at most 2 edits, or a name it begins; empty where none is.
+std::string nearest_option(const CLI::App& cmd, const std::string& arg) {
+    std::string word = arg.substr(arg.find_first_not_of('-') == std::string::npos ? arg.size() : arg.find_first_not_of('-'));
+    word = word.substr(0, word.find('='));
+    std::string best;
+    std::size_t best_distance = 3;
+    for (const CLI::Option* option : cmd.get_options()) {
+        for (const std::string& name : option->get_lnames()) {
+            const std::size_t d = name.rfind(word, 0) == 0 && word.size() >= 3 ? 1 : edit_distance(word, name);
+            if (d < best_distance) best_distance = d, best = "--" + name;
+        }
+    }
+    return best;
+}
+
+// One line for the arguments no option took: the first unknown option, with the
+// nearest one, else the first argument left over.
+std::string unexpected(const CLI::App& app, const std::vector<const CLI::App*>& commands) {
+    for (const CLI::App* cmd : commands) {
+        if (cmd->count() == 0) continue;
+        const std::vector<std::string> left = cmd->remaining();
+        if (left.empty()) continue;
+        const std::string name = "raybundle " + cmd->get_name();
+        const auto option = std::find_if(left.begin(), left.end(), [](const std::string& a) { return a.size() > 1 && a[0] == '-'; });
+        if (option == left.end()) return name + ": unexpected argument '" + left.front() + "' (see `raybundle help " + cmd->get_name() + "`)";
+        const std::string near = nearest_option(*cmd, *option);
+        return name + ": unknown option " + *option + (near.empty() ? "" : " (did you mean " + near + "?)") +
+               " (see `raybundle help " + cmd->get_name() + "`)";
+    }
+    const std::vector<std::string> left = app.remaining();
+    if (left.empty()) return "";
+    const auto command = std::find_if(commands.begin(), commands.end(), [](const CLI::App* c) { return c->count() > 0; });
+    if (command != commands.end())
+        return left.front() + ": options go after the command (raybundle " + (*command)->get_name() + " ... " +
+               left.front() + " ...)";
+    return (left.front()[0] == '-' ? "unknown option " : "unknown command ") + ("'" + left.front() + "'") +
+           " (commands: solve, check, scenes, backends, help; --version, --help)";
+}
 
 int run(int argc, char** argv, rb::render::Ranks& ranks) {
     // One line for the user, on rank 0, whichever rank failed (render/ranks.h).
@@ -64,6 +123,10 @@ int run(int argc, char** argv, rb::render::Ranks& ranks) {
     } catch (const CLI::CallForVersion&) {
         return 0;
     } catch (const CLI::ParseError& e) {
+        // Arguments nothing took (CLI11 lists them in no helpful order, or only says a
+        // command is required): named one by one, with the nearest option.
+        const std::string left = unexpected(app, {solve, check, scenes_cmd, backends_cmd, help_cmd});
+        if (!left.empty()) return fail(left, kExitBadInput);
         return fail(std::string(e.what()) + (argc == 1 ? " (see `raybundle help`)" : ""), kExitBadInput);
     }
 

@@ -61,6 +61,14 @@ expect_bad "no patches" "the scene has no patches" solve empty.json
 expect_bad "unknown backend" "unknown visibility backend 'zbufer' (known: exact-painter, painter" solve good.json --visibility zbufer
 expect_bad "unknown built-in" "unknown built-in scene 'teapot'" solve --builtin teapot
 expect_bad "scene and built-in" "exactly one of" solve good.json --builtin homogeneous-box
+# Arguments no option takes: the first named, an unknown option with the nearest one.
+expect_bad "a misspelt option" "raybundle solve: unknown option --iteration (did you mean --iterations?)" \
+  solve good.json --iteration 100
+expect_bad "a misspelt option with its value" "unknown option --gathr=4 (did you mean --gather?)" solve good.json --gathr=4
+expect_bad "two scenes" "raybundle solve: unexpected argument 'good2.json'" solve good.json good2.json
+expect_bad "an option before the command" "--threads: options go after the command (raybundle solve ... --threads ...)" \
+  --threads 1 solve good.json
+expect_bad "an unknown command" "unknown command 'version' (commands: solve, check" version
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
 expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration, walk, combined, bidirectional, pathtrace)" solve good.json --method metropolis
 expect_bad "both diffuse-shot flags" "give one of --diffuse-shot and --no-diffuse-shot" solve good.json --no-diffuse-shot --diffuse-shot
