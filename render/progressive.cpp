@@ -385,9 +385,11 @@ Rounds run_rounds(const RoundOptions& o, const sampling::RunOptions& run, Advanc
                 // at the new cost, and the cost measured anew from it.
                 if (timed) next /= 1.0 + weighed.probe_cost * (q / automatic.probe - 1.0);
                 render_since = scale_since = 0.0;
-                char line[160];
+                char line[320];
                 std::snprintf(line, sizeof line,
-                              "after round %ld: correcting at q = %g (predicted %.3g %% against %.3g %% reading the field)",
+                              "after round %ld: correcting at q = %g (predicted %.3g %% against %.3g %% reading the field; "
+                              "chosen up to a quarter above it, since the corrected image converges to the scene's light "
+                              "where the field keeps its bias)",
                               round, q, 100.0 * plan.predicted, 100.0 * plan.reading);
                 out.correction_choice = line;
             }
