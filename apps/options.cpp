@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <type_traits>
 
 namespace raybundle::apps {
 
@@ -44,6 +45,16 @@ const CLI::Validator kDigits(
         return "'" + text + "' is not an integer in 0..2^64-1";
     },
     "UINT64");
+
+// An integer option's value: digits with an optional sign (CLI11's range check would
+// say that 100.5 is not in range 1 to 16384).
+const CLI::Validator kInteger(
+    [](std::string& text) {
+        const std::size_t from = !text.empty() && (text[0] == '-' || text[0] == '+') ? 1 : 0;
+        if (text.size() > from && text.find_first_not_of("0123456789", from) == std::string::npos) return std::string();
+        return "'" + text + "' is not an integer";
+    },
+    "INT");
 
 // --checkpoint-every: a step count (digits, at least 1) or seconds (a positive number
 // and 's').
@@ -105,18 +116,21 @@ void add_scene_options(CLI::App& cmd, Command& c) {
     f.row("", Identity::no, cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md), an OBJ model with its MTL, or a glTF 2.0 file (.gltf, .glb)"));
     f.row("", Identity::yes, cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)"));
     f.row("", Identity::yes, cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)"));
-    auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check) {
-        f.row(key, Identity::yes,
-              cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
-                                                   help)
-                  ->check(check));
+    auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check,
+                        bool integer = false) {
+        CLI::Option* option =
+            cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
+                                                 help);
+        if (integer) option->check(kInteger);
+        f.row(key, Identity::yes, option->check(check));
     };
     shortcut("--patch-size", "patch_size", "refine until no patch edge is longer (-D patch_size=L)", kPositive);
-    shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384));
-    shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384));
+    shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384), true);
+    shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384), true);
     shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);
     f.row("threads", Identity::no,
           cmd.add_option("--threads", c.config.run.threads, "threads (default: all cores; the same result for any count)")
+              ->check(kInteger)
               ->check(CLI::Range(1, 1024)));
 }
 
@@ -128,7 +142,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     constexpr auto yes = Identity::yes, no = Identity::no;
     // An option bound to a field, its default (the library's) shown.
     auto value = [&cmd](const char* names, auto& field, const std::string& help) {
-        return cmd.add_option(names, field, help)->capture_default_str();
+        CLI::Option* option = cmd.add_option(names, field, help)->capture_default_str();
+        using T = std::decay_t<decltype(field)>;
+        if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) option->check(kInteger);
+        return option;
     };
     // An option whose value a library parser turns into the field (an enum's names).
     auto parsed = [&cmd](const char* names, auto set, const std::string& help) {
@@ -171,6 +188,7 @@ void add_solve_options(CLI::App& cmd, Command& c) {
     f.row("basis", yes, value("--basis", s.basis, "constant (per patch) | linear (per vertex, Gouraud)"));
     f.row("visibility", yes, value("--visibility", s.visibility, "visibility backend (see `raybundle backends`)"));
     f.row("resolution", yes, cmd.add_option("--resolution", s.map.resolution, "visibility map pixels per side (default: from the scene)")
+                                 ->check(kInteger)
                                  ->check(CLI::Range(1, 16384)));
     f.row("refine", yes,
           parsed("--refine",

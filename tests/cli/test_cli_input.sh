@@ -86,9 +86,13 @@ expect_bad "linear basis with walks" "--basis: linear works with the method 'ite
 expect_bad "negative seed" "--seed: '-1' is not an integer in 0..2^64-1" solve good.json --seed -1
 expect_bad "seed 2^64" "--seed: '18446744073709551616' is not an integer in 0..2^64-1" solve good.json \
   --seed 18446744073709551616
-for v in 0 16385 -4 1.5; do
+for v in 0 16385 -4; do
   expect_bad "--width $v" "--width: Value $v not in range 1 to 16384" solve good.json --width "$v"
 done
+for v in 1.5 100.5 wide; do
+  expect_bad "--width $v" "--width: '$v' is not an integer" solve good.json --width "$v"
+done
+expect_bad "--iterations 1e3" "--iterations: '1e3' is not an integer" solve good.json --iterations 1e3
 printf '{%s, %s, "objects": [%s], "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [1, 1, 1]}]}\n' \
   "$camera" "$materials" "$quad" >lit.json
 expect_bad "NaN light intensity (-D)" "point_lights[0].intensity: expected [x, y, z], got [\"nan\",1,1] (from -D" \
