@@ -365,7 +365,11 @@ void check_command(const CLI::App& cmd, Command& c) {
             try {
                 render::image_format(image);
             } catch (const scenes::OptionError& e) {
-                throw UsageError("-o " + e.problem() + " or .glb (a baked asset)");
+                // The formats -o knows: the images', and a baked asset.
+                std::string problem = e.problem();
+                if (const auto at = problem.rfind(".pfm)"); at != std::string::npos && at + 5 == problem.size())
+                    problem.insert(at + 4, "; or .glb, a baked asset");
+                throw UsageError("-o " + problem);
             }
             images.push_back(image);
         }

@@ -294,6 +294,10 @@ ImageFormat image_format(const std::string& path) {
     if (ext == "exr") return ImageFormat::exr;
     if (ext == "png") return ImageFormat::png;
     if (ext == "pfm") return ImageFormat::pfm;
+    if (!path.empty() && path.back() == '/')
+        throw scenes::OptionError("output", path + ": names a folder, not a file (e.g. " + path + "image.exr)");
+    if (ext.empty())
+        throw scenes::OptionError("output", path + ": no extension to tell the image format (known: .exr, .png, .pfm)");
     throw scenes::OptionError("output", path + ": unknown image format '" + ext + "' (known: .exr, .png, .pfm)");
 }
 

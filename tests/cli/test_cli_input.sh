@@ -136,7 +136,9 @@ expect_bad "spp without gather" "--spp needs the final gather" solve good.json -
 expect_bad "unknown filter" "--filter" solve good.json --gather 4 --filter median
 echo file > afile
 expect_bad "aov not a directory" "--aov afile: not a directory" solve good.json --gather 4 --aov afile
-expect_bad "unknown image format" "-o x.jpg: unknown image format" solve good.json -o x.jpg
+expect_bad "unknown image format" "-o x.jpg: unknown image format 'jpg' (known: .exr, .png, .pfm; or .glb, a baked asset)" \
+  solve good.json -o x.jpg
+expect_bad "an output naming a folder" "-o out/: names a folder, not a file (e.g. out/image.exr)" solve good.json -o out/
 expect_bad "bad define" "-D camera.width: expected key=value" solve good.json -D camera.width
 expect_bad "define of an unknown key" "unknown key 'patchsize'" solve good.json -D patchsize=3
 expect_bad "define of an unknown key named" "(from -D patchsize=3)" solve good.json -D patchsize=3
