@@ -371,7 +371,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
         if (name == "cornell-box" || name == "cornell-box-cut") return cornell_box(name == "cornell-box-cut");
         std::string known;
         for (const auto& info : builtin_scenes()) known += (known.empty() ? "" : ", ") + info.name;
-        throw SceneError("", "builtin", "unknown built-in scene '" + name + "' (known: " + known + ")");
+        throw SceneError("", "", "unknown built-in scene '" + name + "' (known: " + known + ")");
     };
     Scene s = made();
     if (name == "fractal-terrain") {
