@@ -196,8 +196,10 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
         print("covered     %zu patches lie face to face on another surface (a box's bottom on a floor): hidden,"
               " not inverted\n", s.covered);
     print("objects     %zu\n", s.objects.size());
+    int name_width = 24;  // the column as wide as the longest name
+    for (const auto& o : s.objects) name_width = std::max(name_width, static_cast<int>(o.name.size()));
     for (const auto& o : s.objects) {
-        print("  %-24s %8zu patches  area %.4g", o.name.c_str(), o.patches, o.area);
+        print("  %-*s %8zu patches  area %.4g", name_width, o.name.c_str(), o.patches, o.area);
         if (o.back_pixels > 0) print("  back seen in %ld pixels", o.back_pixels);
         if (o.unseen_area > 0.0) print("  front unseen: %.0f %%", percent(o.unseen_area, o.area));
         if (o.covered_area > 0.0) print("  front covered: %.0f %%", percent(o.covered_area, o.area));
