@@ -616,8 +616,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
 
 // How a -D setting `key` bears on error e: 2 where e is at the setting's path or inside
 // it, at the array the setting is an element of, or at a parent of it and names the
-// setting's own key (an unknown key); 1 where e is
-// at a parent of it (a check of the values together, e.g. albedo + specular); else 0.
+// setting's own key (an unknown key); 1 where e is at a parent of it (a check of the
+// values together, e.g. albedo + specular); else 0.
 int bearing(const std::string& key, const SceneError& e) {
     const std::string& where = e.where();
     const auto below = [](const std::string& path, const std::string& top) {
