@@ -12,7 +12,6 @@
 
 #include <Eigen/Geometry>
 
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -140,19 +139,24 @@ bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, in
     return true;
 }
 
-// The files the asset names (buffers[i].uri, images[i].uri other than data URIs),
-// checked before tinygltf reads them: one missing or outside the asset's folder is
-// named with its object (tinygltf says "File not found" of both, and of no object).
+// The buffer files the asset names (buffers[i].uri other than data URIs), checked before
+// tinygltf reads them: one missing or outside the asset's folder is named with its
+// object (tinygltf says "File not found" of both, and of no object). Images are left to
+// tinygltf: one it cannot read is a warning there, and its material keeps its factor.
 void check_resources(std::string_view json_text, const std::string& shown, const Files& files) {
     if (!files.folder) return;
     const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
     if (!doc.is_object()) return;  // tinygltf says what is wrong with it
-    const auto decoded = [](const std::string& uri) {  // %XX, as tinygltf decodes it
+    const auto decoded = [](const std::string& uri) {  // as tinygltf's urldecode: '+' and %XX
+        const auto digit = [](char c) {
+            return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : 0;
+        };
         std::string out;
         for (std::size_t i = 0; i < uri.size(); ++i) {
-            const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
-            if (uri[i] == '%' && i + 2 < uri.size() && hex(uri[i + 1]) && hex(uri[i + 2])) {
-                out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+            if (uri[i] == '+') {
+                out += ' ';
+            } else if (uri[i] == '%' && uri.size() > i + 2) {
+                out += static_cast<char>(digit(uri[i + 1]) << 4 | digit(uri[i + 2]));
                 i += 2;
             } else {
                 out += uri[i];
@@ -160,7 +164,7 @@ void check_resources(std::string_view json_text, const std::string& shown, const
         }
         return out;
     };
-    for (const char* kind : {"buffers", "images"}) {
+    for (const char* kind : {"buffers"}) {
         const auto list = doc.find(kind);
         if (list == doc.end() || !list->is_array()) continue;
         for (std::size_t i = 0; i < list->size(); ++i) {

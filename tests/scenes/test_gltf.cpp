@@ -383,6 +383,20 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     CHECK_THROWS_WITH(load_scene(scene), Contains("s.json") && Contains("objects[0]") &&
                                              Contains("buffers[0].uri: 'tri.bin': no such file beside the asset"));
     CHECK_THROWS_WITH(load_scene(path), Contains("tri.gltf: buffers[0].uri: 'tri.bin': no such file beside the asset"));
+    // A URI is decoded as tinygltf decodes it ('+' a space, %XX a byte): "my+tri%2D1.bin"
+    // is "my tri-1.bin".
+    dir.write("my tri-1.bin", decoded_buffer());
+    json spaced = asset();
+    spaced["buffers"][0]["uri"] = "my+tri%2D1.bin";
+    CHECK(load_scene(dir.write("spaced.gltf", spaced.dump())).patch_count() > 0);
+    // A texture file that is missing leaves its material to its factor (a warning of
+    // tinygltf's, not an error).
+    json textured = asset();
+    textured["buffers"][0]["uri"] = "my+tri%2D1.bin";
+    textured["images"] = {{{"uri", "no-such.png"}}};
+    textured["textures"] = {{{"source", 0}}};
+    textured["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    CHECK(load_scene(dir.write("textured.gltf", textured.dump())).patch_count() > 0);
 }
 
 TEST_CASE("baked glb: the patches with their radiance, COLOR_0 after the exposure", "[render][gltf]") {
