@@ -119,8 +119,9 @@ void add_scene_options(CLI::App& cmd, Command& c) {
     auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check,
                         bool integer = false) {
         CLI::Option* option =
-            cmd.add_option_function<std::string>(flag, [&c, key](const std::string& v) { c.overrides.push_back({key, v}); },
-                                                 help);
+            cmd.add_option_function<std::string>(
+                flag, [&c, key, flag](const std::string& v) { c.overrides.push_back({key, v, std::string(flag) + " " + v}); },
+                help);
         if (integer) option->check(kInteger);
         f.row(key, Identity::yes, option->check(check));
     };

@@ -633,21 +633,22 @@ int bearing(const std::string& key, const SceneError& e) {
     return where.empty() ? 0 : 1;
 }
 
-// Runs `body`; an error in the scene `shown` that a -D setting caused, or may have,
-// names the setting, which the file does not hold.
+// Runs `body`; an error in the scene `shown` that a setting caused names it (the last
+// that did: the last given wins), which the file does not hold; one that settings may
+// have caused (a check of values together) lists them.
 template <class Body>
 Scene naming_overrides(const Overrides& overrides, const std::string& shown, Body body) {
     try {
         return body();
     } catch (const SceneError& e) {
         if (e.file() != shown || e.problem().find("-D ") != std::string::npos) throw;
-        const Override* with = nullptr;
-        for (const Override& o : overrides) {
-            const int b = bearing(o.key, e);
-            if (b == 2) throw SceneError(e.file(), e.where(), e.problem() + " (from -D " + o.key + "=" + o.value + ")");
-            if (b == 1 && !with) with = &o;
-        }
-        if (with) throw SceneError(e.file(), e.where(), e.problem() + " (with -D " + with->key + "=" + with->value + ")");
+        const auto given = [](const Override& o) { return o.given.empty() ? "-D " + o.key + "=" + o.value : o.given; };
+        for (auto o = overrides.rbegin(); o != overrides.rend(); ++o)
+            if (bearing(o->key, e) == 2) throw SceneError(e.file(), e.where(), e.problem() + " (from " + given(*o) + ")");
+        std::string with;
+        for (const Override& o : overrides)
+            if (bearing(o.key, e) == 1) with += (with.empty() ? "" : ", ") + given(o);
+        if (!with.empty()) throw SceneError(e.file(), e.where(), e.problem() + " (with " + with + ")");
         throw;
     }
 }

@@ -281,13 +281,18 @@ TEST_CASE("an error a -D setting made names the setting, not only the file", "[s
     CHECK_THAT(message({{"materials.white.albdeo", "0.5"}}),
                Contains("materials.white: unknown key 'albdeo'") && Contains("(from -D materials.white.albdeo=0.5)"));
     CHECK_THAT(message({{"patch_sise", "3"}}), Contains("unknown key 'patch_sise'") && Contains("(from -D patch_sise=3)"));
-    // The setting among others: the one at fault is named.
+    // The setting among others: the one at fault is named; of two, the last (it wins);
+    // a setting given by its own flag is named so.
     CHECK_THAT(message({{"camera.width", "100"}, {"camera.fov_y", "200"}}),
                Contains("camera.fov_y: ") && Contains("(from -D camera.fov_y=200)") && !Contains("width"));
-    // A check of a material's values together, one of them set: "with".
+    CHECK_THAT(message({{"camera.fov_y", "50"}, {"camera.fov_y", "200"}}), Contains("got 200 (from -D camera.fov_y=200)"));
+    CHECK_THAT(message({{"camera.fov_y", "50"}, {"camera.fov_y", "200", "--fov 200"}}), Contains("got 200 (from --fov 200)"));
+    // A check of a material's values together, some of them set: "with" them all.
     CHECK_THAT(message({{"materials.white.albedo", "[0.9, 0.9, 0.9]"}, {"materials.white.specular", "[0.5, 0.5, 0.5]"},
                         {"materials.white.exponent", "10"}}),
-               Contains("materials.white: albedo + specular") && Contains("(with -D materials.white.albedo=[0.9, 0.9, 0.9])"));
+               Contains("materials.white: albedo + specular") &&
+                   Contains("(with -D materials.white.albedo=[0.9, 0.9, 0.9], -D materials.white.specular=[0.5, 0.5, 0.5], "
+                            "-D materials.white.exponent=10)"));
     // An error the settings did not touch names none of them.
     const std::string bad = scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "wood"})");
     try {
