@@ -12,6 +12,7 @@
 #include "visibility/backend.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <iostream>
 #include <optional>
@@ -65,11 +66,15 @@ std::string unexpected(const CLI::App& app, const std::vector<const CLI::App*>& 
         const std::vector<std::string> left = cmd->remaining();
         if (left.empty()) continue;
         const std::string name = "raybundle " + cmd->get_name();
-        const auto option = std::find_if(left.begin(), left.end(), [](const std::string& a) { return a.size() > 1 && a[0] == '-'; });
-        if (option == left.end()) return name + ": unexpected argument '" + left.front() + "' (see `raybundle help " + cmd->get_name() + "`)";
+        const std::string help = cmd->get_name() == "help" ? "raybundle help" : "raybundle help " + cmd->get_name();
+        // An option: a dash and a letter (-2 and -.5 are numbers).
+        const auto option = std::find_if(left.begin(), left.end(), [](const std::string& a) {
+            return a.size() > 1 && a[0] == '-' && (std::isalpha(static_cast<unsigned char>(a[1])) || a[1] == '-');
+        });
+        if (option == left.end()) return name + ": unexpected argument '" + left.front() + "' (see `" + help + "`)";
         const std::string near = nearest_option(*cmd, *option);
-        return name + ": unknown option " + *option + (near.empty() ? "" : " (did you mean " + near + "?)") +
-               " (see `raybundle help " + cmd->get_name() + "`)";
+        return name + ": unknown option " + *option + (near.empty() ? "" : " (did you mean " + near + "?)") + " (see `" +
+               help + "`)";
     }
     const std::vector<std::string> left = app.remaining();
     if (left.empty()) return "";

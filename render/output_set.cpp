@@ -248,10 +248,16 @@ void check_output_path(const NamedFile& out) {
     // as a temporary of this process, so a run killed meanwhile leaves nothing another
     // run would not remove.)
     if (dir == full.parent_path()) {
-        const fs::path probe = dir / (".raybundle-" + std::to_string(::getpid()) + "-probe");
-        const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-        if (fd < 0 && errno != EEXIST)
-            throw OutputError(named + "cannot create a file in " + dir.string() + " (" + std::strerror(errno) + ")");
+        // (A name taken, by a process of the same number on another host of a shared
+        // file system, is tried again with the next.)
+        int fd = -1;
+        fs::path probe;
+        for (int k = 0; k < 64 && fd < 0; ++k) {
+            probe = dir / (".raybundle-" + std::to_string(::getpid()) + "-probe-" + std::to_string(k));
+            fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+            if (fd < 0 && errno != EEXIST)
+                throw OutputError(named + "cannot create a file in " + dir.string() + " (" + std::strerror(errno) + ")");
+        }
         if (fd >= 0) {
             ::close(fd);
             ::unlink(probe.c_str());

@@ -48,7 +48,7 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& tm
     const std::uint64_t mask = buckets - 1;
 
     // Every pass's histogram in one read of the keys.
-    std::vector<std::uint32_t> histogram(static_cast<std::size_t>(passes) * buckets, 0);
+    std::vector<std::size_t> histogram(static_cast<std::size_t>(passes) * buckets, 0);
     for (std::uint64_t k : keys) {
         const std::uint64_t bits = k >> first;
         for (int p = 0; p < passes; ++p) ++histogram[static_cast<std::size_t>(p) * buckets + ((bits >> (p * digit)) & mask)];
@@ -57,10 +57,10 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& tm
     for (int p = 0; p < passes; ++p) {
         const int shift = first + p * digit;
         if (((differ >> shift) & mask) == 0) continue;  // the same digit in every key
-        std::uint32_t* offset = &histogram[static_cast<std::size_t>(p) * buckets];
-        std::uint32_t sum = 0;
+        std::size_t* offset = &histogram[static_cast<std::size_t>(p) * buckets];
+        std::size_t sum = 0;
         for (std::size_t b = 0; b < buckets; ++b) {
-            const std::uint32_t c = offset[b];
+            const std::size_t c = offset[b];
             offset[b] = sum;
             sum += c;
         }

@@ -389,7 +389,9 @@ TEST_CASE("the radix sort orders keys by their bits above the ignored ones", "[v
     std::mt19937_64 random(11);
     for (const int low : {0, 7, 22, 40, 63})
         for (const std::size_t n : {std::size_t{0}, std::size_t{3}, std::size_t{255}, std::size_t{256}, std::size_t{100000}})
-            for (const std::uint64_t spread : {std::uint64_t{0xff}, std::uint64_t{0xfff0f0000}, ~std::uint64_t{0}}) {
+            // (0xff000000000000ff: whole digits inside the span that no key changes.)
+            for (const std::uint64_t spread : {std::uint64_t{0xff}, std::uint64_t{0xfff0f0000},
+                                               std::uint64_t{0xff000000000000ff}, ~std::uint64_t{0}}) {
                 CAPTURE(low, n, spread);
                 std::vector<std::uint64_t> keys(n), tmp;
                 for (auto& k : keys) k = random() & spread;
