@@ -37,7 +37,7 @@ json rounds_record(const Rounds& r, const RoundOptions& o) {
         rounds.push_back({{"scale", k.scale},
                           {"correction", k.correction},
                           {"corrected", k.corrected},
-                          {"steps", k.steps},
+                          {"steps_share", k.steps},  // of the options' steps (a fraction, not a count)
                           {"seconds", k.seconds},
                           {"estimated_error", k.estimate},
                           {"estimated_noise", k.parts.noise},
