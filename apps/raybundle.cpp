@@ -86,6 +86,27 @@ std::string unexpected(const CLI::App& app, const std::vector<const CLI::App*>& 
            " (commands: solve, check, scenes, backends, help; --version, --help)";
 }
 
+// One line for an option given more often than it takes values ("--gather 0 ... --gather
+// 1"): refused, as a scene file's key given twice is, with what each use said. CLI11
+// would say "At Most 1 required but received 2".
+std::string repeated(const std::vector<const CLI::App*>& commands) {
+    for (const CLI::App* cmd : commands) {
+        if (cmd->count() == 0) continue;
+        for (const CLI::Option* option : cmd->get_options()) {
+            if (option->get_multi_option_policy() != CLI::MultiOptionPolicy::Throw) continue;
+            const std::size_t most = static_cast<std::size_t>(std::max(option->get_items_expected_max(), 1));
+            const std::vector<std::string>& given = option->results();
+            if (given.size() <= most || option->get_items_expected_max() >= CLI::detail::expected_max_vector_size)
+                continue;
+            std::string values;
+            for (const std::string& v : given) values += (values.empty() ? "" : ", ") + v;
+            return "raybundle " + cmd->get_name() + ": " + option->get_name() + " given " + std::to_string(given.size()) +
+                   " times (" + values + "): give it once";
+        }
+    }
+    return "";
+}
+
 int run(int argc, char** argv, rb::render::Ranks& ranks) {
     // One line for the user, on rank 0, whichever rank failed (render/ranks.h).
     auto fail = [&ranks](const std::string& what, int code) {
@@ -132,6 +153,8 @@ int run(int argc, char** argv, rb::render::Ranks& ranks) {
         // command is required): named one by one, with the nearest option.
         const std::string left = unexpected(app, {solve, check, scenes_cmd, backends_cmd, help_cmd});
         if (!left.empty()) return fail(left, kExitBadInput);
+        if (const std::string twice = repeated({solve, check, help_cmd}); !twice.empty())
+            return fail(twice, kExitBadInput);
         return fail(std::string(e.what()) + (argc == 1 ? " (see `raybundle help`)" : ""), kExitBadInput);
     }
 

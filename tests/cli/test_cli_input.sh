@@ -68,6 +68,10 @@ expect_bad "a misspelt option with its value" "unknown option --gathr=4 (did you
 expect_bad "two scenes" "raybundle solve: unexpected argument 'good2.json'" solve good.json good2.json
 expect_bad "an option before the command" "--threads: options go after the command (raybundle solve ... --threads ...)" \
   --threads 1 solve good.json
+expect_bad "an option given twice" "raybundle solve: --gather given 2 times (0, 1): give it once" \
+  solve good.json --gather 0 --gather 1
+expect_bad "an option given twice, once with =" "raybundle solve: --patch-size given 2 times (1, 2): give it once" \
+  solve good.json --patch-size 1 --patch-size=2
 expect_bad "an unknown command" "unknown command 'version' (commands: solve, check" version
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
 expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration, walk, combined, bidirectional, pathtrace)" solve good.json --method metropolis
