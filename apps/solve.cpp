@@ -114,8 +114,8 @@ int solve(const Command& c, Ranks& ranks) {
         if (const int signal = result.signal != 0 ? result.signal : render::stop_requested(); signal != 0) {
             const bool cut = result.rounds.interrupted;
             std::cerr << "raybundle: " << render::signal_name(signal) << ": "
-                      << (cut ? "stopped after " + std::to_string(result.steps) + " of " +
-                                    std::to_string(result.planned_steps) +
+                      << (cut ? "stopped after " + std::to_string(result.steps) +
+                                    (result.planned_steps > 0 ? " of " + std::to_string(result.planned_steps) : "") +
                                     " steps; the outputs are of the steps done (\"partial\" in the stats)"
                               : "the run was complete; its outputs are written")
                       << (cut && result.checkpointed >= 0 ? "; go on with --resume " + config.checkpoint : "") << "\n";

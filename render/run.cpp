@@ -670,7 +670,8 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
     }
     out.signal = team ? pauses.signal() : (hooks.stop_requested ? hooks.stop_requested() : 0);
     out.checkpointed = pauses.checkpointed();
-    out.planned_steps = 2 * per_chain.steps;
+    // A time budget's or a target's rounds go on as their measurements say: no plan.
+    out.planned_steps = c.rounds.time_budget > 0.0 || c.rounds.target_error > 0.0 ? 0 : 2 * per_chain.steps;
     out.steps = made.steps;
     out.mean_radiance = made.field.mean_radiance(scene);
     out.field_estimate = made.field_estimate;

@@ -128,7 +128,8 @@ struct RunResult {
     std::vector<ConvergenceRow> rows;            // every record_every steps and every round
     nlohmann::json record;                       // the stats: settings, decisions, figures
     int signal = 0;                              // the stop asked for (0: none)
-    long planned_steps = 0;                      // over both chains
+    long planned_steps = 0;                      // over both chains; 0 where the rounds decide (a time
+                                                 // budget, a target error)
     long checkpointed = -1;                      // steps per chain of the last checkpoint written (-1: none)
 };
 

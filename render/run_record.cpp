@@ -208,7 +208,7 @@ json field_run_record(const scenes::Scene& scene, const RunConfig& c, const solv
         stats["estimate"]["corrected"] = r.rounds.corrected || g.correction > 0.0;
     }
     stats["partial"] = r.rounds.interrupted;
-    stats["steps_planned"] = r.planned_steps;
+    stats["steps_planned"] = r.planned_steps > 0 ? nlohmann::json(r.planned_steps) : nlohmann::json();
     if (c.resume)
         stats["resumed"] = {{"checkpoint", c.resume_file},
                             {"steps_done", 2 * c.resume->steps_done},

@@ -64,6 +64,20 @@ TEST_CASE("run: every method converges on the homogeneous box within its known b
     CHECK(r.record.at("method") == method);
     CHECK(r.record.at("chains") == 2);
     CHECK(r.steps == steps);
+    CHECK(r.planned_steps == steps);
+    CHECK(r.record.at("steps_planned") == steps);
+}
+
+TEST_CASE("run: a target's rounds have no planned steps, and the stats say what ran", "[render][run]") {
+    // The rounds go on as their estimates say, so --iterations is only the first round's
+    // size: "steps_planned" is null, not that size, and "iterations" the steps run.
+    auto config = patch_image("iteration", 200);
+    config.rounds.target_error = 0.05;
+    const render::RunResult r = render::run(small_box(), config);
+    CHECK(r.planned_steps == 0);
+    CHECK(r.record.at("steps_planned").is_null());
+    CHECK(r.record.at("iterations") == r.steps);
+    CHECK(r.steps > 0);
 }
 
 TEST_CASE("run: the same seed gives the same image for any thread count, another seed another", "[render][run]") {
