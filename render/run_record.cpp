@@ -335,8 +335,11 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
     if (r.rounds.estimate >= 0.0) {
         print(", estimated error %.2g %% (%zu round%s", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
               r.rounds.rounds.size() == 1 ? "" : "s");
+        // Parts, not terms: the halves' rule over pixels, and the 8x8 blocks' error (the
+        // field's bias and its noise as the image reads it, the filter's blur; not only
+        // bias, which the stats' shared bias is).
         if (r.rounds.parts.bias > 0.0)
-            print("; noise %.2g %%, bias %.2g %%", 100.0 * r.rounds.parts.noise, 100.0 * r.rounds.parts.bias);
+            print("; noise %.2g %%, block error %.2g %%", 100.0 * r.rounds.parts.noise, 100.0 * r.rounds.parts.bias);
         if (r.rounds.correction > 0.0)
             print("; corrected at q = %g", r.rounds.correction);
         else if (r.rounds.corrected)
