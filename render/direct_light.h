@@ -79,7 +79,7 @@ public:
 private:
     // Whether the segment from `from` to a point at distance r along w is unblocked.
     bool visible(const scenes::Vec3& from, const scenes::Vec3& w, double r) const {
-        return !caster_.intersect(from, w, 0.0, r * (1.0 - 1e-5)).valid();
+        return !caster_.occluded(from, w, 0.0, r * (1.0 - 1e-5));
     }
     // A point of the lights for stratum k of `samples` equal slices of the power CDF.
     AreaLights::Sample stratified_light(int k, int samples, sampling::Rng& rng) const;

@@ -212,7 +212,7 @@ Rgb GatherEstimator::direct_at_hit(const scenes::RayHit& hit, const Vec3& y, con
         const Rgb g = scene_.material_of(s.patch).emission *
                       (cos_x * cos_y / (r * r) * patches_[s.patch].area / lights.probability(s.patch));
         ++rays;
-        const bool seen = !caster_.intersect(at.from, wl, 0.0, r * (1.0 - 1e-5)).valid();
+        const bool seen = !caster_.occluded(at.from, wl, 0.0, r * (1.0 - 1e-5));
         if (all_seen && !seen) E -= g;
         if (!all_seen && seen) E += g;
     }

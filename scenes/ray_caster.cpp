@@ -123,6 +123,20 @@ void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
 
 }  // namespace
 
+bool RayCaster::occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
+    // The filter intersect() uses: a hit is the same hit here, so the answer is its.
+    FrontContext ctx;
+    rtcInitIntersectContext(&ctx.context);
+    if (impl_->any_two_sided) {
+        ctx.context.filter = front_of_two_sided;
+        ctx.two_sided = &impl_->two_sided;
+        ctx.normals = &impl_->normals;
+    }
+    RTCRay ray = make_ray(org, dir, t_min, t_max).ray;
+    rtcOccluded1(impl_->scene, &ctx.context, &ray);
+    return ray.tfar < 0.0f;  // -inf where a hit was found
+}
+
 void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min,
                          double t_max) const {
     hits.clear();

@@ -33,6 +33,11 @@ public:
     RayHit intersect(const Vec3& org, const Vec3& dir, double t_min = 0.0,
                      double t_max = std::numeric_limits<double>::infinity()) const;
 
+    // Whether intersect(org, dir, t_min, t_max) would hit anything: the same answer,
+    // sooner (the traversal stops at the first hit it accepts, in whatever order); for
+    // shadow rays. Thread-safe.
+    bool occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const;
+
     // Every crossing of the ray org + t dir with a patch, t in (t_min, t_max), in order
     // of increasing t (ties in patch order). Replaces the contents of `hits`.
     void all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min = 0.0,

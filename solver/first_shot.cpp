@@ -205,7 +205,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                     const double r = std::sqrt(r2);
                     ++rays;
                     weight += w;
-                    if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) seen += w;
+                    if (!caster.occluded(from, d / r, 0.0, r * (1.0 - 1e-5))) seen += w;
                 }
             };
             cast(K);
@@ -216,7 +216,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                 const Vec3 d = group.centre - from;
                 const double r = d.norm();
                 ++rays;
-                if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
+                if (r > 0.0 && !caster.occluded(from, d / r, 0.0, r * (1.0 - 1e-5))) sum += M_PI * F;
                 return;
             }
             sum += M_PI * F * seen / weight;
@@ -314,7 +314,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                         const double r = d.norm();
                         if (p.normal.dot(d) <= 0.0 || q.normal.dot(d) >= 0.0) continue;  // point not mutually visible
                         ++cast;
-                        if (!caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) ++seen;
+                        if (!caster.occluded(from, d / r, 0.0, r * (1.0 - 1e-5))) ++seen;
                     }
                     rays += cast;
                     if (cast == 0) {
@@ -325,7 +325,7 @@ std::vector<Rgb> diffuse_shot(const scenes::Scene& scene, const scenes::RayCaste
                         const Vec3 d = centre - from;
                         const double r = d.norm();
                         ++rays;
-                        if (r > 0.0 && !caster.intersect(from, d / r, 0.0, r * (1.0 - 1e-5)).valid()) sum += M_PI * F;
+                        if (r > 0.0 && !caster.occluded(from, d / r, 0.0, r * (1.0 - 1e-5))) sum += M_PI * F;
                         return;
                     }
                     sum += M_PI * F * seen / cast;
@@ -382,8 +382,7 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                     if (cos_theta <= 0.0) return;
                     ++rays[static_cast<std::size_t>(t)];
                     // Blocked if anything lies between the light and x (x's own patch is at r).
-                    const auto hit = caster.intersect(light.position, d / r, 0.0, r * (1.0 - 1e-5));
-                    if (hit.valid()) return;
+                    if (caster.occluded(light.position, d / r, 0.0, r * (1.0 - 1e-5))) return;
                     sum += cos_theta / (r * r);
                 };
                 subtriangle_centroids(N, sample);

@@ -6,6 +6,7 @@
 #include "render/gbuffer.h"
 #include "render/lights.h"
 #include "render/shade.h"
+#include "sampling/rng.h"
 #include "scenes/builtin.h"
 #include "scenes/errors.h"
 #include "scenes/loader.h"
@@ -135,6 +136,27 @@ private:
 long team_rows(int k, int members, int rows) { return (rows - k + members - 1) / members; }
 
 }  // namespace
+
+TEST_CASE("ray casting: occluded() answers as intersect() does, two-sided patches' backs included", "[render][rays]") {
+    // Rays between random points of the two rooms, through the two-sided partition from
+    // both sides, with segments that end short of a wall, on it, and past it.
+    const scenes::Scene scene = two_rooms(true);
+    const scenes::RayCaster caster(scene, 1);
+    sampling::Rng rng(7);
+    int blocked = 0, open = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const scenes::Vec3 from(0.05 + 7.9 * rng.uniform(), 0.05 + 2.9 * rng.uniform(), 0.05 + 3.9 * rng.uniform());
+        const scenes::Vec3 to(0.05 + 7.9 * rng.uniform(), 0.05 + 2.9 * rng.uniform(), 0.05 + 3.9 * rng.uniform());
+        const double r = (to - from).norm();
+        const double t_max = r * (0.5 + rng.uniform());
+        const bool hit = caster.intersect(from, (to - from) / r, 0.0, t_max).valid();
+        INFO("ray " << i);
+        REQUIRE(caster.occluded(from, (to - from) / r, 0.0, t_max) == hit);
+        ++(hit ? blocked : open);
+    }
+    CHECK(blocked > 2000);  // both answers are asked for, many times
+    CHECK(open > 2000);
+}
 
 TEST_CASE("diffuse shot: spread over a team, each member shoots to its receivers and all hold the whole shot",
           "[render][team]") {
