@@ -66,8 +66,7 @@ private:
 void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const RunHooks& hooks) {
     if (!hooks.warn) return;
     const auto& overlaps = summary.overlaps;
-    if (scene.dropped_degenerate > 0)
-        hooks.warn(scene.name + ": dropped " + std::to_string(scene.dropped_degenerate) + " zero-area triangles");
+    if (scene.dropped_degenerate > 0) hooks.warn(scene.name + ": " + scene.dropped_summary());
     if (overlaps.pairs > 0)
         hooks.warn(scene.name + ": " + std::to_string(overlaps.pairs) +
                    " pairs of coplanar overlapping patches face the same way (e.g. patches " +

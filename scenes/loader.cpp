@@ -686,11 +686,22 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
                    {"target", {centre.x(), centre.y(), centre.z()}},
                    {"fov_y", fov}};
     if (data.camera) camera = camera_json(*data.camera);
-    const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}}})}};
+    // Its parts named "room.obj: Floor", as in a scene file's object named "room.obj".
+    const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}, {"name", name}}})}};
     LoadLimits limits;
     limits.threads = threads;
     limits.team = team;
-    Scene scene = parse_scene(doc.dump(), path, dir_of(path), overrides, limits);
+    Scene scene = [&] {  // made in place: a Scene copied costs milliseconds
+        try {
+            return parse_scene(doc.dump(), path, dir_of(path), overrides, limits);
+        } catch (const SceneError& e) {
+            // The model's own error ("room.obj: line 7: ..."), not that of a scene file's
+            // objects[0].mesh, which the user never wrote; the file as the user named it.
+            if (e.where() != "objects[0].mesh") throw;
+            const std::string& problem = e.problem();
+            throw SceneError(path, "", problem.rfind(name + ": ", 0) == 0 ? problem.substr(name.size() + 2) : problem);
+        }
+    }();
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }

@@ -28,6 +28,7 @@ struct MeshData {
     // lines (as written: relative to the OBJ's folder), in order.
     std::vector<int> triangle_material, triangle_group;
     std::vector<std::string> materials, groups, material_libraries;
+    std::vector<long> material_lines;  // OBJ: the line of each material's first `usemtl`
     // glTF only: the file's own materials (mapped: docs/scene-format.md), one per name
     // of `materials`; its KHR_lights_punctual point lights and its first camera (in
     // world space); what was read otherwise or not at all, one line each (naming the

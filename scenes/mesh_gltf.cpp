@@ -247,9 +247,9 @@ private:
     std::optional<Rgb> texture_mean(int texture, const std::string& where) {
         if (texture < 0) return std::nullopt;
         if (const auto it = texture_means_.find(texture); it != texture_means_.end()) return it->second;
-        return texture_means_[texture] = decode_texture(texture, where);
+        return texture_means_[texture] = decode_texture(texture, where, texture_why_[texture]);
     }
-    std::optional<Rgb> decode_texture(int texture, const std::string& where) {
+    std::optional<Rgb> decode_texture(int texture, const std::string& where, std::string& why) {
         if (static_cast<std::size_t>(texture) >= model_.textures.size()) fail(where, "texture index out of range");
         const int source = model_.textures[static_cast<std::size_t>(texture)].source;
         if (source < 0 || static_cast<std::size_t>(source) >= model_.images.size())
@@ -257,10 +257,13 @@ private:
         const auto& image = model_.images[static_cast<std::size_t>(source)];
         std::optional<Rgb> mean;
         if (!image.image.empty()) {
-            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(image.image.data()), image.image.size()));
+            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(image.image.data()), image.image.size()),
+                                   &why);
         } else if (image.bufferView >= 0) {
             const auto view = buffer_view(image.bufferView, where + ": image");
-            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(view.first), view.second));
+            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(view.first), view.second), &why);
+        } else {
+            why = image.uri.empty() ? "its image has no data" : "'" + image.uri + "' not found beside the asset";
         }
         return mean;
     }
@@ -286,7 +289,8 @@ private:
                 base = base * *mean;
                 warn("material '" + name + "': its base colour texture is read as its mean colour");
             } else {
-                warn("material '" + name + "': its base colour texture is not read (not a PNG); its factor is the colour");
+                warn("material '" + name + "': its base colour texture is not read (" +
+                     texture_why_[pbr.baseColorTexture.index] + "); its factor is the colour");
             }
         }
         const double metallic = pbr.metallicFactor, roughness = pbr.roughnessFactor;
@@ -712,6 +716,7 @@ private:
     std::map<std::pair<int, std::size_t>, Primitive> decoded_;
     std::size_t placements_ = 0;
     std::map<int, std::optional<Rgb>> texture_means_;  // per texture, decoded once
+    std::map<int, std::string> texture_why_;             // why one is not read
 };
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <vector>
@@ -34,10 +35,17 @@ std::string in_folder(const std::string& folder, const std::string& name) {
 
 // The mean linear colour of a PNG texture file, or nothing for a file that is not a
 // PNG it can read.
-std::optional<Rgb> texture_mean(const std::string& path) {
+// The texture's mean colour, or nothing with why in `why`.
+std::optional<Rgb> texture_mean(const std::string& path, std::string& why) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "no such file";
+        return std::nullopt;
+    }
     try {
-        return png_mean_colour(read_input_file(path, path, "texture", kMaxSceneFileBytes));
-    } catch (const SceneError&) {
+        return png_mean_colour(read_input_file(path, path, "texture", kMaxSceneFileBytes), &why);
+    } catch (const SceneError& e) {
+        why = e.problem();
         return std::nullopt;
     }
 }
@@ -62,14 +70,15 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     // A texture is its mean colour (as a renderer showing it would average it over the
     // surface; the texture itself, not times Kd, as Blender's importer shows it).
     if (!m.map_kd.empty()) {
-        if (const auto mean = texture_mean(in_folder(folder, m.map_kd))) {
+        std::string why;
+        if (const auto mean = texture_mean(in_folder(folder, m.map_kd), why)) {
             out.albedo = *mean;
             files.push_back(in_folder(folder, m.map_kd));
             warnings.push_back(named + ": its texture " + m.map_kd + " is read as its mean colour " +
                                number((*mean)[0]) + " " + number((*mean)[1]) + " " + number((*mean)[2]));
         } else {
-            warnings.push_back(named + ": its texture " + m.map_kd + " is not read (not a PNG found beside " + file +
-                               "); its Kd " + number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) +
+            warnings.push_back(named + ": its texture " + m.map_kd + " is not read (" + why +
+                               (why == "no such file" ? " beside " + file : std::string()) + "); its Kd " + number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) +
                                " is the colour");
         }
     }
@@ -92,27 +101,39 @@ std::optional<std::pair<double, int>> keep_energy(Material& m) {
     return std::pair{most, static_cast<int>(channel)};
 }
 
-std::optional<Rgb> png_mean_colour(std::string_view bytes) {
+std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
+    auto fail = [why](std::string reason) {
+        if (why) *why = std::move(reason);
+        return std::nullopt;
+    };
+    auto starts = [bytes](std::string_view magic) { return bytes.substr(0, magic.size()) == magic; };
+    if (starts("\xFF\xD8\xFF")) return fail("a JPEG, not a PNG");
+    if (!starts("\x89PNG\r\n\x1A\n")) return fail("not a PNG");
     png_image image{};
     image.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size())) return std::nullopt;
-    image.format = PNG_FORMAT_RGB;
-    // At most 8k x 8k texels (192 MB): a larger header is not a texture to average.
+    if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
+        return fail(std::string("a PNG libpng cannot read: ") + image.message);
+    // RGBA, its alpha then left out: libpng's RGB would mix the colour onto black. The
+    // 8-bit sRGB formats are not premultiplied.
+    image.format = PNG_FORMAT_RGBA;
+    // At most 8k x 8k texels (256 MB): a larger header is not a texture to average.
     if (image.width == 0 || image.height == 0 || image.width > 8192 || image.height > 8192) {
+        const std::string size = std::to_string(image.width) + " x " + std::to_string(image.height);
         png_image_free(&image);
-        return std::nullopt;
+        return fail("a PNG of " + size + " texels, more than 8192 x 8192");
     }
     std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
-    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr)) return std::nullopt;
+    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr))
+        return fail(std::string("a PNG libpng cannot read: ") + image.message);
     double decoded[256];
     for (int v = 0; v < 256; ++v) {
         const double c = v / 255.0;
         decoded[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
     }
     Rgb sum = Rgb::Zero();
-    for (std::size_t i = 0; i + 2 < texels.size(); i += 3)
+    for (std::size_t i = 0; i + 3 < texels.size(); i += 4)
         sum += Rgb(decoded[texels[i]], decoded[texels[i + 1]], decoded[texels[i + 2]]);
-    return sum / (static_cast<double>(texels.size()) / 3.0);
+    return sum / (static_cast<double>(texels.size()) / 4.0);
 }
 
 }  // namespace mesh_detail
@@ -157,8 +178,10 @@ std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::s
         if (it == defined.end()) {
             std::string libs;
             for (const auto& lib : data.material_libraries) libs += (libs.empty() ? "" : ", ") + lib;
+            const std::string line =
+                k < data.material_lines.size() ? "line " + std::to_string(data.material_lines[k]) + ": " : "";
             throw SceneError(shown, where,
-                             "usemtl '" + name + "': defined in no material file (" +
+                             line + "usemtl '" + name + "': defined in no material file (" +
                                  (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
                                  ") and not in the scene's \"materials\"");
         }

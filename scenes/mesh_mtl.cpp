@@ -1,8 +1,55 @@
 #include "scenes/mesh_readers.h"
 
+#include <algorithm>
+#include <cstdlib>
+#include <map>
 #include <sstream>
 
 namespace raybundle::scenes {
+
+namespace {
+
+// The file of a map statement's text: its options (-o, -s, -t with up to 3 numbers; -mm
+// with 2; -blendu, -blendv, -bm, -boost, -cc, -clamp, -imfchan, -texres, -type with 1)
+// passed over, then the rest of the line, spaces included (as Blender writes a name
+// with spaces), its '\' separators read as '/' (as exporters on Windows write them).
+std::string map_file(const std::string& text) {
+    static const std::map<std::string, int> kArguments = {
+        {"-o", 3}, {"-s", 3}, {"-t", 3}, {"-mm", 2}, {"-blendu", 1}, {"-blendv", 1}, {"-bm", 1}, {"-boost", 1},
+        {"-cc", 1}, {"-clamp", 1}, {"-imfchan", 1}, {"-texres", 1}, {"-type", 1}};
+    std::size_t at = 0;
+    auto word = [&](std::size_t from) {  // [start, end) of the word at or after `from`
+        const std::size_t start = text.find_first_not_of(" \t", from);
+        if (start == std::string::npos) return std::pair{text.size(), text.size()};
+        const std::size_t end = text.find_first_of(" \t", start);
+        return std::pair{start, end == std::string::npos ? text.size() : end};
+    };
+    for (;;) {
+        const auto [start, end] = word(at);
+        const auto option = kArguments.find(text.substr(start, end - start));
+        if (option == kArguments.end()) {
+            at = start;
+            break;
+        }
+        at = end;
+        // -o, -s, -t take 1 to 3 numbers; the others exactly their count.
+        for (int k = 0; k < option->second; ++k) {
+            const auto [a, b] = word(at);
+            if (a == b) break;
+            const std::string argument = text.substr(a, b - a);
+            char* stop = nullptr;
+            std::strtod(argument.c_str(), &stop);
+            const bool number = stop == argument.c_str() + argument.size();
+            if (option->second == 3 && k > 0 && !number) break;
+            at = b;
+        }
+    }
+    std::string file = text.substr(at);
+    std::replace(file.begin(), file.end(), '\\', '/');
+    return file;
+}
+
+}  // namespace
 
 // ---------------------------------------------------------------------------- MTL
 // The statements a material of this project uses: newmtl, Kd, Ke, Ks, Ns, illum,
@@ -68,9 +115,9 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
             if (numbers.size() != 1 || numbers[0] != std::floor(numbers[0]) || numbers[0] < 0 || numbers[0] > 10)
                 throw SceneError(shown, where, "illum: expected a whole number 0..10, got '" + rest + "'");
             m.illum = static_cast<int>(numbers[0]);
-        } else {  // map_Kd: options (-o, -s, -bm ...) before the file name are not read
-            if (rest.empty()) throw SceneError(shown, where, "map_Kd without a file name");
-            m.map_kd = rest.substr(rest.find_last_of(" \t") == std::string::npos ? 0 : rest.find_last_of(" \t") + 1);
+        } else {
+            m.map_kd = map_file(rest);
+            if (m.map_kd.empty()) throw SceneError(shown, where, "map_Kd without a file name");
         }
     }
     return out;

@@ -57,8 +57,10 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 data.triangle_material.assign(data.triangles.size(), -1);
                 data.triangle_group.assign(data.triangles.size(), -1);
             }
-            if (tag == "usemtl")
+            if (tag == "usemtl") {
                 material = index_of(data.materials, name);
+                if (data.material_lines.size() < data.materials.size()) data.material_lines.push_back(line_no);
+            }
             else
                 group = index_of(data.groups, name.empty() ? "(unnamed)" : name);
         } else if (tag == "mtllib") {
@@ -84,6 +86,10 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                     if (used == 0 || used != text.size())
                         throw SceneError(shown, where, "malformed face corner '" + corner + "'");
                     const long resolved = idx < 0 ? count + idx + 1 : idx;
+                    if (idx == 0)
+                        throw SceneError(shown, where,
+                                         std::string("face corner '") + corner + "': " + kind +
+                                             " index 0 (OBJ counts from 1, and back from -1)");
                     if (resolved < 1 || resolved > count)
                         throw SceneError(shown, where,
                                          std::string("face references ") + kind + " " + std::to_string(idx) +

@@ -105,9 +105,16 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& cor
                                      " corners crosses or touches itself (its edges from corners " + std::to_string(index[i]) +
                                      " and " + std::to_string(index[j]) + " meet)");
         }
-    bool convex = true;
-    for (int i = 0; i < n && convex; ++i) convex = turn(q[(i + n - 1) % n], q[i], q[(i + 1) % n]) >= -eps;
-    if (convex) return original(fan);
+    // A convex polygon is a fan, unless a corner is straight (on the line of its
+    // neighbours, as modellers leave a vertex on an edge): a fan from or across it would
+    // make a zero-area triangle, which ear clipping does not (an ear's tip turns).
+    bool convex = true, straight = false;
+    for (int i = 0; i < n && convex; ++i) {
+        const double t = turn(q[(i + n - 1) % n], q[i], q[(i + 1) % n]);
+        convex = t >= -eps;
+        straight = straight || t <= eps;
+    }
+    if (convex && !straight) return original(fan);
     // Ear clipping: a corner that turns left and whose triangle holds no other corner.
     std::vector<int> left(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) left[i] = i;

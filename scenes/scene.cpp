@@ -64,6 +64,11 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     std::size_t twice = 0;
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
+        // A corner given twice (f 4 4 3): no area, and OpenMesh cannot make the face.
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+            drop_degenerate(object);
+            continue;
+        }
         std::array<std::array<double, 3>, 3> key;
         int first = 0;  // the corners from the least one on: one key for each rotation
         for (int c = 1; c < 3; ++c)
@@ -175,6 +180,24 @@ Vec3 Scene::shading_normal(std::size_t patch, double b1, double b2) const {
     return n.dot(front) < 0.0 ? Vec3(-n) : n;
 }
 
+void Scene::drop_degenerate(int object) {
+    ++dropped_degenerate;
+    if (object < 0) return;
+    if (dropped_by_object.size() <= static_cast<std::size_t>(object)) dropped_by_object.resize(object + 1, 0);
+    ++dropped_by_object[static_cast<std::size_t>(object)];
+}
+
+std::string Scene::dropped_summary() const {
+    if (dropped_degenerate == 0) return "";
+    std::string out = "dropped " + std::to_string(dropped_degenerate) + " zero-area triangle" +
+                      (dropped_degenerate == 1 ? "" : "s");
+    std::string per;
+    for (std::size_t i = 0; i < dropped_by_object.size() && i < object_names.size(); ++i)
+        if (dropped_by_object[i] > 0)
+            per += (per.empty() ? "" : ", ") + object_names[i] + " " + std::to_string(dropped_by_object[i]);
+    return per.empty() ? out : out + " (" + per + ")";
+}
+
 void Scene::finalize(int threads) {
     // Drop zero-area triangles (they carry no light and break normals): found on the
     // threads, deleted in face order. Only this function deletes, and it collects the
@@ -197,11 +220,12 @@ void Scene::finalize(int threads) {
     std::size_t dropped = 0;
     for (std::size_t i = 0; i < degenerate.size(); ++i)
         if (degenerate[i]) {
-            mesh.delete_face(TriMesh::FaceHandle(static_cast<int>(i)), true);
+            const TriMesh::FaceHandle f(static_cast<int>(i));
+            drop_degenerate(mesh.property(object_handle, f));
+            mesh.delete_face(f, true);
             ++dropped;
         }
     if (dropped > 0) mesh.garbage_collection();  // with nothing deleted it only copies
-    dropped_degenerate += dropped;
     compute_missing_normals(threads);
 
     // The flat vertices: one per mesh vertex, or, around a vertex on a contact edge, one

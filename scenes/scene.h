@@ -101,6 +101,9 @@ public:
     // exact answer of a solver truncated after D bounces is exact (1 - a^(D+1)).
     std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
+    std::vector<std::size_t> dropped_by_object;  // the same per object (index as object_names)
+    // "dropped 3 zero-area triangles (Floor 1, Lamp 2)"; empty where none were.
+    std::string dropped_summary() const;
     // The files it was read from (the scene file, then its meshes), so that no output
     // of a run overwrites one of them (render::check_outputs).
     std::vector<std::string> files;
@@ -198,6 +201,7 @@ private:
     double area_sum = 0.0;
 
     void compute_missing_normals(int threads);
+    void drop_degenerate(int object);  // counts one zero-area triangle of `object` dropped
 };
 
 // The patch corners around every vertex, as a compressed row list: the corners

@@ -122,6 +122,28 @@ TEST_CASE("meshes load with polygons triangulated", "[scenes]") {
     CHECK(s.total_area() == Approx(1.5));
 }
 
+TEST_CASE("a triangle with a corner given twice is dropped as zero-area in every reader, also as a mesh's first",
+          "[scenes]") {
+    // OpenMesh cannot make such a face (it asserted where the corner was on no face yet).
+    TempDir dir;
+    dir.write("t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 4 4 3\nf 1 2 3\nf 2 4 3\nf 1 1 1\n");
+    dir.write("t.off", "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 3 3 2\n3 0 1 2\n3 1 3 2\n");
+    dir.write("t.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                       "element face 3\nproperty list uchar int vertex_indices\nend_header\n"
+                       "0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 3 3 2\n3 0 1 2\n3 1 3 2\n");
+    for (const std::string file : {"t.obj", "t.off", "t.ply"}) {
+        INFO(file);
+        const Scene s = parse(scene_text(kCamera, kMaterials,
+                                         R"({"mesh": ")" + file + R"(", "material": "white", "name": "plate"})"),
+                              dir.path.string());
+        CHECK(s.patch_count() == 2);
+        CHECK(s.total_area() == Approx(1.0));
+        CHECK(s.dropped_degenerate == (file == "t.obj" ? 2u : 1u));
+        CHECK(s.dropped_summary() == (file == "t.obj" ? "dropped 2 zero-area triangles (plate 2)"
+                                                      : "dropped 1 zero-area triangle (plate 1)"));
+    }
+}
+
 TEST_CASE("zero-area triangles are dropped and counted", "[scenes]") {
     const Scene s = parse(scene_text(kCamera, kMaterials,
                                      std::string(kQuad) + R"(, {"triangle": [[0,0,1], [1,0,1], [2,0,1]], "material": "white"})"));

@@ -211,12 +211,14 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
     SECTION("OBJ") {
         fails_with("two.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: face has 2 corners (at least 3 needed)");
         fails_with("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4: face references vertex -4");
+        fails_with("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n",
+                   "line 4: face corner '0': vertex index 0 (OBJ counts from 1, and back from -1)");
         fails_with("empty.obj", "", "the mesh has no faces");
         // A texture coordinate is checked like a vertex or a normal (it was not: issue 30).
         fails_with("vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
                    "line 5: face references texture coordinate 2, but only 1 texture coordinate is defined");
         fails_with("vt0.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/0/ 2/1 3/1\n",
-                   "line 5: face references texture coordinate 0");
+                   "line 5: face corner '1/0/': texture coordinate index 0 (OBJ counts from 1");
         // A polygon of more corners than its crossing test can afford, refused at once.
         std::string big;
         for (int k = 0; k < 600; ++k)
@@ -362,6 +364,17 @@ TEST_CASE("polygons: convex fanned, concave cut into ears, bent or crossing ones
                                                                                                    : Vec3(0, 0, 1);
                 CHECK((m.normals[t][k] - expected.normalized()).norm() < 1e-6);
             }
+    }
+    SECTION("a convex polygon with corners on its edges (as modellers leave them): no zero-area triangle") {
+        // A 2 x 1 rectangle with a corner halfway along its bottom and one along its
+        // top: a fan from corner 0 would make (0, 1, 2), straight.
+        const MeshData m = read("hexagon.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 2 1 0\nv 0.5 1 0\nv 0 1 0\nf 1 2 3 4 5 6\n");
+        REQUIRE(m.triangles.size() == 4);
+        for (const auto& t : m.triangles) {
+            const Vec3 n = (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]);
+            CHECK(n.z() > 0.1);  // each has area, none turned over
+        }
+        CHECK(cut_of(m, Vec3::UnitZ()).area == Approx(2.0));
     }
     SECTION("a corner repeated next to itself is no crossing") {
         const MeshData m = read("repeat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2 3\n");

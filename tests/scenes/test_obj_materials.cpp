@@ -10,13 +10,16 @@
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
+#include <png.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 using namespace raybundle::scenes;
 using Catch::Matchers::Contains;
+using Catch::Matchers::StartsWith;
 using raybundle::test::TempDir;
 
 namespace {
@@ -151,7 +154,7 @@ TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one
     const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
     fails(tri + "f 1 3 2\n", "", "names none itself (no usemtl)");
     fails("mtllib bad.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 1 3 2\n", "newmtl x\n", "1 faces come before the first usemtl");
-    fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl x\n", "usemtl 'y': defined in no material file (mtllib bad.mtl)");
+    fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl x\n", "line 5: usemtl 'y': defined in no material file (mtllib bad.mtl)");
     fails(tri + "usemtl y\nf 1 3 2\n", "", "the mesh has no mtllib");
     fails("mtllib missing.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", "missing.mtl");
     fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl y\nKd 1 x 1\n", "bad.mtl: line 2");
@@ -174,6 +177,18 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     CHECK(moved.materials[static_cast<std::size_t>(moved.find_material("lamp"))].emission.isApprox(Rgb::Constant(1)));
     dir.write("m.ply", "ply\n");
     CHECK_THROWS_WITH(load_scene(dir.path.string() + "/m.ply"), Contains("m.ply") && Contains("has no materials"));
+    // Alone, its errors and its parts are its own: no objects[0] of a scene file the
+    // user never wrote, the file as the user named it.
+    CHECK_THAT(scene.object_names.front(), StartsWith("room.obj: "));
+    dir.write("bad.obj", "mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl lite\nf 1 3 2\n");
+    dir.write("bad.mtl", "");
+    CHECK_THROWS_WITH(load_scene(dir.path.string() + "/bad.obj"),
+                      dir.path.string() + "/bad.obj: line 5: usemtl 'lite': defined in no material file (mtllib "
+                                          "room.mtl) and not in the scene's \"materials\"");
+    dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 4\n");
+    CHECK_THROWS_WITH(load_scene(dir.path.string() + "/bad.obj"),
+                      dir.path.string() + "/bad.obj: line 4: face references vertex 4, but only 3 vertices are "
+                                          "defined before it");
 }
 
 TEST_CASE("MTL: a PNG map_Kd is the albedo by its mean linear colour", "[scenes][obj]") {
@@ -197,4 +212,45 @@ TEST_CASE("MTL: a PNG map_Kd is the albedo by its mean linear colour", "[scenes]
     REQUIRE(scene.warnings.size() == 1);
     CHECK_THAT(scene.warnings[0], Contains("its texture wood.png is read as its mean colour"));
     CHECK(std::find(scene.files.begin(), scene.files.end(), (dir.path / "wood.png").string()) != scene.files.end());
+}
+
+TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", "[scenes][obj]") {
+    TempDir dir;
+    // 2 x 1 texels, RGBA: red of alpha 0 and green of alpha 128. Alpha is left out, not
+    // mixed onto black: the mean is (0.5, 0.5, 0).
+    const unsigned char rgba[8] = {255, 0, 0, 0, 0, 255, 0, 128};
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    image.width = 2;
+    image.height = 1;
+    image.format = PNG_FORMAT_RGBA;
+    std::filesystem::create_directories(dir.path / "my maps");
+    REQUIRE(png_image_write_to_file(&image, (dir.path / "my maps" / "cut out.png").string().c_str(), 0, rgba, 0, nullptr));
+    dir.write("photo.jpg", std::string("\xFF\xD8\xFF\xE0\x00\x10JFIF", 10));
+    dir.write("broken.png", std::string("\x89PNG\r\n\x1A\n\x00\x00", 10));
+    dir.write("t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl m\nf 1 3 2\n");
+    auto albedo_with = [&](const std::string& map_kd, std::string& warning) {
+        dir.write("t.mtl", "newmtl m\nKd 0.2 0.2 0.2\nmap_Kd " + map_kd + "\n");
+        const Scene scene = parse_scene(scene_with(R"({"mesh": "t.obj"})"), "s.json", dir.path.string());
+        REQUIRE(scene.warnings.size() == 1);
+        warning = scene.warnings[0];
+        return scene.materials[0].albedo;
+    };
+    std::string warning;
+    // Options before the name, a name with spaces, and Windows' separators.
+    for (const std::string map_kd : {"my maps/cut out.png", "-s 2 2 1 -o 0.5 0 -bm 1 -clamp on my maps/cut out.png",
+                                     "-blendu off my maps\\cut out.png"}) {
+        INFO(map_kd);
+        const Rgb a = albedo_with(map_kd, warning);
+        CHECK(a[0] == Approx(0.5).epsilon(0.01));
+        CHECK(a[1] == Approx(0.5).epsilon(0.01));
+        CHECK(a[2] == 0.0);
+        CHECK_THAT(warning, Contains("its texture my maps/cut out.png is read as its mean colour"));
+    }
+    CHECK(albedo_with("photo.jpg", warning)[0] == Approx(0.2));
+    CHECK_THAT(warning, Contains("its texture photo.jpg is not read (a JPEG, not a PNG); its Kd 0.2 0.2 0.2 is the colour"));
+    albedo_with("broken.png", warning);
+    CHECK_THAT(warning, Contains("its texture broken.png is not read (a PNG libpng cannot read: "));
+    albedo_with("gone.png", warning);
+    CHECK_THAT(warning, Contains("its texture gone.png is not read (no such file beside t.mtl)"));
 }
