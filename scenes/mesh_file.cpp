@@ -22,25 +22,43 @@ namespace raybundle::scenes {
 namespace mesh_detail {
 
 // Parses three coordinates with strtod (which, unlike streams, reads "nan" and "inf")
-// and throws if one is missing or not finite; `what` names them in the message
+// and throws if one is missing, not finite or not a whole word ("0.5x"), or where a
+// word after them is not a number (an OBJ's w or vertex colour, an OFF's colour or
+// texture coordinates are; a '#' ends the line); `what` names them in the message
 // ("vertex", "normal").
 Vec3 read_coordinates(const std::string& text, const std::string& shown, const std::string& where,
                       const std::string& what) {
     const char* p = text.c_str();
+    const auto ends_word = [](char c) { return c == '\0' || c == ' ' || c == '\t' || c == '\r' || c == '#'; };
+    const auto word_at = [&ends_word](const char* from) {
+        const char* to = from;
+        while (!ends_word(*to)) ++to;
+        return std::string(from, to);
+    };
+    const std::string named = what == "vertex" ? "" : what + " ";
     Vec3 r;
     for (int k = 0; k < 3; ++k) {
         char* end = nullptr;
         while (*p == ' ' || *p == '\t') ++p;
         const double x = std::strtod(p, &end);
-        if (end == p) throw SceneError(shown, where, what + " has fewer than 3 coordinates");
+        if (end == p && ends_word(*p)) throw SceneError(shown, where, what + " has fewer than 3 coordinates");
+        if (end == p || !ends_word(*end))
+            throw SceneError(shown, where, named + "coordinate '" + word_at(p) + "' is not a number");
         if (!std::isfinite(x))
-            throw SceneError(shown, where,
-                             (what == "vertex" ? "" : what + " ") + "coordinate '" +
-                                 std::string(p, static_cast<const char*>(end)) + "' is not finite");
+            throw SceneError(shown, where, named + "coordinate '" + std::string(p, static_cast<const char*>(end)) +
+                                               "' is not finite");
         r[k] = x;
         p = end;
     }
-    return r;
+    for (;;) {
+        while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
+        if (*p == '\0' || *p == '#') return r;
+        char* end = nullptr;
+        std::strtod(p, &end);
+        if (end == p || !ends_word(*end))
+            throw SceneError(shown, where, "'" + word_at(p) + "' after the " + what + "'s coordinates is not a number");
+        p = end;
+    }
 }
 
 std::string vector_text(const Vec3& v) {

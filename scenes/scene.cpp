@@ -191,10 +191,19 @@ std::string Scene::dropped_summary() const {
     if (dropped_degenerate == 0) return "";
     std::string out = "dropped " + std::to_string(dropped_degenerate) + " zero-area triangle" +
                       (dropped_degenerate == 1 ? "" : "s");
+    // The first four objects by name, the others counted.
     std::string per;
-    for (std::size_t i = 0; i < dropped_by_object.size() && i < object_names.size(); ++i)
-        if (dropped_by_object[i] > 0)
-            per += (per.empty() ? "" : ", ") + object_names[i] + " " + std::to_string(dropped_by_object[i]);
+    std::size_t named = 0, more = 0;
+    for (std::size_t i = 0; i < dropped_by_object.size() && i < object_names.size(); ++i) {
+        if (dropped_by_object[i] == 0) continue;
+        if (named++ == 4) {
+            ++more;
+            --named;
+            continue;
+        }
+        per += (per.empty() ? "" : ", ") + object_names[i] + " " + std::to_string(dropped_by_object[i]);
+    }
+    if (more > 0) per += " and " + std::to_string(more) + " more object" + (more == 1 ? "" : "s");
     return per.empty() ? out : out + " (" + per + ")";
 }
 

@@ -211,6 +211,15 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
     SECTION("OBJ") {
         fails_with("two.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: face has 2 corners (at least 3 needed)");
         fails_with("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4: face references vertex -4");
+        // A word that is not a number, in a coordinate or after them; w, vertex colours
+        // and comments are fine.
+        fails_with("x.obj", "v 0 0 0\nv 1 0 0.5x\nv 0 1 0\nf 1 2 3\n", "line 2: coordinate '0.5x' is not a number");
+        fails_with("junk.obj", "v 0 0 0 junk\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                   "line 1: 'junk' after the vertex's coordinates is not a number");
+        fails_with("vn.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1 up\nf 1//1 2//1 3//1\n",
+                   "line 4: 'up' after the normal's coordinates is not a number");
+        CHECK(read_mesh_file(dir.write("extra.obj", "v 0 0 0 1\nv 1 0 0 1 0.5 0.5\nv 0 1 0 # a corner\r\nf 1 2 3\n"),
+                             "extra.obj").triangles.size() == 1);
         fails_with("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n",
                    "line 4: face corner '0': vertex index 0 (OBJ counts from 1, and back from -1)");
         fails_with("empty.obj", "", "the mesh has no faces");
