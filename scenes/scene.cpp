@@ -53,7 +53,10 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     std::vector<TriMesh::VertexHandle> handles;
     handles.reserve(vertices.size());
     for (const auto& v : vertices) handles.push_back(mesh.add_vertex(to_om(v)));
-    std::size_t apart = 0;  // triangles kept apart from the others
+    // Triangles kept apart from the others, by why OpenMesh refused them: an edge a
+    // neighbour already runs the same way (one of the two is wound the wrong way round),
+    // an edge two others already share, or a corner whose fan is closed.
+    std::size_t flipped = 0, crowded = 0, pinched = 0;
     // A triangle given twice, the same corners the same way round (an exporter's slip:
     // the "bottom" faces of the boxes of the Cornell box OBJ in McGuire's archive
     // repeat their right and back faces), would put two patches in one place facing
@@ -85,9 +88,18 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
         omerr().enable();
         if (!f.is_valid()) {
             // Non-manifold input (OpenMesh refuses the face): keep it as a separate triangle.
+            bool same_way = false, shared = false;
+            for (int c = 0; c < 3; ++c) {
+                const auto h = mesh.find_halfedge(corner[c], corner[(c + 1) % 3]);
+                const auto back = mesh.find_halfedge(corner[(c + 1) % 3], corner[c]);
+                const bool used = h.is_valid() && !mesh.is_boundary(h);
+                const bool used_back = back.is_valid() && !mesh.is_boundary(back);
+                shared = shared || (used && used_back);
+                same_way = same_way || used;
+            }
+            ++(shared ? crowded : same_way ? flipped : pinched);
             for (int c = 0; c < 3; ++c) corner[c] = mesh.add_vertex(to_om(vertices[t[c]]));
             f = mesh.add_face(corner[0], corner[1], corner[2]);
-            ++apart;
         }
         mesh.property(material_handle, f) = triangle_materials[k];
         mesh.property(object_handle, f) = object;
@@ -105,10 +117,19 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
                            (twice == 1 ? " triangle" : " triangles") +
                            " given twice (the same corners, the same way round): the copies dropped, the first "
                            "one's material kept");
-    if (apart > 0)
-        warnings.push_back(object_names[static_cast<std::size_t>(object)] + ": " + std::to_string(apart) +
-                           " triangles on edges two others already share (non-manifold): "
-                           "kept as separate triangles");
+    const std::string& named = object_names[static_cast<std::size_t>(object)];
+    auto triangles_text = [](std::size_t n) { return std::to_string(n) + (n == 1 ? " triangle" : " triangles"); };
+    if (flipped > 0)
+        warnings.push_back(named + ": " + triangles_text(flipped) +
+                           " with an edge a neighbour runs the same way (one of them wound the wrong way round?): "
+                           "kept as separate triangles, their edges not shared");
+    if (crowded > 0)
+        warnings.push_back(named + ": " + triangles_text(crowded) +
+                           " on edges two others already share (non-manifold): kept as separate triangles");
+    if (pinched > 0)
+        warnings.push_back(named + ": " + triangles_text(pinched) +
+                           " at corners whose triangles already close around them (non-manifold): kept as separate "
+                           "triangles");
     return object;
 }
 

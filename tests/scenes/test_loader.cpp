@@ -144,6 +144,30 @@ TEST_CASE("a triangle with a corner given twice is dropped as zero-area in every
     }
 }
 
+TEST_CASE("triangles OpenMesh cannot join are kept apart, and the warning says why", "[scenes]") {
+    TempDir dir;
+    const std::string v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0.5 0.5 1\nv -1 0 0\nv -1 -1 0\n";
+    auto warnings_of = [&](const std::string& faces) {
+        dir.write("m.obj", v + faces);
+        const Scene s = parse(scene_text(kCamera, kMaterials, R"({"mesh": "m.obj", "material": "white", "name": "m"})"),
+                              dir.path.string());
+        return s.warnings;
+    };
+    // A neighbour wound the wrong way round: both run the edge 1 -> 2.
+    CHECK(warnings_of("f 1 2 3\nf 1 2 4\n") ==
+          std::vector<std::string>{"m: 1 triangle with an edge a neighbour runs the same way (one of them wound the "
+                                   "wrong way round?): kept as separate triangles, their edges not shared"});
+    // A third triangle on an edge two share.
+    CHECK(warnings_of("f 1 2 3\nf 2 1 4\nf 1 2 5\n") ==
+          std::vector<std::string>{"m: 1 triangle on edges two others already share (non-manifold): kept as "
+                                   "separate triangles"});
+    // A triangle at a corner whose fan is closed (the apex of a pyramid's four sides).
+    CHECK(warnings_of("f 5 1 2\nf 5 2 3\nf 5 3 6\nf 5 6 1\nf 5 7 4\n") ==
+          std::vector<std::string>{"m: 1 triangle at corners whose triangles already close around them "
+                                   "(non-manifold): kept as separate triangles"});
+    CHECK(warnings_of("f 1 2 3\nf 2 1 4\n").empty());
+}
+
 TEST_CASE("zero-area triangles are dropped and counted", "[scenes]") {
     const Scene s = parse(scene_text(kCamera, kMaterials,
                                      std::string(kQuad) + R"(, {"triangle": [[0,0,1], [1,0,1], [2,0,1]], "material": "white"})"));
