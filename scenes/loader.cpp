@@ -440,12 +440,10 @@ namespace {
 Scene parse_document(const std::string& text, const std::string& shown, const std::string& base_dir,
                      const Overrides& overrides, const LoadLimits& limits) {
     json doc;
-    try {
-        doc = parse_json(text, shown);
-    } catch (const json::parse_error& e) {
-        // Turn the byte offset into line and column.
+    // A byte offset (from 1) as "file:line:column".
+    const auto at_byte = [&](std::size_t byte) {
         std::size_t line = 1, col = 1;
-        for (std::size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+        for (std::size_t i = 0; i + 1 < byte && i < text.size(); ++i) {
             if (text[i] == '\n') {
                 ++line;
                 col = 1;
@@ -453,17 +451,35 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 ++col;
             }
         }
+        return shown + ":" + std::to_string(line) + ":" + std::to_string(col);
+    };
+    try {
+        doc = parse_json(text, shown);
+    } catch (const json::parse_error& e) {
         std::string msg = e.what();
         const auto colon = msg.find(": ", msg.find("parse error"));
         if (colon != std::string::npos) msg = msg.substr(colon + 2);
-        throw SceneError(shown + ":" + std::to_string(line) + ":" + std::to_string(col), "",
-                         "malformed JSON: " + cut(msg, 200));
+        throw SceneError(at_byte(e.byte), "", "malformed JSON: " + cut(msg, 200));
     } catch (const json::exception& e) {
-        // Not a syntax error but a value JSON cannot hold (e.g. 1e999 overflows a double).
+        // Not a syntax error but a value JSON cannot hold (e.g. 1e999 overflows a
+        // double): the parser gives no place, so the number's first appearance is named.
         std::string msg = e.what();
         const auto bracket = msg.find("] ");
         if (bracket != std::string::npos) msg = msg.substr(bracket + 2);
-        throw SceneError(shown, "", "invalid number: " + cut(msg, 200) + " (not finite)");
+        std::string where = shown;
+        const auto open = msg.find('\''), close = msg.rfind('\'');
+        if (open != std::string::npos && close > open + 1) {
+            const std::string number = msg.substr(open + 1, close - open - 1);
+            for (std::size_t i = text.find(number); i != std::string::npos; i = text.find(number, i + 1)) {
+                const auto part_of_word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.'; };
+                const std::size_t end = i + number.size();
+                if ((i == 0 || !part_of_word(text[i - 1])) && (end >= text.size() || !part_of_word(text[end]))) {
+                    where = at_byte(i + 1);
+                    break;
+                }
+            }
+        }
+        throw SceneError(where, "", "invalid number: " + cut(msg, 200) + " (not finite)");
     }
 
     for (const Override& o : overrides) apply_override(doc, o, shown);

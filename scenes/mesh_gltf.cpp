@@ -235,6 +235,10 @@ private:
     // Extensions: those it reads, those it may ignore with a warning, and required
     // ones it cannot read (compressed or quantized geometry would be misread).
     void check_extensions() {
+        // glTF 1.0 files parse as JSON too, and mean other things by their keys.
+        const std::string& version = model_.asset.version;
+        if (version.rfind("2.", 0) != 0)
+            fail("asset.version", "'" + version + "': raybundle reads glTF 2.0 (a 1.0 file would be misread)");
         static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
         for (const auto& e : model_.extensionsRequired)
             if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");
@@ -313,7 +317,9 @@ private:
             if (it->second.Has("emissiveStrength")) {
                 if (!strength.IsNumber() || !(strength.GetNumberAsDouble() >= 0.0) ||
                     !std::isfinite(strength.GetNumberAsDouble()))
-                    fail(where, "KHR_materials_emissive_strength: emissiveStrength is not a number >= 0");
+                    fail(where, "KHR_materials_emissive_strength: emissiveStrength " +
+                                    (strength.IsNumber() ? number(strength.GetNumberAsDouble()) : std::string("(not a number)")) +
+                                    " is not a number >= 0");
                 emission *= strength.GetNumberAsDouble();
             }
         }
@@ -413,9 +419,16 @@ private:
             int node;
             Matrix4 parent;
             bool exit;
+            std::string from;  // where its index is written: "nodes[3].children[1]", "scenes[0].nodes[2]"
         };
         std::vector<Item> stack;
-        for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.push_back({*r, Matrix4::Identity(), false});
+        // The default scene's list (roots() read it where there are scenes).
+        const std::string roots_at =
+            model_.scenes.empty() ? "" : "scenes[" + std::to_string(std::max(model_.defaultScene, 0)) + "].nodes";
+        for (std::size_t r = roots.size(); r-- > 0;)
+            stack.push_back({roots[r], Matrix4::Identity(), false,
+                             roots_at.empty() ? "nodes[" + std::to_string(roots[r]) + "]"
+                                              : roots_at + "[" + std::to_string(r) + "]"});
         while (!stack.empty()) {
             const Item item = stack.back();
             stack.pop_back();
@@ -425,7 +438,9 @@ private:
             }
             const int index = item.node;
             const std::string where = "nodes[" + std::to_string(index) + "]";
-            if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size()) fail(where, "node index out of range");
+            if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size())
+                fail(item.from, "node " + std::to_string(index) + " out of range (" +
+                                    std::to_string(model_.nodes.size()) + " nodes)");
             if (!placed_.insert(index).second)
                 fail(where, on_path_.count(index) ? "is its own ancestor (the node tree has a cycle)"
                                                   : "has two parents (a node is placed once)");
@@ -437,8 +452,9 @@ private:
             if (node.camera >= 0) place_camera(node, world, where);
             if (const auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end())
                 place_light(it->second, world, where);
-            stack.push_back({index, Matrix4::Identity(), true});
-            for (auto c = node.children.rbegin(); c != node.children.rend(); ++c) stack.push_back({*c, world, false});
+            stack.push_back({index, Matrix4::Identity(), true, ""});
+            for (std::size_t c = node.children.size(); c-- > 0;)
+                stack.push_back({node.children[c], world, false, where + ".children[" + std::to_string(c) + "]"});
         }
     }
 
@@ -456,6 +472,27 @@ private:
                             std::to_string(view.byteOffset + view.byteLength) + " lie outside its buffer of " +
                             std::to_string(data.size()) + " bytes (missing or short buffer?)");
         return {data.data() + view.byteOffset, view.byteLength};
+    }
+
+    // "VEC2 of UNSIGNED_SHORT", for messages.
+    std::string accessor_type(int index) const {
+        const auto& a = model_.accessors[static_cast<std::size_t>(index)];
+        const int n = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
+        const char* type = a.type == TINYGLTF_TYPE_SCALAR ? "SCALAR"
+                           : a.type == TINYGLTF_TYPE_VEC2 ? "VEC2"
+                           : a.type == TINYGLTF_TYPE_VEC3 ? "VEC3"
+                           : a.type == TINYGLTF_TYPE_VEC4 ? "VEC4"
+                                                          : nullptr;
+        const std::string shape = type ? type : n == 4 ? "MAT2" : n == 9 ? "MAT3" : n == 16 ? "MAT4" : "an unknown type";
+        switch (a.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_BYTE: return shape + " of BYTE";
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return shape + " of UNSIGNED_BYTE";
+            case TINYGLTF_COMPONENT_TYPE_SHORT: return shape + " of SHORT";
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return shape + " of UNSIGNED_SHORT";
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return shape + " of UNSIGNED_INT";
+            case TINYGLTF_COMPONENT_TYPE_FLOAT: return shape + " of FLOAT";
+            default: return shape + " of componentType " + std::to_string(a.componentType);
+        }
     }
 
     Elements elements(int index, const std::string& where, const char* what) const {
@@ -477,6 +514,7 @@ private:
         e.stride = declared == 0 ? size : declared;
         if (e.stride < size) fail(named, "byteStride " + std::to_string(e.stride) + " is less than an element");
         e.count = a.count;
+        if (e.count == 0) fail(named, "count 0 (glTF asks for at least 1)");
         if (e.count > 0 && (a.byteOffset > length || size > length - a.byteOffset ||
                             (e.count - 1) > (length - a.byteOffset - size) / e.stride))
             fail(named, std::to_string(e.count) + " elements from byte " + std::to_string(a.byteOffset) +
@@ -488,7 +526,7 @@ private:
     Elements vec3s(int index, const std::string& where, const char* what) const {
         const Elements e = elements(index, where, what);
         if (e.components != 3 || e.component != TINYGLTF_COMPONENT_TYPE_FLOAT)
-            fail(where + ": " + what, "expected VEC3 of FLOAT");
+            fail(where + ": " + what, "expected VEC3 of FLOAT, got " + accessor_type(index));
         return e;
     }
     static Vec3 vec3_at(const Elements& e, std::size_t i) {
@@ -605,6 +643,9 @@ private:
         if (static_cast<std::size_t>(node.mesh) >= model_.meshes.size())
             fail(where, "mesh " + std::to_string(node.mesh) + " out of range");
         const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
+        if (mesh.primitives.empty())
+            warn("meshes[" + std::to_string(node.mesh) + "] (placed by " + where +
+                 ") has no primitives (glTF asks for at least 1): it places nothing");
         const std::string group = !node.name.empty() ? node.name : !mesh.name.empty() ? mesh.name : where;
         const int group_index = static_cast<int>(out_.groups.size());
         out_.groups.push_back(group);

@@ -245,7 +245,23 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     fails(doc, "invalid bufferView");  // tinygltf checks this one
     doc = asset();
     doc["accessors"][0]["componentType"] = 5123;  // positions as shorts
-    fails(doc, "expected VEC3 of FLOAT");
+    fails(doc, "POSITION: expected VEC3 of FLOAT, got VEC3 of UNSIGNED_SHORT");
+    doc = asset();
+    doc["accessors"][0]["count"] = 0;
+    fails(doc, "POSITION (accessors[0]): count 0 (glTF asks for at least 1)");
+    doc = asset();
+    doc["nodes"][1]["children"] = {42};  // the index where it is written
+    fails(doc, "nodes[1].children[0]: node 42 out of range (2 nodes)");
+    doc = asset();
+    doc["scenes"][0]["nodes"] = {0, 5};
+    fails(doc, "scenes[0].nodes[1]: node 5 out of range (2 nodes)");
+    doc = asset();
+    doc["asset"]["version"] = "1.0";
+    fails(doc, "asset.version: '1.0': raybundle reads glTF 2.0");
+    doc = asset();
+    doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    doc["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", -5}}}};
+    fails(doc, "materials[0]: KHR_materials_emissive_strength: emissiveStrength -5 is not a number >= 0");
     doc = asset();
     doc["nodes"][1]["children"] = {0};  // a cycle
     fails(doc, "own ancestor");
@@ -344,6 +360,15 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     REQUIRE(u.warnings.size() == 1);
     CHECK_THAT(u.warnings[0], Contains("KHR_materials_unlit"));
     CHECK(u.material_defs[0].emission.isApprox(Rgb::Constant(0.5)));
+    // A mesh without primitives (glTF asks for one) places nothing, with a warning.
+    json empty = asset();
+    empty["meshes"].push_back({{"primitives", json::array()}});
+    empty["nodes"].push_back({{"mesh", 1}});
+    empty["scenes"][0]["nodes"].push_back(2);
+    const MeshData e = parse(empty);
+    CHECK(e.triangles.size() == 1);
+    REQUIRE(e.warnings.size() == 1);
+    CHECK_THAT(e.warnings[0], Contains("meshes[1] (placed by nodes[2]) has no primitives"));
 }
 
 TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file it brings its materials",

@@ -232,6 +232,11 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
     SECTION("non-finite coordinates") {
         fails_with(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1e999,0,0],[1,1,0],[0,1,0]], "material": "white"})"),
                    "number overflow parsing '1e999' (not finite)");
+        // Named by line and column (the parser gives no place; not "21e999" in a name).
+        const std::string text = scene_text(kCamera, kMaterials,
+                                            "\n{\"quad\": [[0,0,0],\n [1,0,0],[1,1,1e999],[0,1,0]], \"name\": \"21e999\", "
+                                            "\"material\": \"white\"}");
+        CHECK_THROWS_WITH(parse(text), "s.json:3:15: invalid number: number overflow parsing '1e999' (not finite)");
         dir.write("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
         fails_with(scene_text(kCamera, kMaterials, R"({"mesh": "nan.obj", "material": "white"})"),
                    "nan.obj: line 2: coordinate 'nan' is not finite");
