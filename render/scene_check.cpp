@@ -25,6 +25,18 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         for (int v : p.v) s.lo = s.lo.cwiseMin(pos[v]), s.hi = s.hi.cwiseMax(pos[v]);
     s.objects.resize(scene.object_names.size());
     for (std::size_t o = 0; o < s.objects.size(); ++o) s.objects[o].name = scene.object_names[o];
+    const scenes::Vec3& eye = scene.camera.eye;
+    if ((eye.array() < s.lo.array()).any() || (eye.array() > s.hi.array()).any()) {
+        const scenes::Vec3 centre = 0.5 * (s.lo + s.hi);
+        bool closed = true;
+        for (int d = 0; d < 27 && closed; ++d) {
+            const scenes::Vec3 w(d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+            if (d == 13) continue;  // (0, 0, 0)
+            const scenes::RayHit hit = caster.intersect(centre, w.normalized());
+            closed = hit.valid() && patches[static_cast<std::size_t>(hit.patch)].normal.dot(w) < 0.0;
+        }
+        s.room_from_outside = closed;
+    }
 
     // What the camera sees: a ray through every pixel centre (of a coarser image with
     // the same field of view when max_pixels asks for fewer).
@@ -133,12 +145,25 @@ bool has_light(const scenes::Scene& scene) {
 std::vector<std::string> winding_warnings(const SceneSummary& summary) {
     std::vector<std::string> lines;
     const auto percent = [](double part, double whole) { return std::lround(100.0 * part / whole); };
+    // A room closed on all sides, framed from outside (an OBJ alone is framed from +z),
+    // shows the backs of its walls: the camera's place, not their winding, is wrong.
+    const scenes::Vec3 centre = 0.5 * (summary.lo + summary.hi);
+    std::ostringstream inside;
+    inside << " (the camera is outside the scene's bounds: a room closed on all sides is seen from outside; "
+              "-D camera.eye=["
+           << centre.x() << "," << centre.y() << "," << centre.z()
+           << "] puts it inside, with camera.target. Else: inverted winding? a two_sided material lights both sides)";
     for (const auto& o : summary.objects) {
         if (o.two_sided) continue;
         std::ostringstream line;
-        if (o.back_pixels > o.front_pixels && o.back_pixels >= 16)
+        if (o.back_pixels > o.front_pixels && o.back_pixels >= 16) {
             line << o.name << ": the camera sees its back side in " << percent(o.back_pixels, o.back_pixels + o.front_pixels)
                  << " % of the pixels that show it";
+            if (summary.room_from_outside) {
+                lines.push_back(line.str() + inside.str());
+                continue;
+            }
+        }
         else if (o.area > 0.0 && o.unseen_area > 0.5 * o.area)
             line << o.name << ": the front side of " << percent(o.unseen_area, o.area)
                  << " % of its area faces nothing (no surface, no camera)";

@@ -41,6 +41,10 @@ struct SceneSummary {
     };
     std::vector<Object> objects;
     scenes::CoplanarOverlaps overlaps;
+    // The camera's eye lies outside the bounding box, and the box's centre inside a shell
+    // whose fronts face it (every ray from it in 26 directions meets a front): a room
+    // closed on all sides seen from outside, or a closed object turned inside out.
+    bool room_from_outside = false;
 };
 
 // `max_pixels` > 0 casts the camera rays on a coarser grid of about that many pixels

@@ -111,7 +111,8 @@ for mat in paint plaster; do
     "$twocam" "$lamp" "${floor/MAT/$mat}" > "floor-$mat.json"
 done
 "$bin" check floor-paint.json >chk.txt 2>&1
-grep -q "^unseen .*[1-9][0-9]* patches" chk.txt && grep -q "floor: the camera sees its back side in 100 %" chk.txt
+grep -q "^unseen .*[1-9][0-9]* patches" chk.txt && grep -q "floor: the camera sees its back side in 100 %" chk.txt &&
+  ! grep -q "outside the scene's bounds" chk.txt  # an open scene: its winding, not the camera's place
 check $? "check of an inverted floor: $(cat chk.txt)"
 "$bin" solve floor-paint.json --iterations 200 --gather 0 --patches fp.csv >/dev/null 2>err.txt
 [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "warning: floor-paint.json: floor: the camera sees its back side in 100 %" err.txt
@@ -162,7 +163,9 @@ check $? "check of a bottom 0.1 above a floor: $(cat chk.txt)"
 printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 2 3 4 1\nf 8 7 6 5\nf 5 6 2 1\nf 3 7 8 4\nf 4 8 5 1\nf 6 7 3 2\n' > inside-out.obj
 printf '{"camera": {"eye": [2.5, 2, 3.5], "target": [0.5, 0.5, 0.5]}, %s, "objects": [{"mesh": "inside-out.obj", "material": "w", "name": "cube"}]}\n' "$materials" > inside-out.json
 "$bin" check inside-out.json >chk.txt 2>&1
-grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it" chk.txt
+# A closed shell facing in, seen from outside, is also a room framed from outside: the
+# warning says both.
+grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it (the camera is outside the scene's bounds: a room closed on all sides is seen from outside; -D camera.eye=\[0.5,0.5,0.5\] puts it inside" chk.txt
 check $? "check of an inside-out cube: $(cat chk.txt)"
 # Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
 lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }
@@ -279,10 +282,10 @@ expect_bad "--direct unknown" "--direct" solve --builtin cornell-box --gather 4 
 # named by their materials, the light's Ke its emission.
 "$bin" check "$src/scenes/examples/CornellBox-Original.obj" >out.txt 2>err.txt
 rc=$?
-[ "$rc" -eq 0 ] && grep -q "(CornellBox-Original.obj: leftWall)" out.txt && grep -q "(CornellBox-Original.obj: light)" out.txt &&
+[ "$rc" -eq 0 ] && grep -q "^  CornellBox-Original.obj: leftWall " out.txt && grep -q "^  CornellBox-Original.obj: light " out.txt &&
   grep -q "light (emissive)" out.txt &&
   # Each box repeats one face ("bottom face"): the copy is dropped, with a warning.
-  [ "$(grep -c "Box): 2 triangles given twice (the same corners, the same way round): the copies dropped" out.txt)" -eq 2 ] &&
+  [ "$(grep -c "Box: 2 triangles given twice (the same corners, the same way round): the copies dropped" out.txt)" -eq 2 ] &&
   ! grep -q "separate triangles\|overlap" out.txt
 check $? "check CornellBox-Original.obj: exit $rc, $(cat err.txt) $(head -c 600 out.txt)"
 "$bin" solve "$src/scenes/examples/CornellBox-Original.obj" --iterations 200 --gather 0 -D camera.width=32 \
