@@ -143,6 +143,74 @@ bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, in
 // tinygltf reads them: one missing or outside the asset's folder is named with its
 // object (tinygltf says "File not found" of both, and of no object). Images are left to
 // tinygltf: one it cannot read is a warning there, and its material keeps its factor.
+// Keys glTF 2.0 does not define in the objects whose keys decide what is placed and
+// how it looks (nodes, meshes, primitives, materials): glTF lets a file carry them, and
+// tinygltf reads past them, so a typo ("translaton") would move nothing, silently. One
+// warning each, with the nearest known key.
+std::vector<std::string> unknown_keys(std::string_view json_text, const std::string& shown) {
+    std::vector<std::string> out;
+    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+    if (!doc.is_object()) return out;  // tinygltf says what is wrong with it
+    const auto distance = [](const std::string& a, const std::string& b) {
+        std::vector<std::size_t> row(b.size() + 1);
+        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+        for (std::size_t i = 1; i <= a.size(); ++i) {
+            std::size_t diagonal = row[0];
+            row[0] = i;
+            for (std::size_t j = 1; j <= b.size(); ++j) {
+                const std::size_t up = row[j];
+                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+                diagonal = up;
+            }
+        }
+        return row[b.size()];
+    };
+    const auto check = [&](const nlohmann::json& object, const std::string& where,
+                           std::initializer_list<const char*> known) {
+        if (!object.is_object()) return;
+        for (auto it = object.begin(); it != object.end(); ++it) {
+            std::string nearest;
+            std::size_t best = 3;
+            bool found = false;
+            for (const char* k : known) {
+                if (it.key() == k) found = true;
+                // Within 2 edits, or a name it begins ("roughness": roughnessFactor).
+                const bool begins = it.key().size() >= 4 && std::string(k).rfind(it.key(), 0) == 0;
+                if (const std::size_t d = begins ? 1 : distance(it.key(), k); d < best) best = d, nearest = k;
+            }
+            if (found || out.size() >= 20) continue;
+            out.push_back(shown + ": " + where + ": unknown key '" + it.key() + "' is not read" +
+                          (nearest.empty() ? std::string() : " (did you mean '" + nearest + "'?)"));
+        }
+    };
+    const auto each = [&](const char* array, auto&& visit) {
+        const auto it = doc.find(array);
+        if (it == doc.end() || !it->is_array()) return;
+        for (std::size_t i = 0; i < it->size(); ++i)
+            visit((*it)[i], std::string(array) + "[" + std::to_string(i) + "]");
+    };
+    each("nodes", [&](const nlohmann::json& n, const std::string& at) {
+        check(n, at, {"camera", "children", "skin", "matrix", "mesh", "rotation", "scale", "translation", "weights",
+                      "name", "extensions", "extras"});
+    });
+    each("meshes", [&](const nlohmann::json& m, const std::string& at) {
+        check(m, at, {"primitives", "weights", "name", "extensions", "extras"});
+        if (const auto p = m.find("primitives"); m.is_object() && p != m.end() && p->is_array())
+            for (std::size_t i = 0; i < p->size(); ++i)
+                check((*p)[i], at + ".primitives[" + std::to_string(i) + "]",
+                      {"attributes", "indices", "material", "mode", "targets", "extensions", "extras"});
+    });
+    each("materials", [&](const nlohmann::json& m, const std::string& at) {
+        check(m, at, {"name", "extensions", "extras", "pbrMetallicRoughness", "normalTexture", "occlusionTexture",
+                      "emissiveTexture", "emissiveFactor", "alphaMode", "alphaCutoff", "doubleSided"});
+        if (const auto p = m.find("pbrMetallicRoughness"); m.is_object() && p != m.end())
+            check(*p, at + ".pbrMetallicRoughness",
+                  {"baseColorFactor", "baseColorTexture", "metallicFactor", "roughnessFactor",
+                   "metallicRoughnessTexture", "extensions", "extras"});
+    });
+    return out;
+}
+
 void check_resources(std::string_view json_text, const std::string& shown, const Files& files) {
     if (!files.folder) return;
     const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
@@ -790,6 +858,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
         throw SceneError(shown, "", std::string("not a valid glTF 2.0 file: ") + first_line(e.what()));
     }
     if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
+    out.warnings = unknown_keys(json_text, shown);
     Reader(model, shown, max_triangles, out).read();
     out.resources = std::move(files.read);
     // No file gives normals at every corner: the computed ones serve.

@@ -360,6 +360,18 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     REQUIRE(u.warnings.size() == 1);
     CHECK_THAT(u.warnings[0], Contains("KHR_materials_unlit"));
     CHECK(u.material_defs[0].emission.isApprox(Rgb::Constant(0.5)));
+    // A key glTF does not define, where it decides what is placed or how it looks: a
+    // warning with the nearest known key (glTF lets files carry such keys).
+    json typo = asset();
+    typo["nodes"][1]["translaton"] = {0, 1, 0};
+    typo["materials"][0]["pbrMetallicRoughness"]["roughness"] = 0.2;
+    typo["nodes"][0]["my_tag"] = 3;
+    const MeshData t = parse(typo);
+    CHECK(t.warnings == std::vector<std::string>{
+                            "a.gltf: nodes[0]: unknown key 'my_tag' is not read",
+                            "a.gltf: nodes[1]: unknown key 'translaton' is not read (did you mean 'translation'?)",
+                            "a.gltf: materials[0].pbrMetallicRoughness: unknown key 'roughness' is not read (did you mean "
+                            "'roughnessFactor'?)"});
     // A mesh without primitives (glTF asks for one) places nothing, with a warning.
     json empty = asset();
     empty["meshes"].push_back({{"primitives", json::array()}});
