@@ -195,6 +195,38 @@ std::vector<std::array<int, 3>> reversed(std::vector<std::array<int, 3>> tris) {
     return tris;
 }
 
+// A mesh object's placement: "scale" (a number or [sx, sy, sz], none 0: negative
+// mirrors), "rotate" ([x, y, z] degrees about the axes, x first), "translate" ([x, y,
+// z]), applied in that order to its vertices, normals and point lights. A mirror
+// turns its triangles round, so that their fronts stay their fronts.
+void place_mesh(const Node& obj, MeshData& data) {
+    Vec3 scale = Vec3::Ones();
+    if (obj.has("scale")) {
+        const json& s = obj.raw("scale");
+        scale = s.is_number() ? Vec3::Constant(obj.number("scale")) : obj.vec3("scale");
+        if ((scale.array() == 0.0).any())
+            obj.fail("scale", "a factor of 0 flattens the mesh, got " + shown_value(s));
+    }
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    if (obj.has("rotate")) {
+        const Vec3 degrees = obj.vec3("rotate");
+        for (int axis = 0; axis < 3; ++axis)
+            rotation = Eigen::AngleAxisd(degrees[axis] * M_PI / 180.0, Vec3::Unit(axis)).toRotationMatrix() * rotation;
+    }
+    const Vec3 offset = obj.has("translate") ? obj.vec3("translate") : Vec3::Zero();
+    const Eigen::Matrix3d linear = rotation * scale.asDiagonal();
+    const Eigen::Matrix3d normal_matrix = rotation * scale.cwiseInverse().asDiagonal();
+    for (auto& v : data.vertices) v = linear * v + offset;
+    for (auto& corners : data.normals)
+        for (auto& n : corners)
+            if (n != Vec3::Zero()) n = (normal_matrix * n).normalized();
+    for (auto& light : data.point_lights) light.position = linear * light.position + offset;
+    if (linear.determinant() < 0.0) {
+        for (auto& t : data.triangles) std::swap(t[1], t[2]);
+        for (auto& corners : data.normals) std::swap(corners[1], corners[2]);
+    }
+}
+
 std::string rgb_text(const Rgb& c) {
     return "[" + format_number(c[0]) + ", " + format_number(c[1]) + ", " + format_number(c[2]) + "]";
 }
@@ -507,7 +539,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     for (std::size_t i = 0; i < objects.size(); ++i) {
         const Node obj(objects[i], shown, "objects[" + std::to_string(i) + "]");
         obj.require_object();
-        obj.check_keys({"mesh", "quad", "triangle", "material", "name", "crease_angle", "normals"});
+        obj.check_keys({"mesh", "quad", "triangle", "material", "name", "crease_angle", "normals", "scale", "rotate",
+                        "translate"});
         const double obj_crease = obj.has("crease_angle") ? crease_angle(obj) : crease;
         // The object's name in warnings and `raybundle check`: its own, or where it is.
         const std::string given = obj.has("name") ? obj.string("name") : "";
@@ -536,6 +569,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             } catch (const SceneError& e) {
                 obj.fail("mesh", e.what());
             }
+            if (obj.has("scale") || obj.has("rotate") || obj.has("translate")) place_mesh(obj, data);
             // What a glTF file brings besides its triangles.
             scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
             scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
@@ -577,6 +611,9 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             scene.crease_angles[id] = obj_crease;
         } else {
             if (obj.has("normals")) obj.fail("normals", "only a mesh object has a choice of normals");
+            for (const char* placement : {"scale", "rotate", "translate"})
+                if (obj.has(placement))
+                    obj.fail(placement, "places a mesh object only (a quad's or triangle's corners are its place)");
             const bool quad = obj.has("quad");
             const char* key = quad ? "quad" : "triangle";
             const json& pts = obj.raw(key);

@@ -168,6 +168,36 @@ TEST_CASE("triangles OpenMesh cannot join are kept apart, and the warning says w
     CHECK(warnings_of("f 1 2 3\nf 2 1 4\n").empty());
 }
 
+TEST_CASE("a mesh object is placed by scale, rotate and translate, a mirror keeping its front", "[scenes]") {
+    TempDir dir;
+    // A right triangle in centimetres facing +z, with a file normal at each corner.
+    dir.write("cm.obj", "v 0 0 0\nv 100 0 0\nv 0 50 0\nvn 0 0 1\nf 1//1 2//1 3//1\n");
+    auto placed = [&](const std::string& keys) {
+        return parse(scene_text(kCamera, kMaterials, R"({"mesh": "cm.obj", "material": "white", )" + keys + "}"),
+                     dir.path.string());
+    };
+    // 1 cm = 0.01, a quarter turn about y (+x goes to -z), then 2 along x.
+    const Scene s = placed(R"("scale": 0.01, "rotate": [0, 90, 0], "translate": [2, 0, 0])");
+    REQUIRE(s.patch_count() == 1);
+    const auto& p = s.patch_list()[0];
+    const auto& pos = s.vertex_positions();
+    CHECK((pos[p.v[0]] - Vec3(2, 0, 0)).norm() < 1e-12);
+    CHECK((pos[p.v[1]] - Vec3(2, 0, -1)).norm() < 1e-12);
+    CHECK((pos[p.v[2]] - Vec3(2, 0.5, 0)).norm() < 1e-12);
+    CHECK(p.area == Approx(0.25));
+    CHECK((p.normal - Vec3(1, 0, 0)).norm() < 1e-12);  // +z turned a quarter about y
+    for (int k = 0; k < 3; ++k) CHECK((s.corner_normals()[0][k] - Vec3(1, 0, 0)).norm() < 1e-9);  // the file's, turned
+    // Mirrored in x: the corners turn round, so the front stays +z.
+    const Scene m = placed(R"("scale": [-0.01, 0.01, 0.01])");
+    REQUIRE(m.patch_count() == 1);
+    CHECK((m.patch_list()[0].normal - Vec3(0, 0, 1)).norm() < 1e-12);
+    CHECK(m.patch_list()[0].area == Approx(0.25));
+    CHECK_THROWS_WITH(placed(R"("scale": [1, 0, 1])"), "s.json: objects[0].scale: a factor of 0 flattens the mesh, got [1,0,1]");
+    CHECK_THROWS_WITH(placed(R"("rotate": [0, 90])"), Catch::Contains("objects[0].rotate: expected [x, y, z]"));
+    CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "white", "scale": 2})")),
+                      "s.json: objects[0].scale: places a mesh object only (a quad's or triangle's corners are its place)");
+}
+
 TEST_CASE("zero-area triangles are dropped and counted", "[scenes]") {
     const Scene s = parse(scene_text(kCamera, kMaterials,
                                      std::string(kQuad) + R"(, {"triangle": [[0,0,1], [1,0,1], [2,0,1]], "material": "white"})"));
