@@ -221,6 +221,11 @@ void place_mesh(const Node& obj, MeshData& data) {
         for (auto& n : corners)
             if (n != Vec3::Zero()) n = (normal_matrix * n).normalized();
     for (auto& light : data.point_lights) light.position = linear * light.position + offset;
+    if (data.camera) {
+        data.camera->eye = linear * data.camera->eye + offset;
+        data.camera->target = linear * data.camera->target + offset;
+        data.camera->up = (linear * data.camera->up).normalized();
+    }
     if (linear.determinant() < 0.0) {
         for (auto& t : data.triangles) std::swap(t[1], t[2]);
         for (auto& corners : data.normals) std::swap(corners[1], corners[2]);
@@ -523,7 +528,10 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
 
     Scene scene;
     scene.name = shown;
-    scene.camera = parse_camera(root.child("camera"));
+    // Without its own camera, the scene takes the first a glTF mesh brings.
+    const bool own_camera = root.has("camera");
+    if (own_camera) scene.camera = parse_camera(root.child("camera"));
+    std::optional<Camera> brought;
 
     // Materials: the scene's, then those its meshes bring (mesh_materials); a scene of
     // such meshes alone needs none of its own.
@@ -570,6 +578,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 obj.fail("mesh", e.what());
             }
             if (obj.has("scale") || obj.has("rotate") || obj.has("translate")) place_mesh(obj, data);
+            if (!brought && data.camera) brought = data.camera;
             // What a glTF file brings besides its triangles.
             scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
             scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
@@ -644,6 +653,11 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);
             scene.crease_angles[id] = obj_crease;
         }
+    }
+
+    if (!own_camera) {
+        if (!brought) root.fail("camera", "missing (and no glTF mesh of the scene brings one)");
+        scene.camera = *brought;
     }
 
     if (root.has("point_lights")) {

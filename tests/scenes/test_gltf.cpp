@@ -407,6 +407,14 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
                    "objects": [{"mesh": "tri.gltf"}]})");
     const Scene s = load_scene(scene);
     CHECK(s.materials[s.find_material("paint")].albedo.isApprox(Rgb(0.1, 0.2, 0.3)));
+    // Without a camera of its own, the scene takes the glTF's, placed with its mesh.
+    const Scene taken = load_scene(dir.write("c.json", R"({"objects": [{"mesh": "tri.gltf", "translate": [1, 0, 0]}]})"));
+    CHECK(taken.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
+    CHECK(taken.camera.fov_y == Approx(0.8 * 180 / M_PI));
+    dir.write("none.json", R"({"materials": {"w": {"albedo": [0.5, 0.5, 0.5]}},
+                               "objects": [{"triangle": [[0,0,0],[1,0,0],[0,1,0]], "material": "w"}]})");
+    CHECK_THROWS_WITH(load_scene((dir.path / "none.json").string()),
+                      Contains("none.json: camera: missing (and no glTF mesh of the scene brings one)"));
     // A buffer outside the asset's folder is refused.
     dir.write("outside.bin", decoded_buffer());
     std::filesystem::create_directories(dir.path / "sub");
