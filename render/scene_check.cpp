@@ -149,10 +149,12 @@ std::vector<std::string> winding_warnings(const SceneSummary& summary) {
     // shows the backs of its walls: the camera's place, not their winding, is wrong.
     const scenes::Vec3 centre = 0.5 * (summary.lo + summary.hi);
     std::ostringstream inside;
+    // Its centre, looking at the far wall (-z, as a model alone is framed).
     inside << " (the camera is outside the scene's bounds: a room closed on all sides is seen from outside; "
               "-D camera.eye=["
-           << centre.x() << "," << centre.y() << "," << centre.z()
-           << "] puts it inside, with camera.target. Else: inverted winding? a two_sided material lights both sides)";
+           << centre.x() << "," << centre.y() << "," << centre.z() << "] -D camera.target=[" << centre.x() << ","
+           << centre.y() << "," << summary.lo.z()
+           << "] puts it inside. Else: inverted winding? a two_sided material lights both sides)";
     for (const auto& o : summary.objects) {
         if (o.two_sided) continue;
         std::ostringstream line;

@@ -203,7 +203,7 @@ void place_mesh(const Node& obj, MeshData& data) {
     Vec3 scale = Vec3::Ones();
     if (obj.has("scale")) {
         const json& s = obj.raw("scale");
-        scale = s.is_number() ? Vec3::Constant(obj.number("scale")) : obj.vec3("scale");
+        scale = s.is_number() ? obj.vec3(json::array({s, s, s}), obj.at("scale")) : obj.vec3("scale");
         if ((scale.array() == 0.0).any())
             obj.fail("scale", "a factor of 0 flattens the mesh, got " + shown_value(s));
     }
@@ -507,7 +507,14 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         const auto open = msg.find('\''), close = msg.rfind('\'');
         if (open != std::string::npos && close > open + 1) {
             const std::string number = msg.substr(open + 1, close - open - 1);
+            // Its first appearance as a whole word outside strings ("name": "1e999").
+            bool in_string = false;
+            std::size_t scanned = 0;
             for (std::size_t i = text.find(number); i != std::string::npos; i = text.find(number, i + 1)) {
+                for (; scanned < i; ++scanned)
+                    if (text[scanned] == '\\' && in_string) ++scanned;
+                    else if (text[scanned] == '"') in_string = !in_string;
+                if (in_string) continue;
                 const auto part_of_word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.'; };
                 const std::size_t end = i + number.size();
                 if ((i == 0 || !part_of_word(text[i - 1])) && (end >= text.size() || !part_of_word(text[end]))) {
@@ -528,8 +535,12 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
 
     Scene scene;
     scene.name = shown;
-    // Without its own camera, the scene takes the first a glTF mesh brings.
-    const bool own_camera = root.has("camera");
+    // Without its own camera (no camera, or one that places no eye and no target: -D
+    // camera.width=800 alone), the scene takes the first a glTF mesh brings, with the
+    // values it does give laid over it.
+    const json* given_camera = doc.is_object() && doc.contains("camera") ? &doc["camera"] : nullptr;
+    const bool own_camera = given_camera && (!given_camera->is_object() || given_camera->contains("eye") ||
+                                             given_camera->contains("target"));
     if (own_camera) scene.camera = parse_camera(root.child("camera"));
     std::optional<Camera> brought;
 
@@ -583,11 +594,16 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
             scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
             scene.point_lights.insert(scene.point_lights.end(), data.point_lights.begin(), data.point_lights.end());
-            for (std::size_t v = 0; v < data.vertices.size(); ++v)
+            for (std::size_t v = 0; v < data.vertices.size(); ++v) {
+                if (!data.vertices[v].allFinite())  // a placement's inf - inf
+                    obj.fail("mesh", rel + ": vertex " + std::to_string(v) + ": (" + format_number(data.vertices[v].x()) + ", " +
+                                         format_number(data.vertices[v].y()) + ", " + format_number(data.vertices[v].z()) +
+                                         ") is not finite once placed");
                 if (data.vertices[v].cwiseAbs().maxCoeff() > kMaxMagnitude)
                     obj.fail("mesh", rel + ": vertex " + std::to_string(v) + ": coordinate " +
                                          format_number(data.vertices[v].cwiseAbs().maxCoeff()) + " is too large (at most " +
                                          format_number(kMaxMagnitude) + " in magnitude)");
+            }
             for (const auto& t : data.triangles)
                 for (int k : t)
                     if (k < 0 || k >= static_cast<int>(data.vertices.size()))
@@ -656,8 +672,14 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     }
 
     if (!own_camera) {
-        if (!brought) root.fail("camera", "missing (and no glTF mesh of the scene brings one)");
-        scene.camera = *brought;
+        if (!brought) {
+            if (given_camera) parse_camera(root.child("camera"));  // names what it lacks: camera.eye
+            root.fail("camera", "missing (and no glTF mesh of the scene brings one)");
+        }
+        json merged = camera_json(*brought);
+        if (given_camera)
+            for (auto it = given_camera->begin(); it != given_camera->end(); ++it) merged[it.key()] = it.value();
+        scene.camera = parse_camera(Node(merged, shown, "camera"));
     }
 
     if (root.has("point_lights")) {

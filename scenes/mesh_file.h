@@ -48,7 +48,8 @@ struct MtlMaterial {
     Rgb ks = Rgb::Zero();         // specular reflectance
     double ns = 0.0;              // specular exponent
     int illum = -1;               // illumination model (-1: not given)
-    std::string map_kd;           // the diffuse texture's file, as written
+    std::string map_kd;           // the diffuse texture's file, as written (its options passed over)
+    std::string map_kd_last;      // the last word of the statement (a name after an unknown option)
 };
 // The materials of an MTL file (`shown` names it in errors). Throws SceneError naming
 // the file and line: a value before the first `newmtl`, a malformed or non-finite

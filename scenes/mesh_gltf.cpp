@@ -139,16 +139,13 @@ bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, in
     return true;
 }
 
-// The buffer files the asset names (buffers[i].uri other than data URIs), checked before
-// tinygltf reads them: one missing or outside the asset's folder is named with its
-// object (tinygltf says "File not found" of both, and of no object). Images are left to
-// tinygltf: one it cannot read is a warning there, and its material keeps its factor.
 // Keys glTF 2.0 does not define in the objects whose keys decide what is placed and
 // how it looks (nodes, meshes, primitives, materials): glTF lets a file carry them, and
 // tinygltf reads past them, so a typo ("translaton") would move nothing, silently. One
 // warning each, with the nearest known key.
 std::vector<std::string> unknown_keys(std::string_view json_text, const std::string& shown) {
     std::vector<std::string> out;
+    std::size_t unknown = 0;  // the first 20 named, the others counted
     const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
     if (!doc.is_object()) return out;  // tinygltf says what is wrong with it
     const auto distance = [](const std::string& a, const std::string& b) {
@@ -178,7 +175,8 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
                 const bool begins = it.key().size() >= 4 && std::string(k).rfind(it.key(), 0) == 0;
                 if (const std::size_t d = begins ? 1 : distance(it.key(), k); d < best) best = d, nearest = k;
             }
-            if (found || out.size() >= 20) continue;
+            if (found) continue;
+            if (++unknown > 20) continue;
             out.push_back(shown + ": " + where + ": unknown key '" + it.key() + "' is not read" +
                           (nearest.empty() ? std::string() : " (did you mean '" + nearest + "'?)"));
         }
@@ -208,9 +206,14 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
                   {"baseColorFactor", "baseColorTexture", "metallicFactor", "roughnessFactor",
                    "metallicRoughnessTexture", "extensions", "extras"});
     });
+    if (unknown > 20) out.push_back(shown + ": " + std::to_string(unknown - 20) + " more unknown keys are not read");
     return out;
 }
 
+// The buffer files the asset names (buffers[i].uri other than data URIs), checked before
+// tinygltf reads them: one missing or outside the asset's folder is named with its
+// object (tinygltf says "File not found" of both, and of no object). Images are left to
+// tinygltf: one it cannot read is a warning there, and its material keeps its factor.
 void check_resources(std::string_view json_text, const std::string& shown, const Files& files) {
     if (!files.folder) return;
     const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
@@ -335,7 +338,7 @@ private:
             const auto view = buffer_view(image.bufferView, where + ": image");
             mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(view.first), view.second), &why);
         } else {
-            why = image.uri.empty() ? "its image has no data" : "'" + image.uri + "' not found beside the asset";
+            why = image.uri.empty() ? "its image has no data" : "'" + image.uri + "' is missing or empty";
         }
         return mean;
     }
@@ -396,7 +399,8 @@ private:
                 emission = emission * *mean;
                 warn("material '" + name + "': its emissive texture is read as its mean colour");
             } else {
-                warn("material '" + name + "': its emissive texture is not read (not a PNG); its factor is the emission");
+                warn("material '" + name + "': its emissive texture is not read (" +
+                     texture_why_[m.emissiveTexture.index] + "); its factor is the emission");
             }
         }
         out.emission = emission;

@@ -33,13 +33,16 @@ std::string in_folder(const std::string& folder, const std::string& name) {
     return !name.empty() && name[0] == '/' ? name : folder + name;
 }
 
-// The mean linear colour of a PNG texture file, or nothing for a file that is not a
-// PNG it can read.
-// The texture's mean colour, or nothing with why in `why`.
+// The mean linear colour of a PNG texture file, or nothing for a file that is missing or
+// not a PNG it can read, with why in `why`.
 std::optional<Rgb> texture_mean(const std::string& path, std::string& why) {
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) {
+    if (!std::filesystem::exists(path, ec)) {
         why = "no such file";
+        return std::nullopt;
+    }
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "not a regular file";
         return std::nullopt;
     }
     try {
@@ -70,16 +73,22 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     // A texture is its mean colour (as a renderer showing it would average it over the
     // surface; the texture itself, not times Kd, as Blender's importer shows it).
     if (!m.map_kd.empty()) {
-        std::string why;
-        if (const auto mean = texture_mean(in_folder(folder, m.map_kd), why)) {
+        // The name as read, else (no such file) the statement's last word.
+        std::string map = m.map_kd, why;
+        std::error_code ec;
+        if (!std::filesystem::exists(in_folder(folder, map), ec) && !m.map_kd_last.empty() &&
+            std::filesystem::exists(in_folder(folder, m.map_kd_last), ec))
+            map = m.map_kd_last;
+        if (const auto mean = texture_mean(in_folder(folder, map), why)) {
             out.albedo = *mean;
-            files.push_back(in_folder(folder, m.map_kd));
-            warnings.push_back(named + ": its texture " + m.map_kd + " is read as its mean colour " +
-                               number((*mean)[0]) + " " + number((*mean)[1]) + " " + number((*mean)[2]));
+            files.push_back(in_folder(folder, map));
+            warnings.push_back(named + ": its texture " + map + " is read as its mean colour " + number((*mean)[0]) +
+                               " " + number((*mean)[1]) + " " + number((*mean)[2]));
         } else {
-            warnings.push_back(named + ": its texture " + m.map_kd + " is not read (" + why +
-                               (why == "no such file" ? " beside " + file : std::string()) + "); its Kd " + number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) +
-                               " is the colour");
+            const bool relative = !map.empty() && map[0] != '/';
+            warnings.push_back(named + ": its texture " + map + " is not read (" + why +
+                               (why == "no such file" && relative ? " beside " + file : std::string()) + "); its Kd " +
+                               number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) + " is the colour");
         }
     }
     if (const auto sum = mesh_detail::keep_energy(out))

@@ -9,14 +9,31 @@ namespace raybundle::scenes {
 
 namespace {
 
-// The file of a map statement's text: its options (-o, -s, -t with up to 3 numbers; -mm
-// with 2; -blendu, -blendv, -bm, -boost, -cc, -clamp, -imfchan, -texres, -type with 1)
-// passed over, then the rest of the line, spaces included (as Blender writes a name
-// with spaces), its '\' separators read as '/' (as exporters on Windows write them).
+// The file of a map statement's text: its options passed over (-o, -s, -t with 1 to 3
+// numbers; -mm with 2; -bm, -boost, -texres with 1; -blendu, -blendv, -cc, -clamp with
+// on or off; -imfchan with a channel; -type with a word), each argument only where it
+// is of its kind and not the last word; then the rest of the line, spaces included (as
+// Blender writes a name with spaces), its '\' separators read as '/' (as exporters on
+// Windows write them).
 std::string map_file(const std::string& text) {
-    static const std::map<std::string, int> kArguments = {
-        {"-o", 3}, {"-s", 3}, {"-t", 3}, {"-mm", 2}, {"-blendu", 1}, {"-blendv", 1}, {"-bm", 1}, {"-boost", 1},
-        {"-cc", 1}, {"-clamp", 1}, {"-imfchan", 1}, {"-texres", 1}, {"-type", 1}};
+    enum Kind { numbers, switch_, channel, word_ };
+    struct Option {
+        int most;  // arguments at most (fewer where the next word is not of its kind)
+        Kind kind;
+    };
+    static const std::map<std::string, Option> kArguments = {
+        {"-o", {3, numbers}},      {"-s", {3, numbers}},      {"-t", {3, numbers}},      {"-mm", {2, numbers}},
+        {"-bm", {1, numbers}},     {"-boost", {1, numbers}},  {"-texres", {1, numbers}}, {"-blendu", {1, switch_}},
+        {"-blendv", {1, switch_}}, {"-cc", {1, switch_}},     {"-clamp", {1, switch_}},  {"-imfchan", {1, channel}},
+        {"-type", {1, word_}}};
+    const auto of_kind = [](const std::string& argument, Kind kind) {
+        if (kind == switch_) return argument == "on" || argument == "off";
+        if (kind == channel) return argument.size() == 1 && std::string("rgbmlz").find(argument[0]) != std::string::npos;
+        if (kind == word_) return true;
+        char* stop = nullptr;
+        std::strtod(argument.c_str(), &stop);
+        return !argument.empty() && stop == argument.c_str() + argument.size();
+    };
     std::size_t at = 0;
     auto word = [&](std::size_t from) {  // [start, end) of the word at or after `from`
         const std::size_t start = text.find_first_not_of(" \t", from);
@@ -32,15 +49,11 @@ std::string map_file(const std::string& text) {
             break;
         }
         at = end;
-        // -o, -s, -t take 1 to 3 numbers; the others exactly their count.
-        for (int k = 0; k < option->second; ++k) {
+        // The last word is never an argument ("-clamp tex.png" without its on/off is
+        // the name).
+        for (int k = 0; k < option->second.most; ++k) {
             const auto [a, b] = word(at);
-            if (a == b) break;
-            const std::string argument = text.substr(a, b - a);
-            char* stop = nullptr;
-            std::strtod(argument.c_str(), &stop);
-            const bool number = stop == argument.c_str() + argument.size();
-            if (option->second == 3 && k > 0 && !number) break;
+            if (a == b || word(b).first == text.size() || !of_kind(text.substr(a, b - a), option->second.kind)) break;
             at = b;
         }
     }
@@ -118,6 +131,10 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
         } else {
             m.map_kd = map_file(rest);
             if (m.map_kd.empty()) throw SceneError(shown, where, "map_Kd without a file name");
+            // An option this reader does not know ("-gamma 2.2 wood.png") would be read
+            // as part of the name: the last word is kept to try where that name is no file.
+            m.map_kd_last = map_file(rest.substr(rest.find_last_of(" \t") == std::string::npos ? 0
+                                                                                                : rest.find_last_of(" \t") + 1));
         }
     }
     return out;

@@ -45,6 +45,7 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     if (!normals.empty() && normals.size() != triangles.size())
         throw std::invalid_argument("add_object: " + std::to_string(normals.size()) + " corner normal triples for " +
                                     std::to_string(triangles.size()) + " triangles");
+    const bool made = object < 0;  // else the twins of `object` (two-sided materials)
     if (object < 0) {
         object = static_cast<int>(object_names.size());
         object_names.push_back(object_name.empty() ? "object " + std::to_string(object) : object_name);
@@ -68,8 +69,9 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
         // A corner given twice (f 4 4 3): no area, and OpenMesh cannot make the face.
+        // Counted once: not again in a two-sided material's twin (made with its object).
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-            drop_degenerate(object);
+            if (made) drop_degenerate(object);
             continue;
         }
         std::array<std::array<double, 3>, 3> key;
@@ -247,14 +249,23 @@ void Scene::finalize(int threads) {
             degenerate[static_cast<std::size_t>(i)] = !(area2 > 1e-12 * scale);
         }
     });
+    // A two-sided material's triangle and its twin (the same corners) are dropped
+    // together and counted once, as the file's one triangle.
     std::size_t dropped = 0;
+    std::map<int, std::size_t> twins;  // per object: two-sided triangles dropped
     for (std::size_t i = 0; i < degenerate.size(); ++i)
         if (degenerate[i]) {
             const TriMesh::FaceHandle f(static_cast<int>(i));
-            drop_degenerate(mesh.property(object_handle, f));
+            const int object = mesh.property(object_handle, f);
+            if (materials[static_cast<std::size_t>(mesh.property(material_handle, f))].two_sided)
+                ++twins[object];
+            else
+                drop_degenerate(object);
             mesh.delete_face(f, true);
             ++dropped;
         }
+    for (const auto& [object, n] : twins)
+        for (std::size_t k = 0; k < (n + 1) / 2; ++k) drop_degenerate(object);
     if (dropped > 0) mesh.garbage_collection();  // with nothing deleted it only copies
     compute_missing_normals(threads);
 

@@ -165,7 +165,10 @@ printf '{"camera": {"eye": [2.5, 2, 3.5], "target": [0.5, 0.5, 0.5]}, %s, "objec
 "$bin" check inside-out.json >chk.txt 2>&1
 # A closed shell facing in, seen from outside, is also a room framed from outside: the
 # warning says both.
-grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it (the camera is outside the scene's bounds: a room closed on all sides is seen from outside; -D camera.eye=\[0.5,0.5,0.5\] puts it inside" chk.txt
+grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it (the camera is outside the scene's bounds: a room closed on all sides is seen from outside; -D camera.eye=\[0.5,0.5,0.5\] -D camera.target=\[0.5,0.5,0\] puts it inside" chk.txt &&
+  # Following it: the camera inside sees the cube's faces from the front.
+  "$bin" check inside-out.json -D "camera.eye=[0.5,0.5,0.5]" -D "camera.target=[0.5,0.5,0]" >chk2.txt 2>&1 &&
+  ! grep -q "back side" chk2.txt
 check $? "check of an inside-out cube: $(cat chk.txt)"
 # Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
 lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }

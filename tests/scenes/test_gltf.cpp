@@ -411,6 +411,10 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     const Scene taken = load_scene(dir.write("c.json", R"({"objects": [{"mesh": "tri.gltf", "translate": [1, 0, 0]}]})"));
     CHECK(taken.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
     CHECK(taken.camera.fov_y == Approx(0.8 * 180 / M_PI));
+    // -D camera.width alone places no eye: the glTF's camera with that width.
+    const Scene wide = load_scene((dir.path / "c.json").string(), {{"camera.width", "64"}});
+    CHECK(wide.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
+    CHECK(wide.camera.width == 64);
     dir.write("none.json", R"({"materials": {"w": {"albedo": [0.5, 0.5, 0.5]}},
                                "objects": [{"triangle": [[0,0,0],[1,0,0],[0,1,0]], "material": "w"}]})");
     CHECK_THROWS_WITH(load_scene((dir.path / "none.json").string()),

@@ -142,6 +142,15 @@ TEST_CASE("a triangle with a corner given twice is dropped as zero-area in every
         CHECK(s.dropped_summary() == (file == "t.obj" ? "dropped 2 zero-area triangles (plate 2)"
                                                       : "dropped 1 zero-area triangle (plate 1)"));
     }
+    // Two-sided: the triangle and its twin go together, counted once (a corner given
+    // twice, and three corners on a line).
+    dir.write("line.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\nf 1 2 4\n");
+    const Scene both = parse_scene(R"({"camera": {"eye": [0, 0, 5], "target": [0, 0, 0]},
+        "materials": {"paper": {"albedo": [0.5, 0.5, 0.5], "two_sided": true}},
+        "objects": [{"mesh": "line.obj", "material": "paper", "name": "sheet"}], "patch_size": "none"})",
+                                   "s.json", dir.path.string());
+    CHECK(both.patch_count() == 2);
+    CHECK(both.dropped_summary() == "dropped 2 zero-area triangles (sheet 2)");
 }
 
 TEST_CASE("triangles OpenMesh cannot join are kept apart, and the warning says why", "[scenes]") {
@@ -194,6 +203,8 @@ TEST_CASE("a mesh object is placed by scale, rotate and translate, a mirror keep
     CHECK(m.patch_list()[0].area == Approx(0.25));
     CHECK_THROWS_WITH(placed(R"("scale": [1, 0, 1])"), "s.json: objects[0].scale: a factor of 0 flattens the mesh, got [1,0,1]");
     CHECK_THROWS_WITH(placed(R"("rotate": [0, 90])"), Catch::Contains("objects[0].rotate: expected [x, y, z]"));
+    CHECK_THROWS_WITH(placed(R"("scale": 1e300, "rotate": [0, 45, 0])"),
+                      "s.json: objects[0].scale: value 1e+300 is too large (at most 1e+15 in magnitude)");
     CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "white", "scale": 2})")),
                       "s.json: objects[0].scale: places a mesh object only (a quad's or triangle's corners are its place)");
 }
@@ -262,9 +273,11 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
     SECTION("non-finite coordinates") {
         fails_with(scene_text(kCamera, kMaterials, R"({"quad": [[0,0,0],[1e999,0,0],[1,1,0],[0,1,0]], "material": "white"})"),
                    "number overflow parsing '1e999' (not finite)");
-        // Named by line and column (the parser gives no place; not "21e999" in a name).
+        // Named by line and column (the parser gives no place; not "21e999" or "1e999"
+        // in a string).
         const std::string text = scene_text(kCamera, kMaterials,
-                                            "\n{\"quad\": [[0,0,0],\n [1,0,0],[1,1,1e999],[0,1,0]], \"name\": \"21e999\", "
+                                            "\n{\"name\": \"a \\\"1e999\", \"quad\": [[0,0,0],\n [1,0,0],[1,1,1e999],[0,1,0]], "
+                                            "\"material\": \"white\"}, {\"name\": \"21e999\", \"quad\": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "
                                             "\"material\": \"white\"}");
         CHECK_THROWS_WITH(parse(text), "s.json:3:15: invalid number: number overflow parsing '1e999' (not finite)");
         dir.write("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");

@@ -239,7 +239,7 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
     std::string warning;
     // Options before the name, a name with spaces, and Windows' separators.
     for (const std::string map_kd : {"my maps/cut out.png", "-s 2 2 1 -o 0.5 0 -bm 1 -clamp on my maps/cut out.png",
-                                     "-blendu off my maps\\cut out.png"}) {
+                                     "-blendu off my maps\\cut out.png", "-clamp my maps/cut out.png"}) {
         INFO(map_kd);
         const Rgb a = albedo_with(map_kd, warning);
         CHECK(a[0] == Approx(0.5).epsilon(0.01));
@@ -247,6 +247,10 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
         CHECK(a[2] == 0.0);
         CHECK_THAT(warning, Contains("its texture my maps/cut out.png is read as its mean colour"));
     }
+    // An option this reader does not know: the last word, where the whole is no file.
+    std::filesystem::copy_file(dir.path / "my maps" / "cut out.png", dir.path / "wood.png");
+    CHECK(albedo_with("-gamma 2.2 wood.png", warning)[0] == Approx(0.5).epsilon(0.01));
+    CHECK_THAT(warning, Contains("its texture wood.png is read as its mean colour"));
     CHECK(albedo_with("photo.jpg", warning)[0] == Approx(0.2));
     CHECK_THAT(warning, Contains("its texture photo.jpg is not read (a JPEG, not a PNG); its Kd 0.2 0.2 0.2 is the colour"));
     albedo_with("broken.png", warning);
