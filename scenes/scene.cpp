@@ -22,6 +22,17 @@ Scene::Scene() {
     mesh.add_property(contact_edge_handle, "contact edge");
 }
 
+namespace {
+
+// No area to the precision of its size (finalize()'s and add_object()'s test).
+bool zero_area(const Vec3& a, const Vec3& b, const Vec3& c) {
+    const double area2 = (b - a).cross(c - a).norm();
+    const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
+    return !(area2 > 1e-12 * scale);
+}
+
+}  // namespace
+
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                       int material, const std::string& object_name, int object,
                       const std::vector<std::array<Vec3, 3>>& normals) {
@@ -68,9 +79,13 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
     std::size_t twice = 0;
     for (std::size_t k = 0; k < triangles.size(); ++k) {
         const auto& t = triangles[k];
-        // A corner given twice (f 4 4 3): no area, and OpenMesh cannot make the face.
-        // Counted once: not again in a two-sided material's twin (made with its object).
-        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+        // A corner given twice (f 4 4 3): no area, and OpenMesh cannot make the face;
+        // three corners on a line: no area either, and joined to its neighbours it would
+        // run their edges the same way as they do (finalize() would drop it later, after
+        // its neighbours were kept apart for it). Counted once: not again in a two-sided
+        // material's twin (made with its object).
+        const bool repeated = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+        if (repeated || zero_area(vertices[t[0]], vertices[t[1]], vertices[t[2]])) {
             if (made) drop_degenerate(object);
             continue;
         }
@@ -244,9 +259,7 @@ void Scene::finalize(int threads) {
             const Vec3 a = to_eigen(mesh.point(*it++));
             const Vec3 b = to_eigen(mesh.point(*it++));
             const Vec3 c = to_eigen(mesh.point(*it));
-            const double area2 = (b - a).cross(c - a).norm();
-            const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
-            degenerate[static_cast<std::size_t>(i)] = !(area2 > 1e-12 * scale);
+            degenerate[static_cast<std::size_t>(i)] = zero_area(a, b, c);
         }
     });
     // A two-sided material's triangle and its twin (the same corners) are dropped
@@ -266,7 +279,15 @@ void Scene::finalize(int threads) {
         }
     for (const auto& [object, n] : twins)
         for (std::size_t k = 0; k < (n + 1) / 2; ++k) drop_degenerate(object);
-    if (dropped > 0) mesh.garbage_collection();  // with nothing deleted it only copies
+    // Vertices no face uses (those only triangles add_object() dropped had): gone too,
+    // so that they count in no bounds.
+    bool isolated = false;
+    for (const auto v : mesh.vertices())
+        if (mesh.is_isolated(v)) {
+            mesh.delete_vertex(v, false);
+            isolated = true;
+        }
+    if (dropped > 0 || isolated) mesh.garbage_collection();  // with nothing deleted it only copies
     compute_missing_normals(threads);
 
     // The flat vertices: one per mesh vertex, or, around a vertex on a contact edge, one

@@ -151,6 +151,17 @@ TEST_CASE("a triangle with a corner given twice is dropped as zero-area in every
                                    "s.json", dir.path.string());
     CHECK(both.patch_count() == 2);
     CHECK(both.dropped_summary() == "dropped 2 zero-area triangles (sheet 2)");
+    // A vertex only a dropped triangle used is gone with it: it bounds nothing.
+    dir.write("far.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 100 100 100\nf 1 2 3\nf 4 4 1\nf 1 2 4\n");
+    const Scene far = parse(scene_text(kCamera, kMaterials, R"({"mesh": "far.obj", "material": "white"})"),
+                            dir.path.string());
+    CHECK(far.patch_count() == 2);
+    CHECK(far.bounds_radius() > 50.0);  // the fourth vertex is used by the third triangle
+    dir.write("far2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 100 100 100\nf 1 2 3\nf 4 4 1\n");
+    const Scene near = parse(scene_text(kCamera, kMaterials, R"({"mesh": "far2.obj", "material": "white"})"),
+                             dir.path.string());
+    CHECK(near.vertex_positions().size() == 3);
+    CHECK(near.bounds_radius() < 1.0);
 }
 
 TEST_CASE("triangles OpenMesh cannot join are kept apart, and the warning says why", "[scenes]") {
