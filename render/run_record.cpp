@@ -88,6 +88,7 @@ json solve_record(const scenes::Scene& scene, const RunConfig& c, const solver::
         {"scene", scene.name},
         {"patches", scene.patch_count()},
         {"dropped_degenerate_triangles", scene.dropped_degenerate},
+        {"welded_vertices", scene.welded_vertices},
         {"contacts", {{"lines", scene.contact_lines}, {"edges_split", scene.contact_splits},
                       {"contact_edges", scene.contact_edges}}},
         {"coplanar_overlaps", coplanar_overlaps},

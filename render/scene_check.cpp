@@ -198,6 +198,8 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     print("patches     %zu after refinement (%zu vertices), area %.6g\n", s.patches, s.vertices, s.area);
     if (!scene.refinement.empty()) print("            %s\n", scene.refinement.c_str());
     if (scene.dropped_degenerate > 0) print("            %s\n", scene.dropped_summary().c_str());
+    if (scene.welded_vertices > 0)
+        print("            %zu mesh vertices at the place of another welded to it\n", scene.welded_vertices);
     print("contacts    %s\n", contacts_line(scene).c_str());
     print("bounds      %s .. %s\n", vec3(s.lo).c_str(), vec3(s.hi).c_str());
     print("materials   %zu:", scene.materials.size());

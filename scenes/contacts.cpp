@@ -449,11 +449,30 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
         for (auto f : mesh.vf_range(v))
             if (mesh.property(origin, f) == static_cast<int>(u)) work.push_back(f);
     };
+    // The faces of origin u now: the connected pieces of the original triangle.
+    auto find_pieces = [&](std::size_t u) {
+        faces.clear();
+        ++visit;  // the faces marked with it are seen
+        seen.resize(mesh.n_faces(), 0);
+        std::vector<TriMesh::FaceHandle> stack(1, TriMesh::FaceHandle(static_cast<int>(u)));
+        while (!stack.empty()) {
+            const auto f = stack.back();
+            stack.pop_back();
+            if (seen[static_cast<std::size_t>(f.idx())] == visit) continue;
+            seen[static_cast<std::size_t>(f.idx())] = visit;
+            faces.push_back(f);
+            for (auto g : mesh.ff_range(f))
+                if (mesh.property(origin, g) == static_cast<int>(u)) stack.push_back(g);
+        }
+    };
     for (std::size_t u = 0; u < tris.size(); ++u) {
         if (lines[u].empty()) continue;
         const double near = std::max(tol, 1e-3 * tris[u].size);
-        faces.assign(1, TriMesh::FaceHandle(static_cast<int>(u)));
-        bool found = false;  // faces holds every piece (found since the last split)
+        // Every piece from the start: an earlier triangle's cut may have split this one
+        // along their shared edge (its first line once met only the piece that kept
+        // the face's handle, and was lost where it lay in another).
+        find_pieces(u);
+        bool found = true;  // faces holds every piece (found since the last split)
         for (const Line& line : lines[u]) {
             if (!line.cut) continue;
             const Vec3 across = tris[u].n.cross(line.along);
@@ -478,6 +497,23 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
                     if (std::abs(a) > near && std::abs(b) > near && a * b < 0.0) crossings.emplace_back(hs[e], a / (a - b));
                 }
                 if (on >= 2 || crossings.empty() || (on == 0 && crossings.size() != 2)) continue;
+                // Only a piece the contact's segment reaches, not every piece its line
+                // crosses: a large patch (patch_size "none", a floor under a finely
+                // meshed statue) cut across by the line of every short contact grew
+                // like the square of their count.
+                double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+                for (int e = 0; e < 3; ++e) {
+                    if (std::abs(s[e]) > near) continue;
+                    const double x = line.along.dot(to_eigen(mesh.point(mesh.from_vertex_handle(hs[e]))) - line.at);
+                    lo = std::min(lo, x), hi = std::max(hi, x);
+                }
+                for (const auto& [h, t] : crossings) {
+                    const Vec3 p = to_eigen(mesh.point(mesh.from_vertex_handle(h)));
+                    const Vec3 q = to_eigen(mesh.point(mesh.to_vertex_handle(h)));
+                    const double x = line.along.dot(p + t * (q - p) - line.at);
+                    lo = std::min(lo, x), hi = std::max(hi, x);
+                }
+                if (hi <= tol || lo >= line.length - tol) continue;
                 for (const auto& [h, t] : crossings) {
                     const auto v = split_edge(scene, h, t);
                     ++cuts.splits;
@@ -488,20 +524,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
             if (cut) ++cuts.lines;
             if (!cut && found) continue;  // the pieces as the last search found them
             found = true;
-            // The faces of origin u now: the connected pieces of the original triangle.
-            faces.clear();
-            ++visit;  // the faces marked with it are seen
-            seen.resize(mesh.n_faces(), 0);
-            std::vector<TriMesh::FaceHandle> stack(1, TriMesh::FaceHandle(static_cast<int>(u)));
-            while (!stack.empty()) {
-                const auto f = stack.back();
-                stack.pop_back();
-                if (seen[static_cast<std::size_t>(f.idx())] == visit) continue;
-                seen[static_cast<std::size_t>(f.idx())] = visit;
-                faces.push_back(f);
-                for (auto g : mesh.ff_range(f))
-                    if (mesh.property(origin, g) == static_cast<int>(u)) stack.push_back(g);
-            }
+            find_pieces(u);
         }
         // Where a contact ends inside an edge on its line, split the edge there; then
         // mark the edges on the contact.

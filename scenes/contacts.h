@@ -20,9 +20,11 @@
 // Near: within 1e-3 of the scene's bounding radius and 1e-2 of the smaller triangle's
 // size (a table top above a large ground plane does not touch it).
 //
-// A contact that crosses the patch's inside (not only its edges or corners) cuts it
-// along the line through it; the edges the line crosses are split with the patches
-// on their other side, so the mesh stays conforming; an edge on the line is split
+// A contact that crosses the patch's inside (not only its edges or corners) cuts the
+// pieces of the patch its segment reaches along the line through it (not every piece
+// the line crosses: a large patch under many short contacts would grow like the square
+// of their count); the edges the line crosses are split with the patches on their
+// other side, so the mesh stays conforming; an edge on the line is split
 // where the contact ends inside it. Vertices nearer a line than 1e-3 of the patch's
 // size count as on it, so no sliver is thinner than that. The edges on a contact
 // segment (those of the cuts, and edges a contact already ran along) become contact

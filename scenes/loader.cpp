@@ -232,6 +232,44 @@ void place_mesh(const Node& obj, MeshData& data) {
     }
 }
 
+// A mesh's vertices at the same place made one (as exporters write flat-shaded meshes
+// and scans: a vertex per face corner). Its triangles then share their edges, so that
+// its surface is one (computed normals smooth across its edges within the crease
+// angle; the file's normals stay per corner) and the contacts it makes are those of
+// its outline, not of every triangle's edges. The first of equal vertices is kept;
+// returns how many were merged.
+std::size_t weld(MeshData& data) {
+    const std::size_t n = data.vertices.size();
+    std::vector<std::uint32_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+    const auto key = [&](std::uint32_t i) {
+        const Vec3& v = data.vertices[i];
+        return std::array<double, 3>{v.x(), v.y(), v.z()};
+    };
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        const auto ka = key(a), kb = key(b);
+        return ka != kb ? ka < kb : a < b;
+    });
+    std::vector<int> first(n);
+    std::size_t merged = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+        const bool same = k > 0 && key(order[k]) == key(order[k - 1]);
+        first[order[k]] = same ? first[order[k - 1]] : static_cast<int>(order[k]);
+        merged += same;
+    }
+    if (merged == 0) return 0;
+    // Kept vertices in their order, the triangles renumbered.
+    std::vector<int> index(n, -1);
+    std::vector<Vec3> kept;
+    kept.reserve(n - merged);
+    for (std::size_t i = 0; i < n; ++i)
+        if (first[i] == static_cast<int>(i)) index[i] = static_cast<int>(kept.size()), kept.push_back(data.vertices[i]);
+    for (auto& t : data.triangles)
+        for (int& c : t) c = index[static_cast<std::size_t>(first[static_cast<std::size_t>(c)])];
+    data.vertices = std::move(kept);
+    return merged;
+}
+
 std::string rgb_text(const Rgb& c) {
     return "[" + format_number(c[0]) + ", " + format_number(c[1]) + ", " + format_number(c[2]) + "]";
 }
@@ -608,6 +646,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 for (int k : t)
                     if (k < 0 || k >= static_cast<int>(data.vertices.size()))
                         obj.fail("mesh", "face index " + std::to_string(k) + " out of range");
+            scene.welded_vertices += weld(data);
             // The file's normals unless the object asks for computed ones.
             const std::string source = obj.has("normals") ? obj.string("normals") : "auto";
             if (source != "auto" && source != "file" && source != "computed")

@@ -101,6 +101,7 @@ public:
     // exact answer of a solver truncated after D bounces is exact (1 - a^(D+1)).
     std::optional<double> homogeneous_albedo;
     std::size_t dropped_degenerate = 0;    // zero-area triangles removed on load
+    std::size_t welded_vertices = 0;       // mesh vertices merged with one at the same place
     std::vector<std::size_t> dropped_by_object;  // the same per object (index as object_names)
     // "dropped 3 zero-area triangles (Floor 1, Lamp 2)"; empty where none were.
     std::string dropped_summary() const;

@@ -255,6 +255,66 @@ TEST_CASE("contacts: a block through a floor, a decal on a wall", "[scenes][cont
     CHECK(scenes::cut_at_contacts(s).lines == 0);
 }
 
+TEST_CASE("contacts: many short contacts on one large patch cut it near them only", "[scenes][contacts]") {
+    // 60 fins 0.1 long standing at scattered places and angles on a floor of two
+    // triangles (patch_size "none"): each fin's contact cuts the pieces it reaches, not
+    // every piece its line crosses, so the floor grows with the fins' count, not its
+    // square (7,857 patches when each line crossed the whole floor). And every foot is
+    // cut: the feet of fins 1, 43, 49 and 55 were not, where the other floor triangle's
+    // cuts had split theirs along the diagonal before their turn.
+    scenes::Scene s;
+    scenes::Material m;
+    m.name = "w";
+    m.albedo = scenes::Rgb::Constant(0.5);
+    const int w = s.add_material(m);
+    s.add_object({{0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "floor");
+    const int fins = 60;
+    for (int k = 0; k < fins; ++k) {
+        const double x = 1.0 + 8.0 * std::fmod(0.618034 * k, 1.0), z = 1.0 + 8.0 * std::fmod(0.414214 * k + 0.1, 1.0);
+        const double a = 2.399963 * k, dx = 0.05 * std::cos(a), dz = 0.05 * std::sin(a);
+        s.add_object({{x - dx, 0, z - dz}, {x + dx, 0, z + dz}, {x + dx, 0.2, z + dz}, {x - dx, 0.2, z - dz}},
+                     {{{0, 1, 2}}, {{0, 2, 3}}}, w, "fin");
+    }
+    s.finalize();
+    scenes::cut_at_contacts(s);
+    std::size_t floor = 0;
+    for (const auto& p : s.patch_list()) floor += s.object_names[p.object] == "floor";
+    INFO("floor patches " << floor);
+    CHECK(floor < 12 * fins);
+    CHECK(area_of(s, "floor") == Approx(100.0));
+    // Every fin's foot is still a cut: each point of it lies on a floor patch's edge,
+    // within the cut's snapping (vertices within 1e-3 of the patch's size, 0.0142 here,
+    // count as on the line).
+    const auto& pos = s.vertex_positions();
+    const auto off_edges = [&](const Vec3& x) {  // the farthest x is inside a floor patch from its edges
+        double worst = 0.0;
+        for (const auto& p : s.patch_list()) {
+            if (s.object_names[p.object] != "floor") continue;
+            const Vec3 c[3] = {pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]};
+            const Vec3 n = (c[1] - c[0]).cross(c[2] - c[0]);
+            double edge = std::numeric_limits<double>::infinity();
+            bool inside = true;
+            for (int e = 0; e < 3; ++e) {
+                const Vec3 along = (c[(e + 1) % 3] - c[e]).normalized();
+                const double d = n.normalized().cross(along).dot(x - c[e]);  // inward distance
+                inside = inside && d > -1e-12;
+                edge = std::min(edge, d);
+            }
+            if (inside) worst = std::max(worst, edge);
+        }
+        return worst;
+    };
+    for (int k = 0; k < fins; ++k) {
+        const double x = 1.0 + 8.0 * std::fmod(0.618034 * k, 1.0), z = 1.0 + 8.0 * std::fmod(0.414214 * k + 0.1, 1.0);
+        const double a = 2.399963 * k, dx = 0.05 * std::cos(a), dz = 0.05 * std::sin(a);
+        double worst = 0.0;
+        for (int j = 1; j < 20; ++j) worst = std::max(worst, off_edges(Vec3(x - dx + 0.1 * dx * j, 0, z - dz + 0.1 * dz * j)));
+        INFO("fin " << k);
+        CHECK(worst < 0.0142);
+        CHECK(crossed(s, "floor", {x - dx, 0, z - dz}, {x + dx, 0, z + dz}) == 0);
+    }
+}
+
 TEST_CASE("contacts: patches on either side of a contact share no vertex", "[scenes][contacts]") {
     const auto scene = rooms(", \"patch_size\": 0.5");
     // The floor's corners at the partition's foot (x = 4, 0 < z < 1.5): every flat
