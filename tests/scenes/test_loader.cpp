@@ -164,6 +164,28 @@ TEST_CASE("a triangle with a corner given twice is dropped as zero-area in every
     CHECK(near.bounds_radius() < 1.0);
 }
 
+TEST_CASE("a mesh's vertices at one place are welded: its triangles share their edges", "[scenes]") {
+    // A bent quad as a flat-shaded exporter writes it: a vertex per corner of each
+    // triangle. Welded, the two triangles share their diagonal, so the computed normal
+    // at its ends is their mean (smooth: the bend is below the crease angle).
+    TempDir dir;
+    dir.write("split.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0.2\nv 0 0 0\nv 1 1 0.2\nv 0 1 0\nf 1 2 3\nf 4 5 6\n");
+    const Scene s = parse(scene_text(kCamera, kMaterials, R"({"mesh": "split.obj", "material": "white"})"),
+                          dir.path.string());
+    CHECK(s.welded_vertices == 2);
+    REQUIRE(s.patch_count() == 2);
+    const auto& a = s.patch_list()[0];
+    const auto& b = s.patch_list()[1];
+    int shared = 0;
+    for (int i : a.v)
+        for (int j : b.v) shared += i == j;
+    CHECK(shared == 2);
+    const Vec3 mean = (a.normal + b.normal).normalized();
+    for (int k = 0; k < 3; ++k)
+        if (a.v[k] == b.v[0] || a.v[k] == b.v[1] || a.v[k] == b.v[2])
+            CHECK((s.corner_normals()[0][k] - mean).norm() < 1e-9);
+}
+
 TEST_CASE("triangles OpenMesh cannot join are kept apart, and the warning says why", "[scenes]") {
     TempDir dir;
     const std::string v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0.5 0.5 1\nv -1 0 0\nv -1 -1 0\n";
