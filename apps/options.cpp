@@ -115,7 +115,8 @@ void add_scene_options(CLI::App& cmd, Command& c) {
     Flags& f = c.flags;
     f.row("", Identity::no, cmd.add_option("scene", c.scene_file, "scene file (JSON, see docs/scene-format.md), an OBJ model with its MTL, or a glTF 2.0 file (.gltf, .glb)"));
     f.row("", Identity::yes, cmd.add_option("--builtin", c.builtin, "a built-in scene instead of a file (see `raybundle scenes`)"));
-    f.row("", Identity::yes, cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)"));
+    f.row("", Identity::yes, cmd.add_option("-D", c.defines, "set a scene value: -D key=value (e.g. -D patch_size=20 -D camera.width=800)")
+                                          ->allow_extra_args(false));
     auto shortcut = [&](const char* flag, const char* key, const char* help, const CLI::Validator& check,
                         bool integer = false) {
         CLI::Option* option =
@@ -157,7 +158,8 @@ void add_solve_options(CLI::App& cmd, Command& c) {
         f.row(option, yes, cmd.add_flag_callback(on, [&v] { v = true; }, help));
         f.row(option, yes, cmd.add_flag_callback(off, [&v] { v = false; }, "not " + std::string(on)));
     };
-    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; or .glb: the patches with their radiance as vertex colours; repeat for several"),
+    f.row("output", no, cmd.add_option("-o,--output", c.images, "image file: .exr (linear), .png (sRGB) or .pfm; or .glb: the patches with their radiance as vertex colours; repeat for several")
+                                ->allow_extra_args(false),  // one file a use: "-o x.png scene.json" names the scene
           "-o");
     f.row("", no, cmd.add_option("--exposure", c.exposure, "PNG exposure in stops: 2^exposure * L, clamped, sRGB")->check(kFinite));
     f.row("method", yes, value("--method", s.method, "iteration | walk | combined | bidirectional; or pathtrace: no solve, a "
@@ -289,7 +291,10 @@ void add_solve_options(CLI::App& cmd, Command& c) {
 }
 
 void check_command(const CLI::App& cmd, Command& c) {
-    if (c.scene_file.empty() == c.builtin.empty()) throw UsageError("give exactly one of SCENE.json or --builtin NAME");
+    if (c.scene_file.empty() == c.builtin.empty())
+        throw UsageError("give exactly one of SCENE.json or --builtin NAME" +
+                         (c.scene_file.empty() ? std::string(" (neither given)")
+                                               : " (given: " + c.scene_file + " and --builtin " + c.builtin + ")"));
     scenes::Overrides shortcuts;
     shortcuts.swap(c.overrides);
     for (const auto& d : c.defines) {

@@ -60,7 +60,14 @@ expect_bad "patch_size <= 0" "patch_size: must be a positive number, got 0" solv
 expect_bad "no patches" "the scene has no patches" solve empty.json
 expect_bad "unknown backend" "unknown visibility backend 'zbufer' (known: exact-painter, painter" solve good.json --visibility zbufer
 expect_bad "unknown built-in" "unknown built-in scene 'teapot'" solve --builtin teapot
-expect_bad "scene and built-in" "exactly one of" solve good.json --builtin homogeneous-box
+expect_bad "scene and built-in" "exactly one of SCENE.json or --builtin NAME (given: good.json and --builtin homogeneous-box)" \
+  solve good.json --builtin homogeneous-box
+# -D and -o take one value a use: a scene after them is the scene, not a second value.
+"$bin" check -D patch_size=1 good.json >out.txt 2>err.txt
+check $? "check -D before the scene: $(cat err.txt)"
+rm -f first.png
+"$bin" solve -o first.png good.json --iterations 10 --gather 0 -q 2>err.txt && [ -s first.png ]
+check $? "solve -o before the scene: $(cat err.txt)"
 # Arguments no option takes: the first named, an unknown option with the nearest one.
 expect_bad "a misspelt option" "raybundle solve: unknown option --iteration (did you mean --iterations?)" \
   solve good.json --iteration 100
