@@ -444,7 +444,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
     for (auto f : mesh.faces()) mesh.property(origin, f) = f.idx();
     std::vector<TriMesh::FaceHandle> faces, work;
     std::vector<std::uint32_t> seen;  // per face: the last visit that reached it
-    std::uint32_t visit = 0;          // (one per line: far fewer than 2^32)
+    std::uint32_t visit = 0;          // (one per triangle and cutting line: far fewer than 2^32)
     auto faces_of = [&](std::size_t u, TriMesh::VertexHandle v) {  // the faces of origin u around v
         for (auto f : mesh.vf_range(v))
             if (mesh.property(origin, f) == static_cast<int>(u)) work.push_back(f);
@@ -471,8 +471,7 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
         // Every piece from the start: an earlier triangle's cut may have split this one
         // along their shared edge (its first line once met only the piece that kept
         // the face's handle, and was lost where it lay in another).
-        find_pieces(u);
-        bool found = true;  // faces holds every piece (found since the last split)
+        find_pieces(u);  // faces holds every piece from here on
         for (const Line& line : lines[u]) {
             if (!line.cut) continue;
             const Vec3 across = tris[u].n.cross(line.along);
@@ -521,9 +520,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
                 }
                 cut = true;
             }
-            if (cut) ++cuts.lines;
-            if (!cut && found) continue;  // the pieces as the last search found them
-            found = true;
+            if (!cut) continue;  // the pieces as the last search found them
+            ++cuts.lines;
             find_pieces(u);
         }
         // Where a contact ends inside an edge on its line, split the edge there; then
@@ -549,9 +547,8 @@ ContactCuts cut_at_contacts(Scene& scene, int threads, const PreparationTeam* te
                     if (split) break;  // one edge holds the point
                 }
                 // The faces again, in order: those around the faces' corners where a split
-                // made new ones or faces may lack some (pieces never searched for). All
-                // pieces of a triangle share edges: a search found every one.
-                if (!split && found) {
+                // made new ones.
+                if (!split) {
                     std::sort(faces.begin(), faces.end());
                     continue;
                 }

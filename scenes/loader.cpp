@@ -240,21 +240,22 @@ void place_mesh(const Node& obj, MeshData& data) {
 // returns how many were merged.
 std::size_t weld(MeshData& data) {
     const std::size_t n = data.vertices.size();
-    std::vector<std::uint32_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
-    const auto key = [&](std::uint32_t i) {
-        const Vec3& v = data.vertices[i];
-        return std::array<double, 3>{v.x(), v.y(), v.z()};
+    struct Keyed {
+        std::array<double, 3> at;
+        std::uint32_t index;
+        bool operator<(const Keyed& o) const { return at != o.at ? at < o.at : index < o.index; }
     };
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        const auto ka = key(a), kb = key(b);
-        return ka != kb ? ka < kb : a < b;
-    });
+    std::vector<Keyed> order(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3& v = data.vertices[i];
+        order[i] = {{v.x(), v.y(), v.z()}, static_cast<std::uint32_t>(i)};
+    }
+    std::sort(order.begin(), order.end());
     std::vector<int> first(n);
     std::size_t merged = 0;
     for (std::size_t k = 0; k < n; ++k) {
-        const bool same = k > 0 && key(order[k]) == key(order[k - 1]);
-        first[order[k]] = same ? first[order[k - 1]] : static_cast<int>(order[k]);
+        const bool same = k > 0 && order[k].at == order[k - 1].at;
+        first[order[k].index] = same ? first[order[k - 1].index] : static_cast<int>(order[k].index);
         merged += same;
     }
     if (merged == 0) return 0;

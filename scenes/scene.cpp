@@ -24,8 +24,16 @@ Scene::Scene() {
 
 namespace {
 
-// No area to the precision of its size (finalize()'s and add_object()'s test).
-bool zero_area(const Vec3& a, const Vec3& b, const Vec3& c) {
+// No area to the precision of its size (finalize()'s and add_object()'s test), the same
+// answer whichever corner comes first: measured from the least corner (a triangle at
+// the threshold is not kept by one and dropped by the other).
+bool zero_area(Vec3 a, Vec3 b, Vec3 c) {
+    const auto less = [](const Vec3& p, const Vec3& q) {
+        return std::lexicographical_compare(p.data(), p.data() + 3, q.data(), q.data() + 3);
+    };
+    if (less(b, a)) std::swap(a, b);
+    if (less(c, a)) std::swap(a, c);
+    if (less(c, b)) std::swap(b, c);
     const double area2 = (b - a).cross(c - a).norm();
     const double scale = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
     return !(area2 > 1e-12 * scale);
@@ -106,6 +114,11 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
         if (!f.is_valid()) {
             // Non-manifold input (OpenMesh refuses the face): keep it as a separate triangle.
             bool same_way = false, shared = false;
+            // The back of a sheet whose front is there (an export's two-sided surface,
+            // welded): kept apart as before welding, no warning.
+            const auto back = mesh.find_halfedge(corner[1], corner[0]);
+            const bool sheet = back.is_valid() && !mesh.is_boundary(back) &&
+                               mesh.to_vertex_handle(mesh.next_halfedge_handle(back)) == corner[2];
             for (int c = 0; c < 3; ++c) {
                 const auto h = mesh.find_halfedge(corner[c], corner[(c + 1) % 3]);
                 const auto back = mesh.find_halfedge(corner[(c + 1) % 3], corner[c]);
@@ -114,7 +127,7 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
                 shared = shared || (used && used_back);
                 same_way = same_way || used;
             }
-            ++(shared ? crowded : same_way ? flipped : pinched);
+            if (!sheet) ++(shared ? crowded : same_way ? flipped : pinched);
             for (int c = 0; c < 3; ++c) corner[c] = mesh.add_vertex(to_om(vertices[t[c]]));
             f = mesh.add_face(corner[0], corner[1], corner[2]);
         }

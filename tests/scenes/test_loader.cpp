@@ -173,6 +173,15 @@ TEST_CASE("a mesh's vertices at one place are welded: its triangles share their 
     const Scene s = parse(scene_text(kCamera, kMaterials, R"({"mesh": "split.obj", "material": "white"})"),
                           dir.path.string());
     CHECK(s.welded_vertices == 2);
+    // A sheet exported as its front and its back, each with vertices of its own: the
+    // back kept apart from the front, as before welding, without a warning.
+    dir.write("sheet.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                           "f 1 2 3\nf 1 3 4\nf 5 7 6\nf 5 8 7\n");
+    const Scene sheet = parse(scene_text(kCamera, kMaterials, R"({"mesh": "sheet.obj", "material": "white"})"),
+                              dir.path.string());
+    CHECK(sheet.welded_vertices == 4);
+    CHECK(sheet.patch_count() == 4);
+    CHECK(sheet.warnings.empty());
     REQUIRE(s.patch_count() == 2);
     const auto& a = s.patch_list()[0];
     const auto& b = s.patch_list()[1];
