@@ -6,10 +6,30 @@
 //    terms (a field of SolverOptions, GatherOptions, ...); the command line maps the
 //    name to its flag.
 // Anything else a library throws is a failure, not the user's fault.
+#include <algorithm>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace raybundle::scenes {
+
+// Edits (insertions, deletions, substitutions) between a and b: the "did you mean"
+// of a message (an unknown option, an unknown glTF key).
+inline std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
 
 // `text` with its control characters (newlines, tabs, escape sequences: bytes below 32
 // and 127) written as \n, \t or \xHH, so that a message with a file name or a string

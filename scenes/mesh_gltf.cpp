@@ -148,20 +148,6 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
     std::size_t unknown = 0;  // the first 20 named, the others counted
     const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
     if (!doc.is_object()) return out;  // tinygltf says what is wrong with it
-    const auto distance = [](const std::string& a, const std::string& b) {
-        std::vector<std::size_t> row(b.size() + 1);
-        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-        for (std::size_t i = 1; i <= a.size(); ++i) {
-            std::size_t diagonal = row[0];
-            row[0] = i;
-            for (std::size_t j = 1; j <= b.size(); ++j) {
-                const std::size_t up = row[j];
-                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-                diagonal = up;
-            }
-        }
-        return row[b.size()];
-    };
     const auto check = [&](const nlohmann::json& object, const std::string& where,
                            std::initializer_list<const char*> known) {
         if (!object.is_object()) return;
@@ -173,7 +159,7 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
                 if (it.key() == k) found = true;
                 // Within 2 edits, or a name it begins ("roughness": roughnessFactor).
                 const bool begins = it.key().size() >= 4 && std::string(k).rfind(it.key(), 0) == 0;
-                if (const std::size_t d = begins ? 1 : distance(it.key(), k); d < best) best = d, nearest = k;
+                if (const std::size_t d = begins ? 1 : edit_distance(it.key(), k); d < best) best = d, nearest = k;
             }
             if (found) continue;
             if (++unknown > 20) continue;

@@ -100,12 +100,19 @@ void collect_hit(const RTCFilterFunctionNArguments* args) {
     }
 }
 
+void front_of_two_sided(const RTCFilterFunctionNArguments* args);
+
 // An intersect context that passes over the back of two-sided patches (their twins
-// face the ray at the same place).
+// face the ray at the same place); none where the scene has no two-sided patch.
 struct FrontContext {
     RTCIntersectContext context;  // first member
     const std::vector<char>* two_sided;
     const std::vector<float>* normals;
+    FrontContext(bool any, const std::vector<char>& sided, const std::vector<float>& facing)
+        : two_sided(&sided), normals(&facing) {
+        rtcInitIntersectContext(&context);
+        if (any) context.filter = front_of_two_sided;
+    }
 };
 
 void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
@@ -125,13 +132,7 @@ void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
 
 bool RayCaster::occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     // The filter intersect() uses: a hit is the same hit here, so the answer is its.
-    FrontContext ctx;
-    rtcInitIntersectContext(&ctx.context);
-    if (impl_->any_two_sided) {
-        ctx.context.filter = front_of_two_sided;
-        ctx.two_sided = &impl_->two_sided;
-        ctx.normals = &impl_->normals;
-    }
+    FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
     RTCRay ray = make_ray(org, dir, t_min, t_max).ray;
     rtcOccluded1(impl_->scene, &ctx.context, &ray);
     return ray.tfar < 0.0f;  // -inf where a hit was found
@@ -156,13 +157,7 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
 }
 
 RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
-    FrontContext ctx;
-    rtcInitIntersectContext(&ctx.context);
-    if (impl_->any_two_sided) {
-        ctx.context.filter = front_of_two_sided;
-        ctx.two_sided = &impl_->two_sided;
-        ctx.normals = &impl_->normals;
-    }
+    FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
     RTCRayHit rh = make_ray(org, dir, t_min, t_max);
     rtcIntersect1(impl_->scene, &ctx.context, &rh);
     RayHit hit;
