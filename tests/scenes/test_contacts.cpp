@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 using namespace raybundle;
@@ -231,13 +232,20 @@ TEST_CASE("contacts: the Cornell box as modelled is cut around its blocks and it
     CHECK(cut_box.contact_lines == 0);
 }
 
-TEST_CASE("contacts: a block through a floor, a decal on a wall", "[scenes][contacts]") {
+// A 10 x 10 floor of two triangles in a grey material `w` (material 0), not finalized.
+scenes::Scene grey_floor() {
     scenes::Scene s;
     scenes::Material m;
     m.name = "w";
     m.albedo = scenes::Rgb::Constant(0.5);
-    const int w = s.add_material(m);
-    s.add_object({{0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "floor");
+    s.add_material(m);
+    s.add_object({{0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, 0, "floor");
+    return s;
+}
+
+TEST_CASE("contacts: a block through a floor, a decal on a wall", "[scenes][contacts]") {
+    scenes::Scene s = grey_floor();
+    const int w = 0;
     // A vertical square crossing the floor (from y = -1 to 1) along z = 3, x 2..8.
     s.add_object({{2, -1, 3}, {8, -1, 3}, {8, 1, 3}, {2, 1, 3}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "fin");
     // A decal 1e-6 above the floor, x 6..7, z 6..7.
@@ -262,18 +270,16 @@ TEST_CASE("contacts: many short contacts on one large patch cut it near them onl
     // square (7,857 patches when each line crossed the whole floor). And every foot is
     // cut: the feet of fins 1, 43, 49 and 55 were not, where the other floor triangle's
     // cuts had split theirs along the diagonal before their turn.
-    scenes::Scene s;
-    scenes::Material m;
-    m.name = "w";
-    m.albedo = scenes::Rgb::Constant(0.5);
-    const int w = s.add_material(m);
-    s.add_object({{0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, w, "floor");
+    scenes::Scene s = grey_floor();
     const int fins = 60;
+    std::vector<std::pair<Vec3, Vec3>> feet;  // each fin's ends on the floor
     for (int k = 0; k < fins; ++k) {
         const double x = 1.0 + 8.0 * std::fmod(0.618034 * k, 1.0), z = 1.0 + 8.0 * std::fmod(0.414214 * k + 0.1, 1.0);
-        const double a = 2.399963 * k, dx = 0.05 * std::cos(a), dz = 0.05 * std::sin(a);
-        s.add_object({{x - dx, 0, z - dz}, {x + dx, 0, z + dz}, {x + dx, 0.2, z + dz}, {x - dx, 0.2, z - dz}},
-                     {{{0, 1, 2}}, {{0, 2, 3}}}, w, "fin");
+        const double a = 2.399963 * k;
+        const Vec3 half(0.05 * std::cos(a), 0, 0.05 * std::sin(a)), up(0, 0.2, 0);
+        feet.emplace_back(Vec3(x, 0, z) - half, Vec3(x, 0, z) + half);
+        const auto& [p, q] = feet.back();
+        s.add_object({p, q, q + up, p + up}, {{{0, 1, 2}}, {{0, 2, 3}}}, 0, "fin");
     }
     s.finalize();
     scenes::cut_at_contacts(s);
@@ -305,13 +311,12 @@ TEST_CASE("contacts: many short contacts on one large patch cut it near them onl
         return worst;
     };
     for (int k = 0; k < fins; ++k) {
-        const double x = 1.0 + 8.0 * std::fmod(0.618034 * k, 1.0), z = 1.0 + 8.0 * std::fmod(0.414214 * k + 0.1, 1.0);
-        const double a = 2.399963 * k, dx = 0.05 * std::cos(a), dz = 0.05 * std::sin(a);
+        const auto& [p, q] = feet[static_cast<std::size_t>(k)];
         double worst = 0.0;
-        for (int j = 1; j < 20; ++j) worst = std::max(worst, off_edges(Vec3(x - dx + 0.1 * dx * j, 0, z - dz + 0.1 * dz * j)));
+        for (int j = 1; j < 20; ++j) worst = std::max(worst, off_edges(p + (q - p) * (j / 20.0)));
         INFO("fin " << k);
         CHECK(worst < 0.0142);
-        CHECK(crossed(s, "floor", {x - dx, 0, z - dz}, {x + dx, 0, z + dz}) == 0);
+        CHECK(crossed(s, "floor", p, q) == 0);
     }
 }
 
