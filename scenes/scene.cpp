@@ -116,9 +116,9 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
             bool same_way = false, shared = false;
             // The back of a sheet whose front is there (an export's two-sided surface,
             // welded): kept apart as before welding, no warning.
-            const auto back = mesh.find_halfedge(corner[1], corner[0]);
-            const bool sheet = back.is_valid() && !mesh.is_boundary(back) &&
-                               mesh.to_vertex_handle(mesh.next_halfedge_handle(back)) == corner[2];
+            const auto front = mesh.find_halfedge(corner[1], corner[0]);
+            const bool sheet = front.is_valid() && !mesh.is_boundary(front) &&
+                               mesh.to_vertex_handle(mesh.next_halfedge_handle(front)) == corner[2];
             for (int c = 0; c < 3; ++c) {
                 const auto h = mesh.find_halfedge(corner[c], corner[(c + 1) % 3]);
                 const auto back = mesh.find_halfedge(corner[(c + 1) % 3], corner[c]);
@@ -247,11 +247,11 @@ std::string Scene::dropped_summary() const {
     std::size_t named = 0, more = 0;
     for (std::size_t i = 0; i < dropped_by_object.size() && i < object_names.size(); ++i) {
         if (dropped_by_object[i] == 0) continue;
-        if (named++ == 4) {
+        if (named == 4) {
             ++more;
-            --named;
             continue;
         }
+        ++named;
         per += (per.empty() ? "" : ", ") + object_names[i] + " " + std::to_string(dropped_by_object[i]);
     }
     if (more > 0) per += " and " + std::to_string(more) + " more object" + (more == 1 ? "" : "s");
