@@ -2,12 +2,7 @@
 
 #include "visibility/backend.h"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <string>
 
 namespace raybundle::render {
@@ -30,51 +25,7 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene) {
     return need;
 }
 
-std::uint64_t memory_available() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-    std::uint64_t total = pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page) : 0;
-    auto consider = [&total](const std::string& file) {
-        std::ifstream in(file);
-        unsigned long long limit = 0;  // "max" (unlimited) does not parse
-        if (in >> limit && limit > 0 && (total == 0 || limit < total)) total = limit;
-    };
-    // The process's control group and every group above it (a limit set by systemd or a
-    // batch system sits below the top): "0::/path" for cgroup v2, "N:...memory...:/path"
-    // for v1. Paths outside this mount namespace do not exist and are skipped; the top
-    // level is read in any case.
-    std::ifstream groups("/proc/self/cgroup");
-    std::string line;
-    while (std::getline(groups, line)) {
-        const auto a = line.find(':'), b = a == std::string::npos ? a : line.find(':', a + 1);
-        if (b == std::string::npos) continue;
-        const std::string controllers = "," + line.substr(a + 1, b - a - 1) + ",";
-        std::string base, file;
-        if (controllers == ",,") {
-            base = "/sys/fs/cgroup", file = "memory.max";
-        } else if (controllers.find(",memory,") != std::string::npos) {
-            base = "/sys/fs/cgroup/memory", file = "memory.limit_in_bytes";
-        } else {
-            continue;
-        }
-        for (std::filesystem::path p = line.substr(b + 1);; p = p.parent_path()) {
-            consider(base + (p.string() == "/" ? "" : p.string()) + "/" + file);
-            if (!p.has_relative_path()) break;
-        }
-    }
-    consider("/sys/fs/cgroup/memory.max");
-    consider("/sys/fs/cgroup/memory/memory.limit_in_bytes");
-    return total;
-}
-
-namespace {
-
-std::string gigabytes(double bytes) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
-    return text;
-}
-
-}  // namespace
+using scenes::gigabytes;
 
 void require_memory(const RunConfig& c, const scenes::Scene& scene) {
     const std::uint64_t available = memory_available();

@@ -16,6 +16,7 @@
 // the Cornell box of 3,722 to 482,224 patches on 1 to 16 threads peaked between 19 %
 // below and 4 % above it (docs/benchmarks.md, "Memory per thread").
 #include "render/run.h"
+#include "scenes/machine.h"
 
 #include <cstdint>
 
@@ -29,7 +30,7 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene);
 
 // The physical memory, or the lowest limit of the process's control group and the
 // groups above it where that is lower (bytes; 0 when none can be read).
-std::uint64_t memory_available();
+using scenes::memory_available;
 
 // Throws RunError where the run cannot fit in memory_available(): one line with the
 // need, its parts, what the machine has, and what to make smaller.

@@ -379,8 +379,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
         return s;
     }
     s.finalize(threads);
-    check_refinement(s, size, name);
-    subdivide(s, size, threads, Finish::leave_mesh);  // the cuts finalize
+    refine_within(s, size, name, patch_budget(), threads, Finish::leave_mesh);  // the cuts finalize
     s.refinement = line.str();
     cut_at_contacts(s, threads, team);
     return s;

@@ -475,6 +475,7 @@ namespace {
 // scene's largest extent, so that a room modelled with one quad a wall is not solved
 // as a dozen patches; "none" keeps the patches as modelled. Records the decision.
 void refine(Scene& scene, const Node& root, const std::string& shown, const LoadLimits& limits, Finish finish) {
+    const PatchBudget budget = patch_budget(limits.max_patches, limits.memory);
     double size = 0.0;
     if (root.has("patch_size") && root.raw("patch_size").is_string()) {
         const std::string word = root.string("patch_size");
@@ -487,7 +488,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
     if (root.has("patch_size") && !root.raw("patch_size").is_string()) {
         size = root.number("patch_size");
         scene.refinement = "patch size " + format_number(size) + " (the scene's)";
-        check_refinement(scene, size, shown, limits.max_patches);
+        refine_within(scene, size, shown, budget, limits.threads, finish);
     } else {
         const auto& pos = scene.vertex_positions();
         Vec3 lo = pos.front(), hi = lo;
@@ -497,7 +498,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
         scene.refinement = "patch size " + format_number(size) + " (automatic: 1/25 of the scene's largest extent, " +
                            format_number(extent) + "; \"patch_size\" sets it, \"none\" keeps the patches as modelled)";
         try {
-            check_refinement(scene, size, shown, limits.max_patches);
+            refine_within(scene, size, shown, budget, limits.threads, finish);
         } catch (const SceneError& e) {
             const std::string what = e.what(), key = "patch_size: ";
             const auto at = what.find(key);
@@ -506,7 +507,6 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
                                                       ": set \"patch_size\" to a larger number or \"none\"");
         }
     }
-    subdivide(scene, size, limits.threads, finish);
 }
 
 }  // namespace

@@ -36,6 +36,7 @@ Scene load_scene(const std::string& path, const Overrides& overrides = {}, int t
 // that prepare it.
 struct LoadLimits {
     double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
+    std::uint64_t memory = memory_available();  // bytes the preparation may hold (0: no bound)
     int threads = 1;                   // the preparation (refinement, contacts)
     const PreparationTeam* team = nullptr;  // the processes sharing the contact search
 };

@@ -2,6 +2,7 @@
 
 #include "scenes/buffer.h"
 #include "scenes/errors.h"
+#include "scenes/machine.h"
 #include "scenes/threads.h"
 
 #include <cmath>
@@ -91,6 +92,8 @@ public:
     SplitMesh(const Scene& scene, int threads);
 
     std::size_t edges() const { return contact.size(); }
+    std::size_t faces() const { return face_half.size(); }
+    int sides(int e) const { return (he[2 * e].face >= 0 ? 1 : 0) + (he[2 * e + 1].face >= 0 ? 1 : 0); }
     double sqr_length(int e) const { return (point[he[2 * e].to] - point[he[2 * e + 1].to]).sqrnorm(); }
     // Splits the edges at their midpoints, the mesh becoming what split_edge(scene,
     // halfedge 0, 0.5) on each in this order makes; no edge twice.
@@ -277,7 +280,7 @@ void SplitMesh::split_all(const std::vector<int>& order, int threads) {
     Slots next_free{static_cast<int>(point.size()), old_edges, old_faces};
     for (std::size_t i = 0; i < k; ++i) {
         const int e = order[i];
-        const int sides = (he[2 * e].face >= 0 ? 1 : 0) + (he[2 * e + 1].face >= 0 ? 1 : 0);
+        const int sides = this->sides(e);
         slots[i] = next_free;
         next_free.vertex += 1, next_free.edge += 1 + sides, next_free.face += sides;
     }
@@ -432,7 +435,10 @@ void SplitMesh::write_back(Scene& scene, int threads) const {
 
 }  // namespace
 
-std::size_t subdivide(Scene& scene, double max_edge, int threads, Finish finish) {
+PatchLimit::PatchLimit(std::size_t count)
+    : std::runtime_error("refinement would make " + std::to_string(count) + " patches or more"), patches(count) {}
+
+std::size_t subdivide(Scene& scene, double max_edge, int threads, Finish finish, double max_patches) {
     const double limit2 = max_edge * max_edge;
     SplitMesh mesh(scene, threads);
     // Room for the refined mesh at once: reserved, not touched, so a count too high costs
@@ -446,7 +452,7 @@ std::size_t subdivide(Scene& scene, double max_edge, int threads, Finish finish)
         for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[p.v[k]] - pos[p.v[(k + 1) % 3]]).norm());
         faces += std::max({1.0, p.area / (limit2 / 12.0), 2.0 * longest / max_edge});
     }
-    faces = std::min(faces, 2.0 * kMaxPatches);
+    faces = std::min(faces, max_patches);  // never more: the passes stop there
     const auto f = static_cast<std::size_t>(faces);
     mesh.reserve(scene.mesh.n_vertices() + f / 2 + 64, scene.mesh.n_edges() + 3 * f / 2 + 64, f + 64);
     std::size_t splits = 0;
@@ -476,6 +482,10 @@ std::size_t subdivide(Scene& scene, double max_edge, int threads, Finish finish)
         // Each listed edge is split: only its own split moves its ends.
         order.resize(long_edges.size());
         for (std::size_t i = 0; i < long_edges.size(); ++i) order[i] = long_edges[i].second;
+        // Each split makes a face on each side of its edge.
+        std::size_t faces_after = mesh.faces();
+        for (const int e : order) faces_after += mesh.sides(e);
+        if (static_cast<double>(faces_after) > max_patches) throw PatchLimit(faces_after);
         mesh.split_all(order, threads);
         splits += order.size();
     }
@@ -569,11 +579,38 @@ std::size_t refine_patches(Scene& scene, const std::vector<double>& max_edge, st
     return splits;
 }
 
-void check_refinement(const Scene& scene, double max_edge, const std::string& shown, double max_patches) {
+namespace {
+
+// A count with thousands separators: 20,000,000.
+std::string grouped(double count) {
+    std::ostringstream text;
+    text.imbue(std::locale::classic());
+    text << std::fixed << std::setprecision(0) << count;
+    std::string digits = text.str();
+    for (int k = static_cast<int>(digits.size()) - 3; k > 0; k -= 3) digits.insert(static_cast<std::size_t>(k), ",");
+    return digits;
+}
+
+std::string shown_size(double max_edge) {
     std::ostringstream size;
     size << max_edge;
+    return size.str();
+}
+
+}  // namespace
+
+PatchBudget patch_budget(double max_patches, std::uint64_t memory) {
+    const double held = static_cast<double>(memory) / kPreparationBytes;
+    if (memory > 0 && held < max_patches)
+        return {held, "limit " + grouped(held) + ": about " + shown_size(kPreparationBytes / 1e3) +
+                          " KB each while the scene is prepared, and this machine has " +
+                          gigabytes(static_cast<double>(memory))};
+    return {max_patches, "limit " + grouped(max_patches)};
+}
+
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown, const PatchBudget& budget) {
     if (!(max_edge > 0.0) || !std::isfinite(max_edge))
-        throw SceneError(shown, "patch_size", "must be a positive number, got " + size.str());
+        throw SceneError(shown, "patch_size", "must be a positive number, got " + shown_size(max_edge));
     // Per triangle, the pieces its area needs or, for a sliver, its longest edge: a
     // 1000 x 0.001 sliver has little area but is cut along all of its length.
     double estimate = 0.0;
@@ -583,15 +620,20 @@ void check_refinement(const Scene& scene, double max_edge, const std::string& sh
         for (int k = 0; k < 3; ++k) longest = std::max(longest, (pos[p.v[k]] - pos[p.v[(k + 1) % 3]]).norm());
         estimate += std::max({1.0, p.area / (0.25 * max_edge * max_edge), longest / max_edge});
     }
-    if (estimate > max_patches) {
-        std::ostringstream count, limit;
-        count << estimate;
-        limit.imbue(std::locale::classic());
-        limit << std::fixed << std::setprecision(0) << max_patches;
-        std::string digits = limit.str();
-        for (int k = static_cast<int>(digits.size()) - 3; k > 0; k -= 3) digits.insert(static_cast<std::size_t>(k), ",");
+    if (estimate > budget.patches)
         throw SceneError(shown, "patch_size",
-                         size.str() + " would make about " + count.str() + " patches (limit " + digits + ")");
+                         shown_size(max_edge) + " would make about " + grouped(estimate) + " patches (" + budget.why + ")");
+}
+
+std::size_t refine_within(Scene& scene, double max_edge, const std::string& shown, const PatchBudget& budget,
+                          int threads, Finish finish) {
+    check_refinement(scene, max_edge, shown, budget);
+    try {
+        return subdivide(scene, max_edge, threads, finish, budget.patches);
+    } catch (const PatchLimit& e) {
+        throw SceneError(shown, "patch_size",
+                         shown_size(max_edge) + " makes " + grouped(static_cast<double>(e.patches)) +
+                             " patches or more (" + budget.why + ")");
     }
 }
 

@@ -1,7 +1,9 @@
 #pragma once
+#include "scenes/machine.h"
 #include "scenes/scene.h"
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -20,8 +22,17 @@ namespace raybundle::scenes {
 // Finish::leave_mesh leaves that to the caller (cut_at_contacts() does it): the mesh is
 // refined, the flat arrays (patch_list() and the rest) still the coarse scene's, its
 // bounds unchanged by midpoints. Returns the number of splits.
+// Before each pass the patches it will leave are known exactly: where they pass
+// `max_patches`, subdivide() throws PatchLimit with that count, the scene untouched
+// (the passes work on a copy of the mesh, written back at the end).
 enum class Finish { finalize, leave_mesh };
-std::size_t subdivide(Scene& scene, double max_edge, int threads = 1, Finish finish = Finish::finalize);
+inline constexpr double kMaxPatches = 2e7;
+struct PatchLimit : std::runtime_error {
+    explicit PatchLimit(std::size_t patches);
+    std::size_t patches;  // after the pass that would have passed the limit: at least this many
+};
+std::size_t subdivide(Scene& scene, double max_edge, int threads = 1, Finish finish = Finish::finalize,
+                      double max_patches = kMaxPatches);
 
 // Refines chosen patches: patch i (scene.patch_list() order) is cut until no piece of it
 // has an edge longer than max_edge[i] (infinity, or any value at least its longest edge:
@@ -49,8 +60,23 @@ TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double
 // cuts a sliver along all of its longest edge: throws SceneError (naming `shown`) when
 // the larger of the two counts, summed over the triangles, passes `max_patches` (20
 // million by default: more than any run can hold), or when max_edge is not a positive
-// number.
-inline constexpr double kMaxPatches = 2e7;
-void check_refinement(const Scene& scene, double max_edge, const std::string& shown, double max_patches = kMaxPatches);
+// number. The count is a lower bound (refinement leaves max_edge^2 / 6 on average): a
+// scene it lets through may still be stopped by subdivide()'s exact count, a pass in.
+// The limit is a PatchBudget: max_patches, or fewer where the machine's memory
+// (scenes/machine.h) holds fewer while the scene is prepared, at kPreparationBytes a
+// patch (the peak resident memory of `raybundle check` on a scene in millimetres refined
+// to 1.3 and 5.1 million patches: 0.83 and 1.13 KB a patch). Its `why` ends the error.
+inline constexpr double kPreparationBytes = 1200.0;
+struct PatchBudget {
+    double patches;
+    std::string why;  // "limit 20,000,000", or the memory's reason
+};
+PatchBudget patch_budget(double max_patches = kMaxPatches, std::uint64_t memory = memory_available());
+void check_refinement(const Scene& scene, double max_edge, const std::string& shown, const PatchBudget& budget);
+
+// check_refinement(), then subdivide(), its PatchLimit thrown as SceneError naming
+// `shown`: "patch_size: 0.5 makes 20,312,448 patches or more (limit 20,000,000)".
+std::size_t refine_within(Scene& scene, double max_edge, const std::string& shown, const PatchBudget& budget,
+                          int threads = 1, Finish finish = Finish::finalize);
 
 }  // namespace raybundle::scenes

@@ -88,6 +88,22 @@ TEST_CASE("without a patch size a scene is refined to 1/25 of its largest extent
     CHECK_THROWS_WITH(parse_scene(doc, "s.json", ".", {}, few),
                       Contains("s.json: patch_size: the automatic size (1/25 of the largest extent) 0.16 would make about") &&
                           Contains("(limit 500): set \"patch_size\" to a larger number or \"none\""));
+    // The estimate is a lower bound; where it lets a size through that makes more, the
+    // refinement stops at the pass that would pass the limit, with the count it makes.
+    LoadLimits exact;
+    exact.max_patches = static_cast<double>(automatic.patch_count()) - 1.0;
+    CHECK_THROWS_WITH(parse_scene(doc, "s.json", ".", {}, exact),
+                      Contains("s.json: patch_size: the automatic size (1/25 of the largest extent) 0.16 makes ") &&
+                          Contains(" patches or more (limit "));
+    exact.max_patches += 1.0;
+    CHECK(parse_scene(doc, "s.json", ".", {}, exact).patch_count() == automatic.patch_count());
+    // A machine whose memory holds fewer patches than the limit while the scene is
+    // prepared lowers it, and says why.
+    LoadLimits small;
+    small.memory = 100 * 1200;  // 100 patches' preparation
+    CHECK_THROWS_WITH(parse_scene(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": 0.25)"), "s.json", ".", {}, small),
+                      Contains("s.json: patch_size: 0.25 would make about 320 patches (limit 100: about 1.2 KB each while "
+                               "the scene is prepared, and this machine has 120 KB)"));
     // The built-in scenes say theirs.
     CHECK_THAT(load_builtin("homogeneous-box").refinement, Contains("patch size 0.2 (the built-in scene's default)"));
     CHECK_THAT(load_builtin("homogeneous-box", {{"patch_size", "0.5"}}).refinement, Contains("patch size 0.5 (given)"));
