@@ -73,22 +73,46 @@ bool apart(const std::array<P2, 3>& a, const std::array<P2, 3>& b) {
     return false;
 }
 
-// Whether a triangle meets the closed square of side `side` at `corner` (separating
-// axes: the square's two, then the triangle's three edge normals).
-bool meets_square(const std::array<P2, 3>& t, const P2& corner, double side) {
-    P2 lo = t[0], hi = t[0];
-    for (const P2& c : t) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
-    if (hi.x() < corner.x() || lo.x() > corner.x() + side || hi.y() < corner.y() || lo.y() > corner.y() + side)
-        return false;
-    const std::array<P2, 4> square = {corner, corner + P2(side, 0), corner + P2(side, side), corner + P2(0, side)};
+// Whether a triangle meets the closed rectangle lo..hi (separating axes: the
+// rectangle's two, then the triangle's three edge normals).
+bool meets_rectangle(const std::array<P2, 3>& t, const P2& lo, const P2& hi) {
+    P2 t_lo = t[0], t_hi = t[0];
+    for (const P2& c : t) t_lo = t_lo.cwiseMin(c), t_hi = t_hi.cwiseMax(c);
+    if (t_hi.x() < lo.x() || t_lo.x() > hi.x() || t_hi.y() < lo.y() || t_lo.y() > hi.y()) return false;
+    const std::array<P2, 4> corners = {lo, P2(hi.x(), lo.y()), hi, P2(lo.x(), hi.y())};
     for (int e = 0; e < 3; ++e) {
         const P2 d = t[(e + 1) % 3] - t[e], axis(-d.y(), d.x());
         const auto [a0, a1] = extent(t, axis);
-        double b0 = axis.dot(square[0]), b1 = b0;
-        for (const P2& c : square) b0 = std::min(b0, axis.dot(c)), b1 = std::max(b1, axis.dot(c));
+        double b0 = axis.dot(corners[0]), b1 = b0;
+        for (const P2& c : corners) b0 = std::min(b0, axis.dot(c)), b1 = std::max(b1, axis.dot(c));
         if (a1 < b0 || b1 < a0) return false;
     }
     return true;
+}
+
+// The cells (x, y) of the block x0..x1, y0..y1 (inclusive) that a triangle meets: the
+// block tested first, then its halves, so that a sliver across many cells costs tests
+// along it, not over its bounding box (a diagonal sliver of 2,000 cells: 2,000 x 2,000
+// cells of its box tested one by one).
+template <class Out>
+void list_squares(const std::array<P2, 3>& t, long long x0, long long y0, long long x1, long long y1, double cell,
+                  const Out& out) {
+    if (!meets_rectangle(t, P2(static_cast<double>(x0) * cell, static_cast<double>(y0) * cell),
+                         P2(static_cast<double>(x1 + 1) * cell, static_cast<double>(y1 + 1) * cell)))
+        return;
+    if (x0 == x1 && y0 == y1) {
+        out(x0, y0);
+        return;
+    }
+    if (x1 - x0 >= y1 - y0) {
+        const long long mid = x0 + (x1 - x0) / 2;
+        list_squares(t, x0, y0, mid, y1, cell, out);
+        list_squares(t, mid + 1, y0, x1, y1, cell, out);
+    } else {
+        const long long mid = y0 + (y1 - y0) / 2;
+        list_squares(t, x0, y0, x1, mid, cell, out);
+        list_squares(t, x0, mid + 1, x1, y1, cell, out);
+    }
 }
 
 }  // namespace
@@ -126,7 +150,7 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
 
     // The planes of two patches or more, each with a 2-D frame relative to its first
     // corner (offsets far from the origin keep their precision) and a uniform grid of
-    // cells about two patches wide.
+    // cells about two patches wide (or wider: see below).
     struct Plane {
         std::size_t begin, end;  // its patches: keys[begin .. end)
         Vec3 u, v, origin;
@@ -171,6 +195,18 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
             box[k] = {lo, hi};
         }
     });
+    // Cells two patches wide by area are a sliver's width: each sliver was listed along
+    // all of its length (2,000 slivers of 1 x 1e-7 in a plane: 4.5 million listings,
+    // 240 MB). So a plane's cells are at least its median member's box (the longer side).
+    std::vector<double> sides;
+    for (std::size_t g = 0, k0 = 0; g < planes.size(); ++g) {
+        const std::size_t count = planes[g].end - planes[g].begin;
+        sides.resize(count);
+        for (std::size_t i = 0; i < count; ++i) sides[i] = (box[k0 + i].second - box[k0 + i].first).maxCoeff();
+        std::nth_element(sides.begin(), sides.begin() + static_cast<long>(count / 2), sides.end());
+        planes[g].cell = std::max(planes[g].cell, sides[count / 2]);
+        k0 += count;
+    }
     // Each plane's cells numbered row by row after the planes before it, where all the
     // numbers stay below 2^53 (exact in the double that counts them; a short key sorts
     // in few passes); else the plane's index
@@ -206,14 +242,13 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
             const Span& g = span[plane_of[k]];
             const auto [x0, y0] = cell_of(k, box[k].first);
             const auto [x1, y1] = cell_of(k, box[k].second);
-            for (long long x = x0; x <= x1; ++x)
-                for (long long y = y0; y <= y1; ++y)
-                    if (meets_square(tri[k], P2(x * cell, y * cell), cell))
-                        listed[k].push_back(
-                            dense ? g.base + static_cast<std::uint64_t>(x - g.x0) * static_cast<std::uint64_t>(g.y1 - g.y0 + 1) +
-                                        static_cast<std::uint64_t>(y - g.y0)
-                                  : static_cast<std::uint64_t>(plane_of[k]) << 44 ^ (static_cast<std::uint64_t>(x) & 0x3fffff) << 22 ^
-                                        (static_cast<std::uint64_t>(y) & 0x3fffff));
+            list_squares(tri[k], x0, y0, x1, y1, cell, [&](long long x, long long y) {
+                listed[k].push_back(
+                    dense ? g.base + static_cast<std::uint64_t>(x - g.x0) * static_cast<std::uint64_t>(g.y1 - g.y0 + 1) +
+                                static_cast<std::uint64_t>(y - g.y0)
+                          : static_cast<std::uint64_t>(plane_of[k]) << 44 ^ (static_cast<std::uint64_t>(x) & 0x3fffff) << 22 ^
+                                (static_cast<std::uint64_t>(y) & 0x3fffff));
+            });
         }
     });
     const SortedCells cells(listed, threads);

@@ -541,3 +541,28 @@ TEST_CASE("coplanar overlaps: a plane too wide for numbered cells (hashed keys) 
     CHECK(three.first == one.first);
     CHECK(three.second == one.second);
 }
+
+TEST_CASE("coplanar overlaps: a plane of long slivers, each given twice, finds each twin", "[scenes]") {
+    // 400 slivers 1 long and 1e-7 wide across the plane's diagonal, side by side 1e-4
+    // apart, each twice: 400 pairs. Cells two patches wide by area (4.5e-4) put each
+    // sliver's box over 2.4 million of them; the cells are now the slivers' length.
+    Scene s;
+    Material m;
+    m.albedo = Rgb(0.5, 0.5, 0.5);
+    const int w = s.add_material(m);
+    const Vec3 along = Vec3(1, 1, 0).normalized(), across(-along.y(), along.x(), 0);
+    const int n = 400;
+    for (int i = 0; i < n; ++i)
+        for (int twice = 0; twice < 2; ++twice) {
+            const Vec3 a = 1e-4 * i * across;
+            s.add_object({a, a + along, a + 1e-7 * across}, {{0, 1, 2}}, w);
+        }
+    s.finalize();
+    REQUIRE(s.patch_count() == 2 * n);
+    const auto one = coplanar_overlaps(s);
+    CHECK(one.pairs == n);
+    const auto three = coplanar_overlaps(s, 3);
+    CHECK(three.pairs == one.pairs);
+    CHECK(three.first == one.first);
+    CHECK(three.second == one.second);
+}
