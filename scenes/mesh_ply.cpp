@@ -150,8 +150,12 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
         }
         if (is_face) faces.reserve(static_cast<std::size_t>(e.count));
         if (e.properties.empty()) continue;
+        std::string holds;  // what the header says each element holds, for a line that does not
+        for (const auto& prop : e.properties) holds += (holds.empty() ? "" : ", ") + prop.name + (prop.list() ? " (a list)" : "");
+        holds = "the header gives each " + e.name + " " + holds + ", and counts " + std::to_string(e.count);
         for (long i = 0; i < e.count; ++i) {
             const auto where = [&e, i] { return e.name + " " + std::to_string(i); };
+            values.begin_row(holds);
             row.assign(e.properties.size(), 0.0);
             for (std::size_t p = 0; p < e.properties.size(); ++p) {
                 const PlyProperty& prop = e.properties[p];
@@ -165,6 +169,10 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                 check_room(count, format == PlyFormat::ascii ? 2 : prop.type.bytes, values.remaining(), shown, where(),
                            "list items");
                 if (is_face && static_cast<int>(p) == indices) {
+                    if (count < 3) {  // "0 1 0": a vertex read as a face (the header's counts), or a short face
+                        for (long c = 0; c < count; ++c) values.next(prop.type, where);
+                        values.end_row(where);
+                    }
                     check_triangle_fan(count, shown, where());
                     std::vector<int> corners;
                     corners.reserve(static_cast<std::size_t>(count));
@@ -181,6 +189,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                     for (long c = 0; c < count; ++c) values.next(prop.type, where);
                 }
             }
+            values.end_row(where);
             if (is_vertex) {
                 const Vec3 p(row[xyz[0]], row[xyz[1]], row[xyz[2]]);
                 if (!p.allFinite()) throw SceneError(shown, where(), "coordinate " + vector_text(p) + " is not finite");

@@ -76,7 +76,12 @@ public:
     template <class Where>
     double next(const PlyType& type, const Where& where) {
         if (format_ == PlyFormat::ascii) {
-            while (pos_ < body_.size() && std::isspace(static_cast<unsigned char>(body_[pos_]))) ++pos_;
+            while (pos_ < body_.size() && std::isspace(static_cast<unsigned char>(body_[pos_]))) {
+                if (body_[pos_] == '\n' && row_ && in_row_)
+                    throw SceneError(shown_, where(), "its line ends before its values do (" + *row_ + ")");
+                ++pos_;
+            }
+            in_row_ = true;
             if (pos_ == body_.size()) throw truncated(where());
             std::size_t end = pos_;
             while (end < body_.size() && !std::isspace(static_cast<unsigned char>(body_[end]))) ++end;
@@ -127,6 +132,25 @@ public:
     }
     std::size_t remaining() const { return body_.size() - pos_; }
 
+    // An ASCII element is one line (the PLY format's rule): begin_row() before its first
+    // value, end_row() after its last. A value on a later line, or one left on its line,
+    // throws, with `what` (what the header says an element holds, and how many): a count
+    // in the header that is not the file's would otherwise read values across lines and
+    // be reported as some later element's error ("face 0: face has 2 corners"). No-ops
+    // in the binary formats.
+    void begin_row(const std::string& what) {
+        row_ = &what;
+        in_row_ = false;
+    }
+    template <class Where>
+    void end_row(const Where& where) {
+        if (format_ != PlyFormat::ascii || !row_) return;
+        std::size_t at = pos_;
+        while (at < body_.size() && body_[at] != '\n' && std::isspace(static_cast<unsigned char>(body_[at]))) ++at;
+        if (at < body_.size() && body_[at] != '\n')
+            throw SceneError(shown_, where(), "its line holds more values than the header gives it (" + *row_ + ")");
+    }
+
 private:
     static bool host_little_endian() {
         const std::uint16_t one = 1;
@@ -145,6 +169,8 @@ private:
         std::memcpy(&u, b, sizeof u);
         return u;
     }
+    const std::string* row_ = nullptr;  // begin_row()'s `what`
+    bool in_row_ = false;                // a value of the row read
     SceneError truncated(const std::string& where) const {
         return SceneError(shown_, where, "file is truncated (the data ends inside it)");
     }

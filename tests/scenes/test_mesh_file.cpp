@@ -185,6 +185,24 @@ TEST_CASE("malformed meshes: one line naming the file and the place, bounded wor
         fails_with("word.ply", head + "0 0 zero\n1 0 0\n0 1 0\n3 0 1 2\n", "vertex 0: malformed value 'zero'");
         fails_with("inf.ply", head + "0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n", "vertex 1: value 'inf' is not finite");
         fails_with("half.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n", "face 0: value '1.5' is not a whole number");
+        // An ASCII element is one line: a header whose count is not the file's is named
+        // where the lines stop matching, with what the header says, not as a later face.
+        const std::string quad = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
+        const std::string two_faces = "element face 2\nproperty list uchar int vertex_indices\n";
+        fails_with("more.ply", "ply\nformat ascii 1.0\nelement vertex 6\n" + xyz + two_faces + "end_header\n" + quad,
+                   "vertex 4: its line holds more values than the header gives it (the header gives each vertex x, y, "
+                   "z, and counts 6)");
+        fails_with("fewer.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz + two_faces + "end_header\n" + quad,
+                   "face 0: its line holds more values than the header gives it (the header gives each face "
+                   "vertex_indices (a list), and counts 2)");
+        fails_with("gap.ply", head + "0 0 0\n1 0\n0 1 0\n3 0 1 2\n",
+                   "vertex 1: its line ends before its values do (the header gives each vertex x, y, z, and counts 3)");
+        fails_with("long.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 3\n", "face 0: its line holds more values");
+        // Line ends of any kind, spaces before them and no last one are read.
+        const std::string crlf = "ply\r\nformat ascii 1.0\r\nelement vertex 3\r\nproperty float x\r\nproperty float y\r\n"
+                                 "property float z\r\nelement face 1\r\nproperty list uchar int vertex_indices\r\n"
+                                 "end_header\r\n0 0 0 \r\n1 0 0\t\r\n0 1 0\r\n3 0 1 2";
+        CHECK(read_mesh_file(dir.write("crlf.ply", crlf), "crlf.ply").vertices.size() == 3);
         std::string nan_ply = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n" + xyz + faces + "end_header\n";
         for (int k = 0; k < 9; ++k) nan_ply += bytes(k == 4 ? std::nanf("") : 0.0f, false);
         nan_ply += bytes(std::uint8_t{3}, false) + bytes(std::int32_t{0}, false) + bytes(std::int32_t{1}, false) +
