@@ -256,14 +256,16 @@ void swap_shares(const PreparationTeam& team, const ShareHeader& header, std::ve
 // The contact lines of every triangle (see the header), surfaces nearer than `widest`
 // (and 1e-2 of the smaller triangle's size) touching.
 //
-// Partners: triangles whose boxes, grown by `widest`, intersect, and that meet a common
+// Partners: triangles whose boxes, each grown by its reach (below), intersect, and that meet a common
 // cell of a hashed grid (each triangle listed in the cells it meets once they are grown,
 // not in every cell of its box: a sliver across the scene meets a line of cells, its box
 // a block of them). The cells are the median triangle's size (at least `widest`, at
 // most 1/32 of the scene), or larger where the surface would cover more than 4 of them
-// per triangle. A triangle's lines come from its partners in index order, whatever the
-// cells' size. Triangles on the threads; on a team, each member lists the cells of its
-// share of the triangles and finds their lines, and the shares are swapped.
+// per triangle; triangles larger than 4 cells go to a second, coarser grid (below). A
+// triangle's lines come from its partners in index order, whatever the cells' size.
+// Triangles on the threads; on a team, each member lists the cells of its share of the
+// triangles and finds their lines, and the shares (and the pairs of the two grids) are
+// swapped.
 std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double widest, double radius, double tol,
                                              int threads, const PreparationTeam* team, const std::string& shown) {
     const int n = static_cast<int>(tris.size());
@@ -290,71 +292,172 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
     const double cell = std::max(std::clamp(sizes[sizes.size() / 2], std::max(widest, 1e-12 * radius), radius / 32.0),
                                  std::min(by_area, radius));
     Buffer<Box> boxes(tris.size());  // each written by its band
-    // The cells the grown boxes span, per band of triangles on the threads.
+    // A triangle's reach: two touch where one lies within min(widest, 1e-2 of the
+    // smaller's size) of the other's plane and inside it within tol (contacts()), so each
+    // grown by its own min(widest, 1e-2 of its size) + tol meet in a box and a cell. Grown
+    // by `widest` alone, a statue's 5 mm triangles in a room of 3 m radius reached 3 mm
+    // around them, into 27 cells each and their neighbours' neighbours.
+    auto grow = [&](std::size_t i) { return std::min(widest, 1e-2 * tris[i].size) + tol; };
+    // The grown boxes, and the block they span, per band of triangles on the threads.
     const int bands = std::max(1, std::min(threads, n));
-    std::vector<Cell> band_lo(static_cast<std::size_t>(bands), Cell::Constant(std::numeric_limits<long>::max()));
-    std::vector<Cell> band_hi(static_cast<std::size_t>(bands), Cell::Constant(std::numeric_limits<long>::min()));
+    std::vector<Vec3> band_lo(static_cast<std::size_t>(bands), Vec3::Constant(std::numeric_limits<double>::infinity()));
+    std::vector<Vec3> band_hi(static_cast<std::size_t>(bands), Vec3::Constant(-std::numeric_limits<double>::infinity()));
     run_threads(bands, [&](int t) {
         const auto b = static_cast<std::size_t>(t);
         const auto i0 = static_cast<std::size_t>(static_cast<long long>(n) * t / bands);
         const auto i1 = static_cast<std::size_t>(static_cast<long long>(n) * (t + 1) / bands);
-        Cell lo = band_lo[b], hi = band_hi[b];  // (in registers: the bands' entries share a cache line)
+        Vec3 lo = band_lo[b], hi = band_hi[b];  // (in registers: the bands' entries share a cache line)
         for (std::size_t i = i0; i < i1; ++i) {
             const auto& p = tris[i].p;
             Box& box = boxes[i];
-            box.lo = (p[0].cwiseMin(p[1]).cwiseMin(p[2]).array() - widest).matrix();
-            box.hi = (p[0].cwiseMax(p[1]).cwiseMax(p[2]).array() + widest).matrix();
-            lo = lo.min((box.lo.array() / cell).floor().cast<long>());
-            hi = hi.max((box.hi.array() / cell).floor().cast<long>());
+            const double g = grow(i);
+            box.lo = (p[0].cwiseMin(p[1]).cwiseMin(p[2]).array() - g).matrix();
+            box.hi = (p[0].cwiseMax(p[1]).cwiseMax(p[2]).array() + g).matrix();
+            lo = lo.cwiseMin(box.lo);
+            hi = hi.cwiseMax(box.hi);
         }
         band_lo[b] = lo;
         band_hi[b] = hi;
     });
-    Cell lo_cell = band_lo[0], hi_cell = band_hi[0];
-    for (int b = 1; b < bands; ++b) lo_cell = lo_cell.min(band_lo[b]), hi_cell = hi_cell.max(band_hi[b]);
-    // The cells numbered densely over that block where the count stays below 2^53 (a
-    // short key sorts in few passes); else 21 bits per axis (cells that share a key by a
-    // wrap of its bits only add partners whose boxes are then tested).
-    const Eigen::Array3d extent = (hi_cell - lo_cell).cast<double>() + 1.0;
-    const bool dense = n > 0 && extent.prod() < 0x1p53;
-    auto key = [&](const Cell& c) {
-        if (dense) {
-            const Cell d = c - lo_cell;
-            return (static_cast<std::uint64_t>(d.x()) * static_cast<std::uint64_t>(extent.y()) + static_cast<std::uint64_t>(d.y())) *
-                       static_cast<std::uint64_t>(extent.z()) +
-                   static_cast<std::uint64_t>(d.z());
+    Vec3 scene_lo = band_lo[0], scene_hi = band_hi[0];
+    for (int b = 1; b < bands; ++b) scene_lo = scene_lo.cwiseMin(band_lo[b]), scene_hi = scene_hi.cwiseMax(band_hi[b]);
+
+    // Two grids: the small triangles in cells of `cell`, and the triangles larger than 4
+    // of them in cells of the large ones' median size (at least 4 small cells). One grid
+    // of the small size listed each 0.16 m patch of a room in a thousand cells around a
+    // statue of 5 mm triangles (a third of its preparation). A small triangle finds its
+    // small partners in the first grid and its large ones in the second, where it is
+    // listed after the large (its cells' runs: the large first, in index order); a large
+    // triangle finds the large in the second, and the small ones find it.
+    const double large_above = 4.0 * cell;
+    std::vector<std::uint32_t> large, small;  // the triangles of each kind, ascending
+    std::vector<std::uint32_t> index_in(tris.size());  // a triangle's place in its kind's list
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+        auto& kind = tris[i].size > large_above ? large : small;
+        index_in[i] = static_cast<std::uint32_t>(kind.size());
+        kind.push_back(static_cast<std::uint32_t>(i));
+    }
+    auto is_large = [&](std::size_t i) { return tris[i].size > large_above; };
+    double large_cell = large_above;
+    if (!large.empty()) {
+        std::vector<double> large_sizes(large.size());
+        for (std::size_t j = 0; j < large.size(); ++j) large_sizes[j] = tris[large[j]].size;
+        std::nth_element(large_sizes.begin(), large_sizes.begin() + static_cast<long>(large_sizes.size() / 2),
+                         large_sizes.end());
+        large_cell = std::clamp(large_sizes[large_sizes.size() / 2], large_above, std::max(large_above, radius / 4.0));
+    }
+    // A grid's cells numbered densely over the scene's block where the count stays below
+    // 2^53 (a short key sorts in few passes); else 21 bits per axis (cells that share a
+    // key by a wrap of its bits only add partners whose boxes are then tested).
+    struct Grid {
+        double cell;
+        Cell lo;
+        Eigen::Array3d extent;
+        bool dense;
+        std::uint64_t key(const Cell& c) const {
+            if (dense) {
+                const Cell d = c - lo;
+                return (static_cast<std::uint64_t>(d.x()) * static_cast<std::uint64_t>(extent.y()) +
+                        static_cast<std::uint64_t>(d.y())) *
+                           static_cast<std::uint64_t>(extent.z()) +
+                       static_cast<std::uint64_t>(d.z());
+            }
+            return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) |
+                   (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) | static_cast<std::uint64_t>(c.z() & 0x1fffff);
         }
-        return (static_cast<std::uint64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::uint64_t>(c.y() & 0x1fffff) << 21) |
-               static_cast<std::uint64_t>(c.z() & 0x1fffff);
+        // The keys of the cells triangle t meets once they are grown by `reach`.
+        void list(const Tri& t, const Box& box, double reach, std::vector<Cell>& met, std::vector<std::uint64_t>& out) const {
+            met.clear();
+            list_cells(t.p, (box.lo.array() / cell).floor().cast<long>(), (box.hi.array() / cell).floor().cast<long>(),
+                       cell, reach, met);
+            out.resize(met.size());
+            std::transform(met.begin(), met.end(), out.begin(), [this](const Cell& c) { return key(c); });
+        }
     };
-    // Each triangle's cells; the grid filled in triangle order.
+    auto grid = [&](double side) {
+        Grid g{side, (scene_lo.array() / side).floor().cast<long>(), {}, false};
+        g.extent = ((scene_hi.array() / side).floor().cast<long>() - g.lo).cast<double>() + 1.0;
+        g.dense = n > 0 && g.extent.prod() < 0x1p53;
+        return g;
+    };
+    const Grid fine = grid(cell), coarse = grid(large_cell);
+    // The small triangles' cells in the first grid (a large one's list empty), and in the
+    // second every large triangle's cells, then every small one's (items: large[0 ..],
+    // then small[0 ..]). A member lists its share of each; the shares are swapped.
     std::vector<std::vector<std::uint64_t>> listed(tris.size());
     parallel_chunks(mine, threads, [&](int k0, int k1) {
         std::vector<Cell> met;
         for (int k = k0; k < k1; ++k) {
             const std::size_t i = triangle(k);
-            const Cell lo = (boxes[i].lo.array() / cell).floor().cast<long>();
-            const Cell hi = (boxes[i].hi.array() / cell).floor().cast<long>();
-            met.clear();
-            list_cells(tris[i].p, lo, hi, cell, widest, met);
-            listed[i].resize(met.size());
-            std::transform(met.begin(), met.end(), listed[i].begin(), key);
+            if (!is_large(i)) fine.list(tris[i], boxes[i], grow(i), met, listed[i]);
         }
     });
+    const std::size_t L = large.size();
+    std::vector<std::vector<std::uint64_t>> listed_coarse(L > 0 ? tris.size() : 0);
+    auto item_triangle = [&](std::size_t j) { return j < L ? large[j] : small[j - L]; };
+    if (L > 0) {
+        const int items = (n - me + members - 1) / members;
+        parallel_chunks(items, threads, [&](int k0, int k1) {
+            std::vector<Cell> met;
+            for (int k = k0; k < k1; ++k) {
+                const std::size_t j = static_cast<std::size_t>(me) + static_cast<std::size_t>(k) * members;
+                const std::size_t i = item_triangle(j);
+                coarse.list(tris[i], boxes[i], grow(i), met, listed_coarse[j]);
+            }
+        });
+    }
     const ShareHeader header{tris.size(), members > 1 ? fingerprint(tris) : 0};
-    if (members > 1) swap_shares(*team, header, listed, "cells", shown);
+    if (members > 1) {
+        swap_shares(*team, header, listed, "cells", shown);
+        if (L > 0) swap_shares(*team, header, listed_coarse, "cells", shown);
+    }
     const SortedCells cells(listed, threads);
+    const SortedCells coarse_cells(listed_coarse, threads);
+    listed = {};
+    listed_coarse = {};
 
     std::vector<std::vector<Line>> lines(tris.size());
-    // Per thread, which triangle last took each partner (each pair tested once a side).
-    std::vector<std::vector<std::uint32_t>> stamps(static_cast<std::size_t>(std::max(1, std::min(threads, mine))));
+    auto find_lines = [&](std::uint32_t u, const std::vector<std::uint32_t>& partners) {
+        const Tri& a = tris[u];
+        for (const std::uint32_t v : partners) {
+            const Tri& b = tris[v];
+            const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
+            contacts(a, b, contact, tol, lines[u]);
+        }
+    };
+    // Per thread, which triangle last took each partner (each pair tested once a side),
+    // the (large, small) pairs its small triangles found, and its large triangles' large
+    // partners (their lines come after the pairs are in).
+    const int T = std::max(1, std::min(threads, mine));
+    std::vector<std::vector<std::uint32_t>> stamps(static_cast<std::size_t>(T));
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> found_by(static_cast<std::size_t>(T));
+    std::vector<std::vector<std::uint32_t>> large_partners(L);
     parallel_chunks(mine, threads, [&](int k0, int k1, int t) {
         auto& stamp = stamps[static_cast<std::size_t>(t)];
         if (stamp.empty()) stamp.assign(tris.size(), std::numeric_limits<std::uint32_t>::max());
+        auto& found = found_by[static_cast<std::size_t>(t)];
         std::vector<std::uint32_t> partners;
+        // The large triangles in the coarse runs of item j (first in each run).
+        auto large_in_runs = [&](std::uint32_t u, std::size_t j, const auto& take) {
+            for (std::size_t s = coarse_cells.first[j]; s < coarse_cells.first[j + 1]; ++s) {
+                const std::uint32_t r = coarse_cells.run_of[s];
+                for (std::size_t c = coarse_cells.run_start[r]; c < coarse_cells.run_start[r + 1]; ++c) {
+                    const std::uint32_t item = coarse_cells.members[c];
+                    if (item >= L) break;
+                    if (const std::uint32_t v = large[item]; v != u && stamp[v] != u) {
+                        stamp[v] = u;
+                        if (boxes[u].meets(boxes[v])) take(v);
+                    }
+                }
+            }
+        };
         for (int k = k0; k < k1; ++k) {
             const auto u = static_cast<std::uint32_t>(triangle(k));
             partners.clear();
+            if (is_large(u)) {
+                large_in_runs(u, index_in[u], [&](std::uint32_t v) { large_partners[index_in[u]].push_back(v); });
+                continue;
+            }
             for (std::size_t s = cells.first[u]; s < cells.first[u + 1]; ++s) {
                 const std::uint32_t r = cells.run_of[s];
                 for (std::size_t j = cells.run_start[r]; j < cells.run_start[r + 1]; ++j)
@@ -363,15 +466,48 @@ std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double wid
                         if (boxes[u].meets(boxes[v])) partners.push_back(v);
                     }
             }
+            if (L > 0)
+                large_in_runs(u, L + index_in[u], [&](std::uint32_t v) {
+                    partners.push_back(v);
+                    found.emplace_back(v, u);
+                });
             std::sort(partners.begin(), partners.end());
-            const Tri& a = tris[u];
-            for (const std::uint32_t v : partners) {
-                const Tri& b = tris[v];
-                const double contact = std::min(widest, 1e-2 * std::min(a.size, b.size));
-                contacts(a, b, contact, tol, lines[u]);
-            }
+            find_lines(u, partners);
         }
     });
+    if (L > 0) {
+        // The (large, small) pairs, every member's on every member (plain data), in order.
+        std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+        for (const auto& f : found_by) pairs.insert(pairs.end(), f.begin(), f.end());
+        found_by = {};
+        if (members > 1) {
+            std::vector<std::vector<std::uint32_t>> flat(static_cast<std::size_t>(members));
+            for (const auto& [v, u] : pairs) flat[static_cast<std::size_t>(me)].insert(flat[static_cast<std::size_t>(me)].end(), {v, u});
+            swap_shares(*team, header, flat, "pairs", shown);
+            pairs.clear();
+            for (const auto& f : flat)
+                for (std::size_t k = 0; k + 1 < f.size(); k += 2) pairs.emplace_back(f[k], f[k + 1]);
+        }
+        std::sort(pairs.begin(), pairs.end());
+        // The large triangles' lines: their large partners and the small ones that found them.
+        std::vector<std::size_t> from(L + 1, 0);
+        for (const auto& pair : pairs) ++from[index_in[pair.first] + 1];
+        for (std::size_t j = 0; j < L; ++j) from[j + 1] += from[j];
+        std::vector<std::uint32_t> mine_large;
+        for (const std::uint32_t u : large)
+            if (static_cast<int>(u % static_cast<std::uint32_t>(members)) == me) mine_large.push_back(u);
+        parallel_chunks(static_cast<int>(mine_large.size()), threads, [&](int k0, int k1) {
+            std::vector<std::uint32_t> partners;
+            for (int k = k0; k < k1; ++k) {
+                const std::uint32_t u = mine_large[static_cast<std::size_t>(k)];
+                const std::size_t j = index_in[u];
+                partners = large_partners[j];
+                for (std::size_t q = from[j]; q < from[j + 1]; ++q) partners.push_back(pairs[q].second);
+                std::sort(partners.begin(), partners.end());
+                find_lines(u, partners);
+            }
+        });
+    }
     if (members > 1) {
         std::vector<std::vector<PackedLine>> plain(lines.size());
         for (std::size_t k = static_cast<std::size_t>(me); k < lines.size(); k += static_cast<std::size_t>(members))

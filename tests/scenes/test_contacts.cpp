@@ -105,6 +105,23 @@ std::vector<std::string> load_together(const std::vector<std::string>& texts) {
     return errors;
 }
 
+// parse_scene of one text on every member of a team of `size` threads (2 threads each).
+std::vector<scenes::Scene> parse_together(const std::string& text, int size) {
+    ThreadTeam team(size);
+    std::vector<scenes::Scene> scenes(static_cast<std::size_t>(size));
+    std::vector<std::thread> members;
+    for (int r = 0; r < size; ++r)
+        members.emplace_back([&, r] {
+            const ThreadTeam::Member me(team, r);
+            scenes::LoadLimits limits;
+            limits.team = &me;
+            limits.threads = 2;
+            scenes[static_cast<std::size_t>(r)] = scenes::parse_scene(text, "s.json", ".", {}, limits);
+        });
+    for (auto& m : members) m.join();
+    return scenes;
+}
+
 // make_builtin on every member of a team of `size` threads, each with its own patch size.
 std::vector<scenes::Scene> prepare_together(const std::vector<double>& patch_sizes, std::vector<std::string>& errors) {
     const int size = static_cast<int>(patch_sizes.size());
@@ -502,4 +519,45 @@ TEST_CASE("contacts: a team's members each search a share and make the scene one
         CHECK_THAT(e, Catch::Contains("rank 1 does not cut at contacts") && Catch::Contains("rank 0 has 2 triangles"));
     for (const auto& e : load_together({scene(1.0, false), scene(1.0, false)})) CHECK(e.empty());
     for (const auto& e : load_together({scene(1.0, true), scene(1.0, true)})) CHECK(e.empty());
+}
+
+TEST_CASE("contacts: large and small triangles (two grids) cut the same on any threads and teams", "[scenes][contacts]") {
+    // A floor of two triangles 14 long with 40 fins of 0.1 x 0.2 standing on it and 10
+    // leaning on a wall, as modelled: the floor and the wall are searched in the coarse
+    // grid, the fins in the fine one, and the floor's and wall's lines come from the fins
+    // that found them: the same for 1, 2 and 3 threads and for teams of 2 and 3.
+    std::string objects = R"({"quad": [[0, 0, 0], [0, 0, 10], [10, 0, 10], [10, 0, 0]], "material": "m", "name": "floor"},
+                             {"quad": [[0, 0, 0], [10, 0, 0], [10, 3, 0], [0, 3, 0]], "material": "m", "name": "wall"})";
+    for (int k = 0; k < 50; ++k) {
+        const double x = 1.0 + 8.0 * std::fmod(0.618034 * k, 1.0), z = 1.0 + 8.0 * std::fmod(0.414214 * k + 0.1, 1.0);
+        const double a = 2.399963 * k, c = 0.05 * std::cos(a), d = 0.05 * std::sin(a);
+        char fin[256];
+        if (k < 40)  // standing on the floor
+            std::snprintf(fin, sizeof fin, R"(, {"quad": [[%g, 0, %g], [%g, 0, %g], [%g, 0.2, %g], [%g, 0.2, %g]], "material": "m"})",
+                          x - c, z - d, x + c, z + d, x + c, z + d, x - c, z - d);
+        else  // against the wall
+            std::snprintf(fin, sizeof fin, R"(, {"quad": [[%g, %g, 0], [%g, %g, 0], [%g, %g, 0.2], [%g, %g, 0.2]], "material": "m"})",
+                          x - c, 1 + d, x + c, 1 - d, x + c, 1 - d, x - c, 1 + d);
+        objects += fin;
+    }
+    const std::string text = R"({"camera": {"eye": [5, 1.5, 9], "target": [5, 0, 5]}, "patch_size": "none",
+                                 "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [)" + objects + "]}";
+    const scenes::Scene one = scenes::parse_scene(text, "s.json", ".");
+    // Every fin's foot is a line on the floor or the wall (the fins' own sides end there:
+    // no line on them), and fin 49's on each of the wall's two triangles (it crosses
+    // their diagonal): 51.
+    CHECK(one.contact_lines == 51);
+    for (const int threads : {2, 3}) {
+        INFO(threads << " threads");
+        scenes::LoadLimits limits;
+        limits.threads = threads;
+        check_same_scene(scenes::parse_scene(text, "s.json", ".", {}, limits), one);
+    }
+    for (const int size : {2, 3}) {
+        const auto all = parse_together(text, size);
+        for (int r = 0; r < size; ++r) {
+            INFO(size << " members, member " << r);
+            check_same_scene(all[static_cast<std::size_t>(r)], one);
+        }
+    }
 }
