@@ -5,6 +5,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 
@@ -18,6 +19,12 @@ struct RayCaster::Impl {
     std::vector<char> two_sided;
     std::vector<float> normals;  // 3 per patch, two-sided ones only filled
     bool any_two_sided = false;
+    // Embree's frame: the scene's coordinates divided by a power of two that brings the
+    // largest to [0.5, 1), and distances along a ray with them (exact: the same floats
+    // as before, times 2^-k). Its single-precision tests multiply three coordinates: a
+    // room 5.6e13 wide overflowed them (t = inf, then rays from inf: Embree's assertion
+    // aborted the run), one 5.6e-28 wide underflowed them to nothing (every ray missed).
+    double scale = 1.0;
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
         if (device) rtcReleaseDevice(device);
@@ -37,10 +44,14 @@ RayCaster::RayCaster(const Scene& scene, int threads) : impl_(std::make_unique<I
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     const auto& pos = scene.vertex_positions();
     const auto& patches = scene.patch_list();
+    double largest = 0.0;
+    for (const auto& p : pos) largest = std::max(largest, p.cwiseAbs().maxCoeff());
+    if (largest > 0.0 && std::isfinite(largest)) impl_->scale = std::ldexp(1.0, std::ilogb(largest) + 1);
+    const double to_frame = 1.0 / impl_->scale;
     auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                            3 * sizeof(float), pos.size()));
     for (std::size_t i = 0; i < pos.size(); ++i)
-        for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(pos[i][k]);
+        for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(pos[i][k] * to_frame);
     auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                               3 * sizeof(unsigned), patches.size()));
     for (std::size_t i = 0; i < patches.size(); ++i)
@@ -64,17 +75,19 @@ RayCaster::~RayCaster() = default;
 
 namespace {
 
-RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max) {
+// A ray in Embree's frame (Impl::scale): the origin and the distances divided by it.
+RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max, double scale) {
+    const double to_frame = 1.0 / scale;
     RTCRayHit rh{};
-    rh.ray.org_x = static_cast<float>(org.x());
-    rh.ray.org_y = static_cast<float>(org.y());
-    rh.ray.org_z = static_cast<float>(org.z());
+    rh.ray.org_x = static_cast<float>(org.x() * to_frame);
+    rh.ray.org_y = static_cast<float>(org.y() * to_frame);
+    rh.ray.org_z = static_cast<float>(org.z() * to_frame);
     rh.ray.dir_x = static_cast<float>(dir.x());
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
-    rh.ray.tnear = static_cast<float>(t_min);
+    rh.ray.tnear = static_cast<float>(t_min * to_frame);
     rh.ray.tfar = t_max == std::numeric_limits<double>::infinity() ? std::numeric_limits<float>::infinity()
-                                                                   : static_cast<float>(t_max);
+                                                                   : static_cast<float>(t_max * to_frame);
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     return rh;
@@ -84,6 +97,7 @@ RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max)
 struct CollectContext {
     RTCIntersectContext context;  // first member: Embree hands back a pointer to it
     std::vector<RayHit>* hits;
+    double scale;  // Impl::scale
 };
 
 void collect_hit(const RTCFilterFunctionNArguments* args) {
@@ -92,7 +106,7 @@ void collect_hit(const RTCFilterFunctionNArguments* args) {
         if (args->valid[k] == 0) continue;
         RayHit h;
         h.patch = static_cast<int>(RTCHitN_primID(args->hit, args->N, k));
-        h.t = RTCRayN_tfar(args->ray, args->N, k);
+        h.t = RTCRayN_tfar(args->ray, args->N, k) * ctx->scale;
         h.b1 = RTCHitN_u(args->hit, args->N, k);
         h.b2 = RTCHitN_v(args->hit, args->N, k);
         ctx->hits->push_back(h);
@@ -133,7 +147,7 @@ void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
 bool RayCaster::occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     // The filter intersect() uses: a hit is the same hit here, so the answer is its.
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRay ray = make_ray(org, dir, t_min, t_max).ray;
+    RTCRay ray = make_ray(org, dir, t_min, t_max, impl_->scale).ray;
     rtcOccluded1(impl_->scene, &ctx.context, &ray);
     return ray.tfar < 0.0f;  // -inf where a hit was found
 }
@@ -145,7 +159,8 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
     rtcInitIntersectContext(&ctx.context);
     ctx.context.filter = collect_hit;
     ctx.hits = &hits;
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max);
+    ctx.scale = impl_->scale;
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->scale);
     rtcIntersect1(impl_->scene, &ctx.context, &rh);
     std::sort(hits.begin(), hits.end(), [](const RayHit& a, const RayHit& b) {
         return a.t < b.t || (a.t == b.t && a.patch < b.patch);
@@ -158,12 +173,12 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
 
 RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max);
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->scale);
     rtcIntersect1(impl_->scene, &ctx.context, &rh);
     RayHit hit;
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         hit.patch = static_cast<int>(rh.hit.primID);
-        hit.t = rh.ray.tfar;
+        hit.t = rh.ray.tfar * impl_->scale;
         hit.b1 = rh.hit.u;
         hit.b2 = rh.hit.v;
     }
