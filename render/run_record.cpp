@@ -6,6 +6,7 @@
 #include "visibility/backend.h"
 #include "visibility/exact_spans.h"
 
+#include <algorithm>
 #include <fstream>
 #include <stdexcept>
 #include <utility>
@@ -333,7 +334,12 @@ std::string summary(const scenes::Scene& scene, const RunResult& r) {
         print(", mean radiance %.6g", r.mean_radiance);
         if (r.error) print(", relative L1 error %.3g", *r.error);
     }
-    if (r.rounds.estimate >= 0.0) {
+    // A black image has no relative error to estimate (0 / 0): its halves agree, and
+    // the probe's block error reads 100 % of nothing. Say what it is.
+    const bool black = std::all_of(r.image.rgb.begin(), r.image.rgb.end(), [](float v) { return v == 0.0f; });
+    if (black && r.image.width > 0) {
+        print(", the image is black (no lit surface in view)");
+    } else if (r.rounds.estimate >= 0.0) {
         print(", estimated error %.2g %% (%zu round%s", 100.0 * r.rounds.estimate, r.rounds.rounds.size(),
               r.rounds.rounds.size() == 1 ? "" : "s");
         // Parts, not terms: the halves' rule over pixels, and the 8x8 blocks' error (the

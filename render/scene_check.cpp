@@ -37,6 +37,23 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         }
         s.room_from_outside = closed;
     }
+    {
+        // Per object, the rays of 26 from the eye that meet its back and its front first.
+        std::vector<int> backs(s.objects.size(), 0), fronts(s.objects.size(), 0);
+        for (int d = 0; d < 27; ++d) {
+            if (d == 13) continue;
+            const scenes::Vec3 w = scenes::Vec3(d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1).normalized();
+            const scenes::RayHit hit = caster.intersect(eye, w);
+            if (!hit.valid()) continue;
+            const auto& p = patches[static_cast<std::size_t>(hit.patch)];
+            if (scene.materials[p.material].two_sided) continue;
+            ++(p.normal.dot(w) > 0.0 ? backs : fronts)[p.object];
+        }
+        // Inside: two thirds of the directions meet its back, none its front (a block
+        // open at its base on a floor lets the rays down through to the floor's front).
+        for (std::size_t o = 0; o < s.objects.size(); ++o)
+            if (backs[o] >= 18 && fronts[o] == 0) s.camera_inside = static_cast<int>(o);
+    }
 
     // What the camera sees: a ray through every pixel centre (of a coarser image with
     // the same field of view when max_pixels asks for fewer).
@@ -81,22 +98,33 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
     // A front within the contact distance of a surface that faces it lies on that
     // surface (scenes/contacts.h's 1e-3 of the bounding radius).
     const double near = 1e-3 * scene.bounds_radius();
+    // The object whose surface covers patch i's front, or -1.
     const auto covered = [&](std::size_t i, std::vector<scenes::RayHit>& hits) {
         const auto& p = patches[i];
         caster.all_hits(p.centroid + near * p.normal, -p.normal, hits, 0.0, 2.0 * near);
-        return std::any_of(hits.begin(), hits.end(), [&](const scenes::RayHit& h) {
+        for (const scenes::RayHit& h : hits) {
             const auto& other = patches[static_cast<std::size_t>(h.patch)];
-            return h.patch != static_cast<int>(i) && other.normal.dot(p.normal) < 0.0;
-        });
+            if (h.patch != static_cast<int>(i) && other.normal.dot(p.normal) < 0.0) return other.object;
+        }
+        return -1;
     };
     // What each patch's front is (the rays on the threads), then the sums in patch order.
     enum Front : char { visible, covered_front, unseen_front };
     std::vector<char> front(patches.size(), visible);
+    std::vector<int> cover(patches.size(), -1);
     std::vector<std::vector<scenes::RayHit>> scratch(static_cast<std::size_t>(std::max(1, threads)));
     parallel_chunks(static_cast<int>(patches.size()), threads, [&](int i0, int i1, int t) {
         for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
-            if (seen[i] || scene.sky || in_view(i)) continue;  // open sky is something to see
             const auto& p = patches[i];
+            // A light's front on a surface sends its light nowhere, sky or camera or not.
+            if (scene.materials[p.material].emissive() && !seen[i]) {
+                cover[i] = covered(i, scratch[static_cast<std::size_t>(t)]);
+                if (cover[i] >= 0) {
+                    front[i] = covered_front;
+                    continue;
+                }
+            }
+            if (seen[i] || scene.sky || in_view(i)) continue;  // open sky is something to see
             scenes::Vec3 u, v;
             scenes::orthonormal_basis(p.normal, u, v);
             bool meets = false;
@@ -104,7 +132,10 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
                 meets = caster.intersect(p.centroid + offset * p.normal,
                                          sampling::cosine_hemisphere((k % 4 + 0.5) / 4, (k / 4 + 0.5) / 4, p.normal, u, v))
                             .valid();
-            if (!meets) front[i] = covered(i, scratch[static_cast<std::size_t>(t)]) ? covered_front : unseen_front;
+            if (!meets) {
+                cover[i] = covered(i, scratch[static_cast<std::size_t>(t)]);
+                front[i] = cover[i] >= 0 ? covered_front : unseen_front;
+            }
         }
     });
     for (std::size_t i = 0; i < patches.size(); ++i) {
@@ -115,7 +146,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         object.patches += 1;
         object.area += p.area;
         object.two_sided = object.two_sided || m.two_sided;
-        if (m.emissive()) ++s.emissive_patches, s.emissive_area += p.area;
+        if (m.emissive()) ++s.emissive_patches, s.emissive_area += p.area, object.emissive = true;
         if (m.glossy()) ++s.glossy_patches;
         if (m.two_sided) ++s.two_sided_patches;
         if (p.normal.dot(scene.camera.eye - p.centroid) > 0.0) ++s.facing_camera;
@@ -123,6 +154,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         if (front[i] == covered_front) {
             ++s.covered;
             object.covered_area += p.area;
+            if (object.covered_by < 0) object.covered_by = cover[i];
         } else if (front[i] == unseen_front) {
             ++s.unseen;
             object.unseen_area += p.area;
@@ -155,7 +187,22 @@ std::vector<std::string> winding_warnings(const SceneSummary& summary) {
            << centre.x() << "," << centre.y() << "," << centre.z() << "] -D camera.target=[" << centre.x() << ","
            << centre.y() << "," << summary.lo.z()
            << "] puts it inside. Else: inverted winding? a two_sided material lights both sides)";
-    for (const auto& o : summary.objects) {
+    for (std::size_t k = 0; k < summary.objects.size(); ++k) {
+        const auto& o = summary.objects[k];
+        if (summary.camera_inside == static_cast<int>(k)) {
+            lines.push_back(o.name + ": the camera's eye is inside it: all it shows from there is its back side "
+                                     "(move camera.eye out of it; or, if the camera is meant to be there, its winding is "
+                                     "inverted)");
+            continue;
+        }
+        if (o.emissive && o.area > 0.0 && o.covered_area > 0.5 * o.area) {
+            const std::string other = o.covered_by >= 0 ? "'" + summary.objects[static_cast<std::size_t>(o.covered_by)].name + "'"
+                                                        : "another surface";
+            lines.push_back(o.name + ": the emitting front of " + std::to_string(percent(o.covered_area, o.area)) +
+                            " % of its area lies against " + other +
+                            ", so its light cannot leave (inverted winding? a light under a ceiling faces down)");
+            continue;
+        }
         if (o.two_sided) continue;
         std::ostringstream line;
         if (o.back_pixels > o.front_pixels && o.back_pixels >= 16) {

@@ -12,7 +12,9 @@
 //    (so that a finely refined quad in view is seen, pixel centres or not).
 // A front that lies face to face on another surface (a box's bottom on the floor, within
 // the contact distance of scenes/contacts.h) is hidden, not inverted: it is counted as
-// covered, not as unseen.
+// covered, not as unseen. But a light whose front is mostly covered sends its light into
+// that surface (a lamp under a ceiling, facing up): a warning of its own. So is a camera
+// whose eye is inside a closed object (it sees that object's back sides only).
 #include "scenes/diagnostics.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
@@ -38,6 +40,8 @@ struct SceneSummary {
         double area = 0.0, unseen_area = 0.0, covered_area = 0.0;
         long front_pixels = 0, back_pixels = 0;  // camera rays meeting its front or back first
         bool two_sided = false;
+        bool emissive = false;
+        int covered_by = -1;  // the object whose surface its first covered patch lies on
     };
     std::vector<Object> objects;
     scenes::CoplanarOverlaps overlaps;
@@ -45,6 +49,9 @@ struct SceneSummary {
     // whose fronts face it (every ray from it in 26 directions meets a front): a room
     // closed on all sides seen from outside, or a closed object turned inside out.
     bool room_from_outside = false;
+    // The object the eye is inside: of 26 rays from it, 18 or more meet a back side of
+    // that object's one-sided patches first and none its front (-1: none).
+    int camera_inside = -1;
 };
 
 // `max_pixels` > 0 casts the camera rays on a coarser grid of about that many pixels

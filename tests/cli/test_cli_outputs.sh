@@ -144,11 +144,13 @@ check $? "a lit scene said to have no light: $(cat chk.txt)"
 # not inverted (covered, no warning). Lifted 0.1 above the floor, the same bottom sees
 # the floor: neither covered nor unseen. (The patches as modelled: refined, the far
 # parts of this open floor would see nothing, and count as unseen.)
+# (The wall is the light: a light's front lying on a surface is warned about, below.)
+lit_materials='"materials": {"w": {"albedo": [0.5, 0.5, 0.5]}, "lamp": {"albedo": [0, 0, 0], "emission": [1, 1, 1]}}'
 bottom_at() {  # bottom_at Y: a floor, a wall of the block, and its bottom at height Y
-  printf '{"camera": {"eye": [0.5, 1.5, 3], "target": [0.5, 0.3, 0.5]}, "patch_size": "none", %s, "objects": [' "$materials"
+  printf '{"camera": {"eye": [0.5, 1.5, 3], "target": [0.5, 0.3, 0.5]}, "patch_size": "none", %s, "objects": [' "$lit_materials"
   printf '{"quad": [[-1,0,-1], [-1,0,2], [2,0,2], [2,0,-1]], "material": "w", "name": "floor"}, '
   printf '{"quad": [[0,%s,0], [1,%s,0], [1,%s,1], [0,%s,1]], "material": "w", "name": "bottom"}, ' "$1" "$1" "$1" "$1"
-  printf '{"quad": [[0,0,1], [1,0,1], [1,1,1], [0,1,1]], "material": "w", "name": "wall"}]}\n'
+  printf '{"quad": [[0,0,1], [1,0,1], [1,1,1], [0,1,1]], "material": "lamp", "name": "wall"}]}\n'
 }
 bottom_at 0 > on-floor.json
 bottom_at 0.1 > above-floor.json
@@ -170,6 +172,25 @@ grep -q "warning     cube: the camera sees its back side in 100 % of the pixels 
   "$bin" check inside-out.json -D "camera.eye=[0.5,0.5,0.5]" -D "camera.target=[0.5,0.5,0]" >chk2.txt 2>&1 &&
   ! grep -q "back side" chk2.txt
 check $? "check of an inside-out cube: $(cat chk.txt)"
+# The camera inside a closed cube (facing out): it sees the cube's back, and the image is
+# black; the warning says where the eye is, not that the winding is wrong.
+printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n' > cube.obj
+printf '{"camera": {"eye": [0.4, 0.5, 0.6], "target": [0.5, 0.5, 0]}, %s, "objects": [{"mesh": "cube.obj", "material": "w", "name": "cube"}, %s]}\n' \
+  "$lit_materials" '{"quad": [[-1,2,-1], [2,2,-1], [2,2,2], [-1,2,2]], "material": "lamp", "name": "lamp"}' > eye-in-cube.json
+"$bin" check eye-in-cube.json >chk.txt 2>&1
+grep -q "warning     cube: the camera's eye is inside it: all it shows from there is its back side" chk.txt &&
+  ! grep -q "cube: the camera sees its back side" chk.txt &&
+  "$bin" solve eye-in-cube.json --iterations 20 --width 16 --height 16 -o eye-in-cube.png >sum.txt 2>err.txt &&
+  grep -q "the image is black (no lit surface in view)" sum.txt && ! grep -q "estimated error" sum.txt
+check $? "the camera inside a cube: $(cat chk.txt sum.txt err.txt | grep -E 'warning|black|error')"
+# A lamp just under a ceiling facing up: its light goes into the ceiling.
+printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]}, %s, "objects": [%s, %s, %s]}\n' "$lit_materials" \
+  '{"quad": [[0,0,0], [0,0,1], [1,0,1], [1,0,0]], "material": "w", "name": "floor"}' \
+  '{"quad": [[0,1,0], [1,1,0], [1,1,1], [0,1,1]], "material": "w", "name": "ceiling"}' \
+  '{"quad": [[0.4,0.9999,0.6], [0.6,0.9999,0.6], [0.6,0.9999,0.4], [0.4,0.9999,0.4]], "material": "lamp", "name": "panel"}' > lamp-up.json
+"$bin" check lamp-up.json >chk.txt 2>&1
+grep -q "warning     panel: the emitting front of 100 % of its area lies against 'ceiling', so its light cannot leave" chk.txt
+check $? "a lamp facing into the ceiling: $(cat chk.txt | grep -E 'warning|covered')"
 # Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
 lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }
 [ "$(lit fp.csv)" = dark ] && [ "$(lit fs.csv)" = lit ]
