@@ -77,6 +77,7 @@ void name_the_dead(int rank, int size) {
 void end_the_watch() {
     render::set_signal_reporter(nullptr);
     render::set_stoppable(false);
+    render::expect_signals();
 }
 
 }  // namespace

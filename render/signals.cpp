@@ -24,6 +24,7 @@ std::atomic<bool> g_used[kSlots];
 
 std::atomic<bool> g_stoppable{false};
 std::atomic<int> g_stop{0};
+std::atomic<bool> g_expected{false};  // expect_signals(): the end is known, a signal is no news
 // Held by an OutputSet's commit: a signal that ends the process waits for it.
 std::mutex g_commit;
 
@@ -49,6 +50,10 @@ void on_signal(int sig) {
     }
     const std::lock_guard<std::mutex> commit(g_commit);  // a commit under way completes first
     remove_temporaries();
+    // One closing line: the process ends by the signal, with no message of its own.
+    if (!hopeless && !g_expected.load())
+        std::cerr << "\nraybundle: " << signal_name(sig) << (g_stop.load() != 0 ? " again" : "")
+                  << ": the run abandoned: the files it had not written yet are left as they were\n";
     // Ended by the signal itself (the parent sees 128 + sig): its default action, on
     // this thread, the only one where it is not blocked.
     std::signal(sig, SIG_DFL);
@@ -88,6 +93,8 @@ void install_signal_handlers() {
 }
 
 void set_stoppable(bool stoppable) { g_stoppable.store(stoppable); }
+
+void expect_signals() { g_expected.store(true); }
 
 int stop_requested() { return g_stop.load(); }
 

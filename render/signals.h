@@ -8,7 +8,9 @@
 // image is made from the steps done, the outputs are written, marked partial; exit
 // 128 + the signal: 130, 143, 129). A second signal, or the first one while the run
 // cannot stop cleanly (loading, path tracing), removes the temporaries registered
-// here and ends the process by the signal, leaving every output as it was before.
+// here and ends the process by the signal, leaving every output not yet written as it
+// was before, with one line on stderr saying so ("raybundle: SIGINT again: the run
+// abandoned: ..."), unless expect_signals() said that a signal is no news.
 //
 // A signal the process was started ignoring (nohup: SIGHUP) stays ignored.
 //
@@ -29,6 +31,9 @@ namespace raybundle::render {
 
 void install_signal_handlers();
 void set_stoppable(bool stoppable);
+// From now on a signal that ends the process says nothing (render/ranks.cpp: once the
+// ranks know how the run ends, mpirun may signal rank 0 for the others' exits).
+void expect_signals();
 // 0, or the first signal received while stoppable.
 int stop_requested();
 // "SIGINT", "SIGTERM", "SIGHUP" (or "signal N").

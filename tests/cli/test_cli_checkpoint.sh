@@ -47,6 +47,18 @@ check $? "interrupted by SIGINT and resumed (on one thread): outputs differ from
 interrupt TERM ck-term.bin -o ck-term.exr --stats ck-term.json
 [ "$rc" -eq 143 ] && [ -s ck-term.exr ] && grep -q '"interrupted_by": "SIGTERM"' ck-term.json
 check $? "SIGTERM: exit $rc (143 expected), or no partial image: $(cat signal-err.txt)"
+# A signal while the run cannot stop cleanly (the path tracer) abandons it, with one
+# line that says so and nothing written.
+env --default-signal=INT "$bin" solve --builtin cornell-box --method pathtrace --spp 100000 --width 32 --height 32 \
+  -o pt-abandoned.png 2>signal-err.txt &
+pid=$!
+sleep 1
+kill -INT "$pid"
+wait "$pid"
+rc=$?
+[ "$rc" -eq 130 ] && [ ! -e pt-abandoned.png ] &&
+  grep -q "raybundle: SIGINT: the run abandoned: the files it had not written yet are left as they were" signal-err.txt
+check $? "SIGINT while path tracing: exit $rc, $(cat signal-err.txt)"
 # A signal the run was started ignoring stays ignored (nohup: SIGHUP).
 nohup "$bin" "${ck[@]}" -o ck-hup.exr >/dev/null 2>&1 &
 pid=$!
