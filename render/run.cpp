@@ -69,8 +69,7 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
     if (scene.dropped_degenerate > 0) hooks.warn(scene.name + ": " + scene.dropped_summary());
     if (overlaps.pairs > 0)
         hooks.warn(scene.name + ": " + std::to_string(overlaps.pairs) +
-                   " pairs of coplanar overlapping patches face the same way (e.g. patches " +
-                   std::to_string(overlaps.first) + " and " + std::to_string(overlaps.second) +
+                   " pairs of coplanar overlapping patches face the same way (e.g. " + overlap_example(scene, overlaps) +
                    "): no visibility map can order them; the higher patch index is in front");
     for (const auto& line : scene.warnings) hooks.warn(line);
     for (const auto& line : winding_warnings(summary)) hooks.warn(scene.name + ": " + line);

@@ -174,6 +174,17 @@ bool has_light(const scenes::Scene& scene) {
     return point || emission || (scene.sky && (scene.sky->radiance > 0.0).any());
 }
 
+std::string overlap_example(const scenes::Scene& scene, const scenes::CoplanarOverlaps& overlaps) {
+    const auto& patches = scene.patch_list();
+    const int a = patches[overlaps.first].object, b = patches[overlaps.second].object;
+    const auto& names = scene.object_names;
+    if (a == b)
+        return "patches " + std::to_string(overlaps.first) + " and " + std::to_string(overlaps.second) + " of '" +
+               names[static_cast<std::size_t>(a)] + "'";
+    return "'" + names[static_cast<std::size_t>(a)] + "' (patch " + std::to_string(overlaps.first) + ") and '" +
+           names[static_cast<std::size_t>(b)] + "' (patch " + std::to_string(overlaps.second) + ")";
+}
+
 std::vector<std::string> winding_warnings(const SceneSummary& summary) {
     std::vector<std::string> lines;
     const auto percent = [](double part, double whole) { return std::lround(100.0 * part / whole); };
@@ -282,8 +293,8 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
         out += "\n";
     }
     if (s.overlaps.pairs > 0)
-        print("overlaps    %zu pairs of coplanar overlapping patches face the same way (e.g. %u and %u)\n",
-                    s.overlaps.pairs, s.overlaps.first, s.overlaps.second);
+        print("overlaps    %zu pairs of coplanar overlapping patches face the same way (e.g. %s)\n", s.overlaps.pairs,
+              overlap_example(scene, s.overlaps).c_str());
     for (const auto& w : scene.warnings) print("warning     %s\n", w.c_str());
     for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
     if (!has_light(scene)) print("warning     %s\n", kNoLight);

@@ -64,6 +64,10 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
 bool has_light(const scenes::Scene& scene);
 inline constexpr const char* kNoLight = "no light (no emissive patch, point light or sky above zero): the image is black";
 
+// The coplanar overlaps' example by the objects' names: "'floor' (patch 18) and 'rug'
+// (patch 452)", or "patches 3 and 9 of 'floor'".
+std::string overlap_example(const scenes::Scene& scene, const scenes::CoplanarOverlaps& overlaps);
+
 // One line per object that shows a sign of inverted winding.
 std::vector<std::string> winding_warnings(const SceneSummary& summary);
 

@@ -166,11 +166,11 @@ expect_bad "unknown sky model" "sky.model: unknown sky model 'clear'" solve sky.
 # Coplanar overlapping patches facing the same way: a warning line with the count, and
 # the run goes on (the stats record the count). (Which of the two shows is arbitrary:
 # the higher patch index; a second line may warn that the other faces nothing.)
-scene "$quad, {\"quad\": [[0.2,0.2,0], [0.6,0.2,0], [0.6,0.6,0], [0.2,0.6,0]], \"material\": \"w\"}" > overlap.json
+scene "$quad, {\"quad\": [[0.2,0.2,0], [0.6,0.2,0], [0.6,0.6,0], [0.2,0.6,0]], \"material\": \"w\", \"name\": \"rug\"}" > overlap.json
 "$bin" solve overlap.json --iterations 20 -o overlap.exr --stats overlap-stats.json >out.txt 2>err.txt
 rc=$?
 if [ "$rc" -eq 0 ] && [ "$(grep -c "coplanar overlapping" err.txt)" -eq 1 ] \
-   && grep -qE "warning: overlap.json: [0-9]+ pairs of coplanar overlapping patches face the same way" err.txt \
+   && grep -qE "warning: overlap.json: [0-9]+ pairs of coplanar overlapping patches face the same way \(e.g. 'rug' \(patch [0-9]+\) and 'objects\[0\] \(quad\)' \(patch [0-9]+\)\)" err.txt \
    && grep -qE '"coplanar_overlaps": *[1-9]' overlap-stats.json; then
   passed=$((passed + 1))
 else
