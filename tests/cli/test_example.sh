@@ -23,5 +23,17 @@ cmp -s lib.png cli.png || fail "the library's image differs from the command lin
 rc=$?
 [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "nowhere.json" err.txt && [ ! -e bad.png ] ||
   fail "a missing scene: exit $rc, $(cat err.txt)"
+# Its output is checked as the command line checks its own: not one of the inputs, and
+# a PNG by its name; the scene file is left as it was.
+cp "$src/scenes/examples/contact.json" scene.json
+cp scene.json before.json
+"$example" scene.json scene.json >/dev/null 2>err.txt
+rc=$?
+[ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "scene.json" err.txt && cmp -s scene.json before.json ||
+  fail "the scene file as the output: exit $rc, $(cat err.txt)"
+"$example" builtin:cornell-box out.jpg >/dev/null 2>err.txt
+rc=$?
+[ "$rc" -eq 2 ] && grep -q "out.jpg: this example writes PNG only" err.txt && [ ! -e out.jpg ] ||
+  fail "a .jpg output: exit $rc, $(cat err.txt)"
 [ "$failed" -eq 0 ] && echo "library-example: passed"
 exit "$failed"
