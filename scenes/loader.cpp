@@ -374,6 +374,11 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     json value;
     try {
         value = parse_json(o.value, shown);
+    } catch (const json::out_of_range& e) {  // a number a double cannot hold: 1e400
+        std::string msg = e.what();
+        const auto bracket = msg.find("] ");
+        if (bracket != std::string::npos) msg = msg.substr(bracket + 2);
+        throw SceneError(shown, o.key, cut(msg, 200));
     } catch (const json::exception&) {
         value = o.value;  // a bare word: a string
     }

@@ -159,6 +159,8 @@ expect_bad "define of a bad value" "camera.fov_y: must be in (0, 180) degrees, g
   solve good.json -D camera.fov_y=200
 expect_bad "define of a non-number" "camera.width" solve good.json -D camera.width=wide
 expect_bad "define of a non-number named" "(from -D camera.width=wide)" solve good.json -D camera.width=wide
+expect_bad "define of a number no double holds" "camera.eye: number overflow parsing '1e400' (from -D camera.eye=[0,1e400,0])" \
+  solve good.json -D "camera.eye=[0,1e400,0]"
 expect_bad "bad fov flag" "--fov" solve good.json --fov -3
 expect_bad "width 0" "--width" solve good.json --width 0
 scene "$quad" ', "sky": {"radiance": [1, 1, 1], "model": "clear"}' > sky.json
