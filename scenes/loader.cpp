@@ -709,6 +709,12 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                                           " coincide or lie on one line (a triangle is a \"triangle\")");
                 }
                 tris = triangulate_polygon(v, 1e-6, shown, obj.at(key));
+            } else {
+                // A triangle typed by hand with corners that coincide or lie on a line is a
+                // mistake too (a mesh's such faces are dropped with a warning instead).
+                const double size = std::max({(v[1] - v[0]).norm(), (v[2] - v[1]).norm(), (v[0] - v[2]).norm()});
+                if (!((v[1] - v[0]).cross(v[2] - v[0]).norm() > 1e-9 * size * size))
+                    obj.fail(key, "is degenerate: its points coincide or lie on one line");
             }
             const int id = scene.add_object(v, tris, mat, !given.empty() ? given : obj.path() + " (" + key + ")");
             if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);

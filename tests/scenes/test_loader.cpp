@@ -389,7 +389,7 @@ TEST_CASE("bad scene input gives one clear error naming file, object and value",
     SECTION("a scene with no patches") {
         fails_with(scene_text(kCamera, kMaterials, ""), "the scene has no patches");
         fails_with(scene_text(kCamera, kMaterials, R"({"triangle": [[0,0,0],[1,0,0],[2,0,0]], "material": "white"})"),
-                   "the scene has no patches");
+                   "objects[0].triangle: is degenerate: its points coincide or lie on one line");
     }
     SECTION("bad point lights and sky") {
         fails_with(scene_text(kCamera, kMaterials, kQuad, R"(, "point_lights": {"position": [0,0,1]})"),

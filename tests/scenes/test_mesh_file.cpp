@@ -442,4 +442,10 @@ TEST_CASE("scene quads: degenerate, bent or crossing quads are refused, concave 
     const Scene arrow = parse_scene(quad("[[2,-1,0], [1,0.2,0], [2,1,0], [0,0,0]]"), "s.json", ".");
     CHECK(arrow.total_area() == Approx(1.0));
     CHECK(arrow.patch_count() == 2);
+    // A hand-typed triangle likewise (it was dropped with a warning, leaving an object
+    // of no patches).
+    std::string triangle = quad("[[0,0,0], [0,0,559], [0,0,1000]]");
+    triangle.replace(triangle.find("\"quad\""), 6, "\"triangle\"");
+    REQUIRE_THROWS_WITH(parse_scene(triangle, "s.json", "."),
+                        Contains("s.json: objects[0].triangle: is degenerate: its points coincide or lie on one line"));
 }
