@@ -268,24 +268,30 @@ TEST_CASE("a mesh object is placed by scale, rotate and translate, a mirror keep
 }
 
 TEST_CASE("zero-area triangles are dropped and counted", "[scenes]") {
-    const Scene s = parse(scene_text(kCamera, kMaterials,
-                                     std::string(kQuad) + R"(, {"triangle": [[0,0,1], [1,0,1], [2,0,1]], "material": "white"})"));
+    // A mesh's faces (a hand-typed "triangle" of no area is refused instead).
+    TempDir dir;
+    dir.write("line.obj", "v 0 0 1\nv 1 0 1\nv 2 0 1\nf 1 2 3\n");
+    const std::string line = R"(, {"mesh": "line.obj", "material": "white"})";
+    const Scene s = parse_scene(scene_text(kCamera, kMaterials, std::string(kQuad) + line), "s.json", dir.path.string());
     CHECK(s.patch_count() == 2);
     CHECK(s.dropped_degenerate == 1);
     // Found on the threads, dropped in face order: the same scene on 3 threads, with
-    // zero-area triangles among many (a 20 x 20 grid of quads, every 7th cell flat).
+    // zero-area triangles among many (a 20 x 20 grid of triangles, every 7th flat), each
+    // a mesh of its own.
     std::string objects = kQuad;
     for (int k = 0; k < 400; ++k) {
         const double x = k % 20, y = k / 20, top = k % 7 == 0 ? 0.0 : 1.0;
-        std::ostringstream o;
-        o << R"(, {"triangle": [[)" << x << "," << y << ",2], [" << x + 1 << "," << y << ",2], [" << x + top << ","
-          << y + top << R"(,2]], "material": "white"})";
-        objects += o.str();
+        std::ostringstream obj;
+        obj << "v " << x << " " << y << " 2\nv " << x + 1 << " " << y << " 2\nv " << x + top << " " << y + top
+            << " 2\nf 1 2 3\n";
+        const std::string name = "t" + std::to_string(k) + ".obj";
+        dir.write(name, obj.str());
+        objects += R"(, {"mesh": ")" + name + R"(", "material": "white"})";
     }
     LoadLimits limits;
-    const Scene alone = parse_scene(scene_text(kCamera, kMaterials, objects), "s.json", ".", {}, limits);
+    const Scene alone = parse_scene(scene_text(kCamera, kMaterials, objects), "s.json", dir.path.string(), {}, limits);
     limits.threads = 3;
-    const Scene three = parse_scene(scene_text(kCamera, kMaterials, objects), "s.json", ".", {}, limits);
+    const Scene three = parse_scene(scene_text(kCamera, kMaterials, objects), "s.json", dir.path.string(), {}, limits);
     CHECK(alone.dropped_degenerate == 58);
     CHECK(three.dropped_degenerate == alone.dropped_degenerate);
     REQUIRE(three.patch_count() == alone.patch_count());
