@@ -85,9 +85,28 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& cor
         if (off > bend) bend = off, worst = index[i];
     }
     if (bend > max_bend * longest) {
+        // Off a plane, every corner of a quad lies as far: name the one whose others share
+        // an x, y or z (a hand-typed floor with one corner raised), where one does.
+        int lone = -1;
+        double lone_off = 0.0;
+        for (int i = 0; i < n && lone != -2; ++i)
+            for (int axis = 0; axis < 3; ++axis) {
+                const double at = corners[index[(i + 1) % n]][axis];
+                bool shared = true;
+                for (int j = 0; j < n && shared; ++j) shared = j == i || corners[index[j]][axis] == at;
+                if (shared && corners[index[i]][axis] != at) {
+                    lone = lone == -1 ? index[i] : -2;  // two such corners: no one to name
+                    lone_off = std::abs(corners[index[i]][axis] - at);
+                    break;
+                }
+            }
         std::ostringstream why;
-        why << "a polygon of " << corners.size() << " corners is not planar: corner " << worst << " lies " << bend
-            << " off its plane, more than " << max_bend << " of its longest edge (" << longest << ")";
+        why << "a polygon of " << corners.size() << " corners is not planar: corner ";
+        if (lone >= 0)
+            why << lone << " lies " << lone_off << " off the plane of the others";
+        else
+            why << worst << " lies " << bend << " off its plane";
+        why << ", more than " << max_bend << " of its longest edge (" << longest << ")";
         throw SceneError(shown, where, why.str());
     }
     // In the plane, counter-clockwise (u is the polygon's own normal).

@@ -434,6 +434,9 @@ TEST_CASE("scene quads: degenerate, bent or crossing quads are refused, concave 
     fails_with("[[0,0,0], [1,0,0], [1,0,0], [0,1,0]]", "is degenerate: its points");
     fails_with("[[0,0,0], [1,0,0], [2,0,0], [0,1,0]]", "coincide or lie on one line");
     fails_with("[[0,0,0], [1,0,0], [1,1,0.001], [0,1,0]]", "is not planar");
+    // The corner raised off a floor the others share is the one named.
+    fails_with("[[0,0,0], [0,0,559], [556,0.01,559], [556,0,0]]",
+               "is not planar: corner 2 lies 0.01 off the plane of the others");
     fails_with("[[0,0,0], [1,1,0], [1,0,0], [0,1,0]]", "crosses itself");
     // Far from the origin (coordinates up to 1e15 are promised): a 3 m quad at x = 1e9
     // was "crossing itself" (its normal was rounding).
