@@ -129,6 +129,17 @@ int run(int argc, char** argv, rb::render::Ranks& ranks) {
             return 0;
         }
     } catch (const CLI::CallForHelp& e) {
+        // `raybundle render --help`: CLI11 shows the main help for a word it does not
+        // know; the word is refused as it is without --help.
+        for (int i = 1; i < argc; ++i) {
+            const std::string word = argv[i];
+            if (word.empty() || word[0] == '-') continue;
+            const auto known = app.get_subcommands([&word](const CLI::App* sub) { return sub->get_name() == word; });
+            if (known.empty())
+                return fail("unknown command '" + word + "' (commands: solve, check, scenes, backends, help; --version, --help)",
+                            kExitBadInput);
+            break;
+        }
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
         return app.exit(e);

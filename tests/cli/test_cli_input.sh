@@ -80,6 +80,7 @@ expect_bad "an option given twice" "raybundle solve: --gather given 2 times (0, 
 expect_bad "an option given twice, once with =" "raybundle solve: --patch-size given 2 times (1, 2): give it once" \
   solve good.json --patch-size 1 --patch-size=2
 expect_bad "an unknown command" "unknown command 'version' (commands: solve, check" version
+expect_bad "an unknown command's help" "unknown command 'render' (commands: solve, check" render --help
 expect_bad "iterations 0" "--iterations" solve good.json --iterations 0
 expect_bad "unknown method" "--method: unknown method 'metropolis' (known: iteration, walk, combined, bidirectional, pathtrace)" solve good.json --method metropolis
 expect_bad "both diffuse-shot flags" "give one of --diffuse-shot and --no-diffuse-shot" solve good.json --no-diffuse-shot --diffuse-shot
