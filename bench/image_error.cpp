@@ -32,6 +32,10 @@
 using namespace raybundle;
 
 int main(int argc, char** argv) {
+    if (argc == 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+        std::printf("usage: image_error IMAGE.exr REFERENCE.exr [--map K] | IMAGE.exr --constant V\n");
+        return 0;
+    }
     const bool constant = argc == 4 && std::string(argv[2]) == "--constant";
     const bool map = argc == 5 && std::string(argv[3]) == "--map";
     if (argc != 3 && !constant && !map) {
