@@ -19,11 +19,14 @@ struct RayCaster::Impl {
     std::vector<char> two_sided;
     std::vector<float> normals;  // 3 per patch, two-sided ones only filled
     bool any_two_sided = false;
-    // Embree's frame: the scene's coordinates divided by a power of two that brings the
-    // largest to [0.5, 1), and distances along a ray with them (exact: the same floats
-    // as before, times 2^-k). Its single-precision tests multiply three coordinates: a
-    // room 5.6e13 wide overflowed them (t = inf, then rays from inf: Embree's assertion
-    // aborted the run), one 5.6e-28 wide underflowed them to nothing (every ray missed).
+    // Embree's frame: the scene's coordinates less the centre of its bounds, divided by
+    // a power of two that brings the largest to [0.5, 1), and distances along a ray
+    // divided with them. Embree works in single precision: a room 0.5 wide placed 1e6
+    // from the origin (a site's coordinates) kept 0.06 of its detail, and its image was
+    // 27 % off; its tests multiply three coordinates: a room 5.6e13 wide overflowed them
+    // (t = inf, then rays from inf: Embree's assertion aborted the run), one 5.6e-28
+    // wide underflowed them to nothing (every ray missed).
+    Vec3 centre = Vec3::Zero();
     double scale = 1.0;
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
@@ -44,14 +47,18 @@ RayCaster::RayCaster(const Scene& scene, int threads) : impl_(std::make_unique<I
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     const auto& pos = scene.vertex_positions();
     const auto& patches = scene.patch_list();
-    double largest = 0.0;
-    for (const auto& p : pos) largest = std::max(largest, p.cwiseAbs().maxCoeff());
-    if (largest > 0.0 && std::isfinite(largest)) impl_->scale = std::ldexp(1.0, std::ilogb(largest) + 1);
+    if (!pos.empty()) {
+        Vec3 lo = pos.front(), hi = lo;
+        for (const auto& p : pos) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+        impl_->centre = 0.5 * (lo + hi);
+        const double largest = (hi - impl_->centre).cwiseMax(impl_->centre - lo).maxCoeff();
+        if (largest > 0.0 && std::isfinite(largest)) impl_->scale = std::ldexp(1.0, std::ilogb(largest) + 1);
+    }
     const double to_frame = 1.0 / impl_->scale;
     auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                            3 * sizeof(float), pos.size()));
     for (std::size_t i = 0; i < pos.size(); ++i)
-        for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(pos[i][k] * to_frame);
+        for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>((pos[i][k] - impl_->centre[k]) * to_frame);
     auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                               3 * sizeof(unsigned), patches.size()));
     for (std::size_t i = 0; i < patches.size(); ++i)
@@ -75,13 +82,14 @@ RayCaster::~RayCaster() = default;
 
 namespace {
 
-// A ray in Embree's frame (Impl::scale): the origin and the distances divided by it.
-RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max, double scale) {
+// A ray in Embree's frame (Impl::centre, scale): the origin moved and divided, the
+// distances divided.
+RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max, const Vec3& centre, double scale) {
     const double to_frame = 1.0 / scale;
     RTCRayHit rh{};
-    rh.ray.org_x = static_cast<float>(org.x() * to_frame);
-    rh.ray.org_y = static_cast<float>(org.y() * to_frame);
-    rh.ray.org_z = static_cast<float>(org.z() * to_frame);
+    rh.ray.org_x = static_cast<float>((org.x() - centre.x()) * to_frame);
+    rh.ray.org_y = static_cast<float>((org.y() - centre.y()) * to_frame);
+    rh.ray.org_z = static_cast<float>((org.z() - centre.z()) * to_frame);
     rh.ray.dir_x = static_cast<float>(dir.x());
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
@@ -147,7 +155,7 @@ void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
 bool RayCaster::occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     // The filter intersect() uses: a hit is the same hit here, so the answer is its.
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRay ray = make_ray(org, dir, t_min, t_max, impl_->scale).ray;
+    RTCRay ray = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale).ray;
     rtcOccluded1(impl_->scene, &ctx.context, &ray);
     return ray.tfar < 0.0f;  // -inf where a hit was found
 }
@@ -160,7 +168,7 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
     ctx.context.filter = collect_hit;
     ctx.hits = &hits;
     ctx.scale = impl_->scale;
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->scale);
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
     rtcIntersect1(impl_->scene, &ctx.context, &rh);
     std::sort(hits.begin(), hits.end(), [](const RayHit& a, const RayHit& b) {
         return a.t < b.t || (a.t == b.t && a.patch < b.patch);
@@ -173,7 +181,7 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
 
 RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->scale);
+    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
     rtcIntersect1(impl_->scene, &ctx.context, &rh);
     RayHit hit;
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {

@@ -13,13 +13,16 @@ using scenes::Vec3;
 
 namespace {
 
-// A closed room 5.6 x 5.5 x 5.6 (times k) with a block on its floor, fronts inward.
-scenes::Scene room(double k) {
+// A closed room 5.6 x 5.5 x 5.6 (times k, moved by `at`) with a block on its floor,
+// fronts inward.
+scenes::Scene room(double k, const Vec3& at = Vec3::Zero()) {
     scenes::Scene s;
     scenes::Material m;
     m.albedo = scenes::Rgb(0.5, 0.5, 0.5);
     const int w = s.add_material(m);
-    auto quad = [&](Vec3 a, Vec3 b, Vec3 c, Vec3 d) { s.add_object({a * k, b * k, c * k, d * k}, {{0, 1, 2}, {0, 2, 3}}, w); };
+    auto quad = [&](Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+        s.add_object({a * k + at, b * k + at, c * k + at, d * k + at}, {{0, 1, 2}, {0, 2, 3}}, w);
+    };
     const double X = 5.56, Y = 5.48, Z = 5.59;
     quad({0, 0, 0}, {0, 0, Z}, {X, 0, Z}, {X, 0, 0});          // floor
     quad({0, Y, 0}, {X, Y, 0}, {X, Y, Z}, {0, Y, Z});          // ceiling
@@ -72,6 +75,36 @@ TEST_CASE("ray caster: the same hits at any scale, from 1e-28 to 1e15", "[scenes
         }
         CHECK(missed == 0);
         CHECK(same >= (exact ? 2000 : 1990));  // elsewhere rounding may pick the neighbour across an edge
+        CHECK(worst < 1e-5);
+    }
+}
+
+TEST_CASE("ray caster: the same hits far from the origin", "[scenes][raycast]") {
+    // The room moved 1e6 and 1e9 away (a site's coordinates): Embree's frame is centred
+    // on the scene. Before, at 1e6 its single-precision corners were 0.06 apart, and an
+    // image of a room 0.5 wide was 27 % off.
+    const scenes::Scene one = room(1.0);
+    const scenes::RayCaster base(one);
+    for (const double away : {1e6, 1e9}) {
+        INFO("moved " << away);
+        const Vec3 at(away, -0.5 * away, away);
+        const scenes::Scene moved = room(1.0, at);
+        const scenes::RayCaster caster(moved);
+        int same = 0;
+        double worst = 0.0;
+        for (int i = 0; i < 2000; ++i) {
+            const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
+            const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
+            const Vec3 from(0.5 + 4.5 * std::fmod(0.7548776 * i, 1.0), 0.2 + 5.0 * std::fmod(0.5698403 * i, 1.0),
+                            0.5 + 4.5 * std::fmod(0.1234567 * i + 0.5, 1.0));
+            const Vec3 dir(r * std::cos(a), r * std::sin(a), z);
+            const auto h0 = base.intersect(from, dir);
+            const auto h1 = caster.intersect(from + at, dir);
+            if (h0.patch != h1.patch) continue;
+            ++same;
+            worst = std::max(worst, std::abs(h1.t - h0.t) / h0.t);
+        }
+        CHECK(same >= 1990);
         CHECK(worst < 1e-5);
     }
 }
