@@ -96,10 +96,10 @@ void StochasticIteration::init(const SolverOptions& options) {
                                            "direction per step)");
     // High albedo (solver.h, kStableAlbedo): what was decided, and why.
     const std::string why = rho > kStableAlbedo
-                                ? "the largest albedo, " + std::to_string(rho) +
+                                ? "the largest reflectance (albedo plus specular), " + std::to_string(rho) +
                                       ", passes sqrt(3)/2: with one direction per step the chain's variance grows "
                                       "without bound (docs/stability.md)"
-                                : "the largest albedo, " + std::to_string(rho) + ", is below sqrt(3)/2";
+                                : "the largest reflectance (albedo plus specular), " + std::to_string(rho) + ", is below sqrt(3)/2";
     report_.details["frame"] = *options_.frame;
     report_.details["ambient"] = *options_.ambient;
     if (*options_.ambient) {
@@ -117,9 +117,11 @@ void StochasticIteration::init(const SolverOptions& options) {
             if (!transport_.is_glossy(i)) irradiance_[i] = ambient / 4.0;
         report_.details["ambient_start"] = {ambient[0], ambient[1], ambient[2]};
         report_.decisions["ambient"] =
-            "control variate on every diffuse patch: sum_j A_ij (L_j - c_i) + c_i T_i f_i + c_i (1/4 - T_i) g_i, c_i "
-            "its mean incoming radiance over the last window of steps, f_i the lit share of its entries, g_i its mean; "
-            "the chain starts from the ambient radiance (mean emission / (1 - mean albedo)); " +
+            "on: each diffuse patch's incoming light is estimated relative to its own recent mean (a control "
+            "variate: what a direction brings less that mean, plus the mean over what the direction covers), "
+            "which keeps a high-albedo scene's noise bounded; the chain starts from the ambient radiance (mean "
+            "emission / (1 - mean albedo)); the estimator: sum_j A_ij (L_j - c_i) + c_i T_i f_i + c_i (1/4 - T_i) "
+            "g_i (docs/stability.md); " +
             (options.ambient ? std::string("--ambient given") : why);
     } else {
         report_.decisions["ambient"] = "off: the estimator of 004 section 4.4.1 as it is, from no reflected light; " +
