@@ -206,7 +206,7 @@ std::vector<std::string> winding_warnings(const SceneSummary& summary) {
                                      "inverted)");
             continue;
         }
-        if (o.emissive && o.area > 0.0 && o.covered_area > 0.5 * o.area) {
+        if (o.emissive && !o.two_sided && o.area > 0.0 && o.covered_area > 0.5 * o.area) {  // (a two-sided light's other side shines)
             const std::string other = o.covered_by >= 0 ? "'" + summary.objects[static_cast<std::size_t>(o.covered_by)].name + "'"
                                                         : "another surface";
             lines.push_back(o.name + ": the emitting front of " + std::to_string(percent(o.covered_area, o.area)) +

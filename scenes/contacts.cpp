@@ -269,6 +269,7 @@ void swap_shares(const PreparationTeam& team, const ShareHeader& header, std::ve
 std::vector<std::vector<Line>> contact_lines(const Buffer<Tri>& tris, double widest, double radius, double tol,
                                              int threads, const PreparationTeam* team, const std::string& shown) {
     const int n = static_cast<int>(tris.size());
+    if (n == 0) return {};  // (the loader refuses a scene without patches)
     const int members = team ? team->size() : 1, me = team ? team->rank() : 0;
     const int mine = (n - me + members - 1) / members;  // my triangles: me + k members
     auto triangle = [&](int k) { return static_cast<std::size_t>(me) + static_cast<std::size_t>(k) * members; };

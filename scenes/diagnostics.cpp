@@ -252,6 +252,7 @@ CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads) {
         }
     });
     const SortedCells cells(listed, threads);
+    result.listings = cells.first.back();
 
     // Each member against the later members of its cells (each pair tested once: the
     // stamp says which member last took it), on the threads; the pairs sorted below

@@ -16,6 +16,7 @@ namespace raybundle::scenes {
 struct CoplanarOverlaps {
     std::size_t pairs = 0;
     std::uint32_t first = 0, second = 0;  // one of them (patch indices), when pairs > 0
+    std::size_t listings = 0;             // the grid's (cell, patch) entries: the search's size
 };
 CoplanarOverlaps coplanar_overlaps(const Scene& scene, int threads = 1);  // the same for any thread count
 

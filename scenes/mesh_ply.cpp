@@ -140,6 +140,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     std::vector<Vec3> normals;
     std::vector<std::vector<int>> faces;
     std::vector<double> row;
+    std::string holds;  // what the header says an element holds, for a line that does not (values' rows point here)
     for (const auto& e : elements) {
         check_room(e.count, e.min_bytes(format), values.remaining(), shown, e.name,
                    e.name == "vertex" ? "vertices" : e.name == "face" ? "faces" : e.name + " elements");
@@ -150,7 +151,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
         }
         if (is_face) faces.reserve(static_cast<std::size_t>(e.count));
         if (e.properties.empty()) continue;
-        std::string holds;  // what the header says each element holds, for a line that does not
+        holds.clear();
         for (const auto& prop : e.properties) holds += (holds.empty() ? "" : ", ") + prop.name + (prop.list() ? " (a list)" : "");
         holds = "the header gives each " + e.name + " " + holds + ", and counts " + std::to_string(e.count);
         for (long i = 0; i < e.count; ++i) {
@@ -169,7 +170,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                 check_room(count, format == PlyFormat::ascii ? 2 : prop.type.bytes, values.remaining(), shown, where(),
                            "list items");
                 if (is_face && static_cast<int>(p) == indices) {
-                    if (count < 3) {  // "0 1 0": a vertex read as a face (the header's counts), or a short face
+                    if (count < 3 && p + 1 == e.properties.size()) {  // "0 1 0": a vertex read as a face (the header's counts), or a short face
                         for (long c = 0; c < count; ++c) values.next(prop.type, where);
                         values.end_row(where);
                     }

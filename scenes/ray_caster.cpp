@@ -94,8 +94,10 @@ RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max,
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
     rh.ray.tnear = static_cast<float>(t_min * to_frame);
-    rh.ray.tfar = t_max == std::numeric_limits<double>::infinity() ? std::numeric_limits<float>::infinity()
-                                                                   : static_cast<float>(t_max * to_frame);
+    // (A finite distance past single precision in the frame is no limit: infinity.)
+    const double t_far = t_max * to_frame;
+    rh.ray.tfar = t_far >= static_cast<double>(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity()
+                                                                                 : static_cast<float>(t_far);
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     return rh;

@@ -191,6 +191,11 @@ printf '{"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]}, %s, "objects
 "$bin" check lamp-up.json >chk.txt 2>&1
 grep -q "warning     panel: the emitting front of 100 % of its area lies against 'ceiling', so its light cannot leave" chk.txt
 check $? "a lamp facing into the ceiling: $(cat chk.txt | grep -E 'warning|covered')"
+# Two-sided, its other side shines down: no warning.
+sed 's/"lamp": {"albedo": \[0, 0, 0\], "emission": \[1, 1, 1\]}/"lamp": {"albedo": [0, 0, 0], "emission": [1, 1, 1], "two_sided": true}/' lamp-up.json > lamp-both.json
+"$bin" check lamp-both.json >chk.txt 2>&1
+grep -q '"two_sided": true' lamp-both.json && ! grep -q "emitting front" chk.txt
+check $? "a two-sided lamp under the ceiling was warned about: $(cat chk.txt | grep -E 'warning')"
 # Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
 lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }
 [ "$(lit fp.csv)" = dark ] && [ "$(lit fs.csv)" = lit ]
