@@ -83,31 +83,49 @@ RayCaster::~RayCaster() = default;
 namespace {
 
 // A ray in Embree's frame (Impl::centre, scale): the origin moved and divided, the
-// distances divided.
-RTCRayHit make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max, const Vec3& centre, double scale) {
-    const double to_frame = 1.0 / scale;
+// distances divided. An origin beyond single precision there (1e17 of the scene's size
+// away: Embree's assertion refuses it) starts along its ray, 4 sizes before its nearest
+// approach to the scene (nothing lies before that): `shift` is how far, in the frame,
+// and a ray that passes too far from the scene to meet it is no ray (`meets` false).
+struct FrameRay {
     RTCRayHit rh{};
-    rh.ray.org_x = static_cast<float>((org.x() - centre.x()) * to_frame);
-    rh.ray.org_y = static_cast<float>((org.y() - centre.y()) * to_frame);
-    rh.ray.org_z = static_cast<float>((org.z() - centre.z()) * to_frame);
+    double shift = 0.0;
+    bool meets = true;
+};
+FrameRay make_ray(const Vec3& org, const Vec3& dir, double t_min, double t_max, const Vec3& centre, double scale) {
+    const double to_frame = 1.0 / scale;
+    FrameRay r;
+    Vec3 o = (org - centre) * to_frame;
+    double t_near = t_min * to_frame, t_far = t_max * to_frame;
+    if (o.cwiseAbs().maxCoeff() > 1e17) {
+        const double length2 = dir.squaredNorm();
+        r.shift = std::max(0.0, -o.dot(dir) / length2 - 4.0 / std::sqrt(length2));
+        o += r.shift * dir;
+        t_near = std::max(0.0, t_near - r.shift);
+        t_far -= r.shift;
+        r.meets = o.cwiseAbs().maxCoeff() <= 1e17 && t_far >= t_near;
+    }
+    RTCRayHit& rh = r.rh;
+    rh.ray.org_x = static_cast<float>(o.x());
+    rh.ray.org_y = static_cast<float>(o.y());
+    rh.ray.org_z = static_cast<float>(o.z());
     rh.ray.dir_x = static_cast<float>(dir.x());
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
-    rh.ray.tnear = static_cast<float>(t_min * to_frame);
+    rh.ray.tnear = static_cast<float>(t_near);
     // (A finite distance past single precision in the frame is no limit: infinity.)
-    const double t_far = t_max * to_frame;
     rh.ray.tfar = t_far >= static_cast<double>(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity()
                                                                                  : static_cast<float>(t_far);
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    return rh;
+    return r;
 }
 
 // An intersect context that records every hit and rejects it, so traversal goes on.
 struct CollectContext {
     RTCIntersectContext context;  // first member: Embree hands back a pointer to it
     std::vector<RayHit>* hits;
-    double scale;  // Impl::scale
+    double scale, shift;  // Impl::scale, FrameRay::shift
 };
 
 void collect_hit(const RTCFilterFunctionNArguments* args) {
@@ -116,7 +134,7 @@ void collect_hit(const RTCFilterFunctionNArguments* args) {
         if (args->valid[k] == 0) continue;
         RayHit h;
         h.patch = static_cast<int>(RTCHitN_primID(args->hit, args->N, k));
-        h.t = RTCRayN_tfar(args->ray, args->N, k) * ctx->scale;
+        h.t = (RTCRayN_tfar(args->ray, args->N, k) + ctx->shift) * ctx->scale;
         h.b1 = RTCHitN_u(args->hit, args->N, k);
         h.b2 = RTCHitN_v(args->hit, args->N, k);
         ctx->hits->push_back(h);
@@ -157,9 +175,10 @@ void front_of_two_sided(const RTCFilterFunctionNArguments* args) {
 bool RayCaster::occluded(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     // The filter intersect() uses: a hit is the same hit here, so the answer is its.
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRay ray = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale).ray;
-    rtcOccluded1(impl_->scene, &ctx.context, &ray);
-    return ray.tfar < 0.0f;  // -inf where a hit was found
+    FrameRay r = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
+    if (!r.meets) return false;
+    rtcOccluded1(impl_->scene, &ctx.context, &r.rh.ray);
+    return r.rh.ray.tfar < 0.0f;  // -inf where a hit was found
 }
 
 void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& hits, double t_min,
@@ -169,9 +188,11 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
     rtcInitIntersectContext(&ctx.context);
     ctx.context.filter = collect_hit;
     ctx.hits = &hits;
+    FrameRay r = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
+    if (!r.meets) return;
     ctx.scale = impl_->scale;
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
-    rtcIntersect1(impl_->scene, &ctx.context, &rh);
+    ctx.shift = r.shift;
+    rtcIntersect1(impl_->scene, &ctx.context, &r.rh);
     std::sort(hits.begin(), hits.end(), [](const RayHit& a, const RayHit& b) {
         return a.t < b.t || (a.t == b.t && a.patch < b.patch);
     });
@@ -183,12 +204,14 @@ void RayCaster::all_hits(const Vec3& org, const Vec3& dir, std::vector<RayHit>& 
 
 RayHit RayCaster::intersect(const Vec3& org, const Vec3& dir, double t_min, double t_max) const {
     FrontContext ctx(impl_->any_two_sided, impl_->two_sided, impl_->normals);
-    RTCRayHit rh = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
-    rtcIntersect1(impl_->scene, &ctx.context, &rh);
+    FrameRay r = make_ray(org, dir, t_min, t_max, impl_->centre, impl_->scale);
     RayHit hit;
+    if (!r.meets) return hit;
+    RTCRayHit& rh = r.rh;
+    rtcIntersect1(impl_->scene, &ctx.context, &rh);
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         hit.patch = static_cast<int>(rh.hit.primID);
-        hit.t = rh.ray.tfar * impl_->scale;
+        hit.t = (rh.ray.tfar + r.shift) * impl_->scale;
         hit.b1 = rh.hit.u;
         hit.b2 = rh.hit.v;
     }

@@ -108,3 +108,28 @@ TEST_CASE("ray caster: the same hits far from the origin", "[scenes][raycast]") 
         CHECK(worst < 1e-5 * 9.6);  // 1e-5 of the room's diagonal: single precision's rounding, a few times over
     }
 }
+
+TEST_CASE("ray caster: an origin beyond single precision of the scene's frame", "[scenes][raycast]") {
+    // Rays from 1e20 away (2e19 of the room's size: past what a float holds in Embree's
+    // frame, whose assertion then aborted the run) are answered: a miss where they pass
+    // far from the room. (Where they are aimed at it, double precision itself has lost
+    // the aim: 1e20 is held to 16384. They may hit or miss, but they do not abort.)
+    const scenes::Scene s = room(1.0);
+    const scenes::RayCaster caster(s);
+    const Vec3 centre(2.78, 2.74, 2.795);
+    int answered = 0;
+    for (int i = 0; i < 200; ++i) {
+        const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
+        const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
+        const Vec3 dir(r * std::cos(a), r * std::sin(a), z);
+        const Vec3 far = centre - 1e20 * dir, aside = far + 1e19 * dir.unitOrthogonal();
+        const auto aimed = caster.intersect(far, dir);
+        answered += aimed.patch < static_cast<int>(s.patch_count()) ? 1 : 0;
+        CHECK_FALSE(caster.intersect(aside, dir).valid());
+        CHECK_FALSE(caster.occluded(aside, dir, 0.0, 2e20));
+        std::vector<scenes::RayHit> hits;
+        caster.all_hits(aside, dir, hits);
+        CHECK(hits.empty());
+    }
+    CHECK(answered == 200);
+}
