@@ -39,7 +39,7 @@ expect_bad "--ambient with pathtrace" "ambient does not apply to --method pathtr
 # The ambient control variate: off by default, on with --ambient, in the stats either way.
 "$bin" solve --builtin homogeneous-box --iterations 50 --gather 0 --ambient --stats amb-on.json -q &&
   "$bin" solve --builtin homogeneous-box --iterations 50 --gather 0 --stats amb-off.json -q &&
-  grep -q '"ambient": "control variate' amb-on.json && grep -q '"ambient": "off' amb-off.json
+  grep -q '"ambient": "on: each diffuse patch' amb-on.json && grep -q '"ambient": "off' amb-off.json
 check $? "--ambient/--no-ambient: the decision is not in the stats"
 # Magnitudes whose products would overflow (a NaN image with exit 0 before).
 scene "$quad" ', "point_lights": [{"position": [0.5, 0.5, 1], "intensity": [1e308, 1e308, 1e308]}]' > overflow.json
