@@ -84,19 +84,17 @@ void check_same_scene(const scenes::Scene& many, const scenes::Scene& one) {
     CHECK(many.bounds_radius() == one.bounds_radius());
 }
 
-// parse_scene on every member of a team of threads, each with its own scene text.
-std::vector<std::string> load_together(const std::vector<std::string>& texts) {
-    const int size = static_cast<int>(texts.size());
+// body(member, rank) on each of `size` threads, as the members of one team; an
+// exception a member throws is its entry of the result ("" where none).
+std::vector<std::string> on_team(int size, const std::function<void(const ThreadTeam::Member&, std::size_t)>& body) {
     ThreadTeam team(size);
-    std::vector<std::string> errors(texts.size());
+    std::vector<std::string> errors(static_cast<std::size_t>(size));
     std::vector<std::thread> members;
     for (int r = 0; r < size; ++r)
         members.emplace_back([&, r] {
             const ThreadTeam::Member me(team, r);
-            scenes::LoadLimits limits;
-            limits.team = &me;
             try {
-                scenes::parse_scene(texts[static_cast<std::size_t>(r)], "s.json", ".", {}, limits);
+                body(me, static_cast<std::size_t>(r));
             } catch (const std::exception& e) {
                 errors[static_cast<std::size_t>(r)] = e.what();
             }
@@ -105,41 +103,34 @@ std::vector<std::string> load_together(const std::vector<std::string>& texts) {
     return errors;
 }
 
+// parse_scene on every member of a team of threads, each with its own scene text.
+std::vector<std::string> load_together(const std::vector<std::string>& texts) {
+    return on_team(static_cast<int>(texts.size()), [&](const ThreadTeam::Member& me, std::size_t r) {
+        scenes::LoadLimits limits;
+        limits.team = &me;
+        scenes::parse_scene(texts[r], "s.json", ".", {}, limits);
+    });
+}
+
 // parse_scene of one text on every member of a team of `size` threads (2 threads each).
 std::vector<scenes::Scene> parse_together(const std::string& text, int size) {
-    ThreadTeam team(size);
     std::vector<scenes::Scene> scenes(static_cast<std::size_t>(size));
-    std::vector<std::thread> members;
-    for (int r = 0; r < size; ++r)
-        members.emplace_back([&, r] {
-            const ThreadTeam::Member me(team, r);
-            scenes::LoadLimits limits;
-            limits.team = &me;
-            limits.threads = 2;
-            scenes[static_cast<std::size_t>(r)] = scenes::parse_scene(text, "s.json", ".", {}, limits);
-        });
-    for (auto& m : members) m.join();
+    for (const auto& e : on_team(size, [&](const ThreadTeam::Member& me, std::size_t r) {
+             scenes::LoadLimits limits;
+             limits.team = &me;
+             limits.threads = 2;
+             scenes[r] = scenes::parse_scene(text, "s.json", ".", {}, limits);
+         }))
+        CHECK(e.empty());
     return scenes;
 }
 
 // make_builtin on every member of a team of `size` threads, each with its own patch size.
 std::vector<scenes::Scene> prepare_together(const std::vector<double>& patch_sizes, std::vector<std::string>& errors) {
-    const int size = static_cast<int>(patch_sizes.size());
-    ThreadTeam team(size);
     std::vector<scenes::Scene> scenes(patch_sizes.size());
-    errors.assign(patch_sizes.size(), "");
-    std::vector<std::thread> members;
-    for (int r = 0; r < size; ++r)
-        members.emplace_back([&, r] {
-            const ThreadTeam::Member me(team, r);
-            try {
-                scenes[static_cast<std::size_t>(r)] =
-                    scenes::make_builtin("cornell-box", patch_sizes[static_cast<std::size_t>(r)], 2, &me);
-            } catch (const std::exception& e) {
-                errors[static_cast<std::size_t>(r)] = e.what();
-            }
-        });
-    for (auto& m : members) m.join();
+    errors = on_team(static_cast<int>(patch_sizes.size()), [&](const ThreadTeam::Member& me, std::size_t r) {
+        scenes[r] = scenes::make_builtin("cornell-box", patch_sizes[r], 2, &me);
+    });
     return scenes;
 }
 
