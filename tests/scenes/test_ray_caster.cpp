@@ -35,6 +35,17 @@ scenes::Scene room(double k, const Vec3& at = Vec3::Zero()) {
     return s;
 }
 
+// Ray i of a fixed set: a direction spread over the sphere, and a point inside the room.
+Vec3 direction(int i) {
+    const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
+    const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
+    return {r * std::cos(a), r * std::sin(a), z};
+}
+Vec3 inside(int i) {
+    return {0.5 + 4.5 * std::fmod(0.7548776 * i, 1.0), 0.2 + 5.0 * std::fmod(0.5698403 * i, 1.0),
+            0.5 + 4.5 * std::fmod(0.1234567 * i + 0.5, 1.0)};
+}
+
 }  // namespace
 
 TEST_CASE("ray caster: the same hits at any scale, from 1e-28 to 1e15", "[scenes][raycast]") {
@@ -47,11 +58,8 @@ TEST_CASE("ray caster: the same hits at any scale, from 1e-28 to 1e15", "[scenes
     const scenes::RayCaster base(one);
     std::vector<Vec3> from, dir;
     for (int i = 0; i < 2000; ++i) {
-        const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
-        const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
-        from.emplace_back(0.5 + 4.5 * std::fmod(0.7548776 * i, 1.0), 0.2 + 5.0 * std::fmod(0.5698403 * i, 1.0),
-                          0.5 + 4.5 * std::fmod(0.1234567 * i + 0.5, 1.0));
-        dir.emplace_back(r * std::cos(a), r * std::sin(a), z);
+        from.push_back(inside(i));
+        dir.push_back(direction(i));
     }
     for (const double k : {0x1p40, 0x1p-90, 1e13, 1e15, 1e-28, 1e-6}) {
         INFO("scale " << k);
@@ -93,11 +101,7 @@ TEST_CASE("ray caster: the same hits far from the origin", "[scenes][raycast]") 
         int same = 0;
         double worst = 0.0;
         for (int i = 0; i < 2000; ++i) {
-            const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
-            const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
-            const Vec3 from(0.5 + 4.5 * std::fmod(0.7548776 * i, 1.0), 0.2 + 5.0 * std::fmod(0.5698403 * i, 1.0),
-                            0.5 + 4.5 * std::fmod(0.1234567 * i + 0.5, 1.0));
-            const Vec3 dir(r * std::cos(a), r * std::sin(a), z);
+            const Vec3 from = inside(i), dir = direction(i);
             const auto h0 = base.intersect(from, dir);
             const auto h1 = caster.intersect(from + at, dir);
             if (h0.patch != h1.patch) continue;
@@ -119,9 +123,7 @@ TEST_CASE("ray caster: an origin beyond single precision of the scene's frame", 
     const Vec3 centre(2.78, 2.74, 2.795);
     int answered = 0;
     for (int i = 0; i < 200; ++i) {
-        const double u = std::fmod(0.618034 * i, 1.0), v = std::fmod(0.414214 * i + 0.3, 1.0);
-        const double z = 1.0 - 2.0 * u, r = std::sqrt(1.0 - z * z), a = 2.0 * M_PI * v;
-        const Vec3 dir(r * std::cos(a), r * std::sin(a), z);
+        const Vec3 dir = direction(i);
         const Vec3 far = centre - 1e20 * dir, aside = far + 1e19 * dir.unitOrthogonal();
         const auto aimed = caster.intersect(far, dir);
         answered += aimed.patch < static_cast<int>(s.patch_count()) ? 1 : 0;
