@@ -9,9 +9,15 @@
 namespace raybundle::apps {
 
 int check_scene(const Command& c) {
-    const scenes::Scene scene = load_scene(c);
-    const scenes::RayCaster caster(scene);
-    std::cout << render::describe(scene, render::summarize(scene, caster, c.config.run.threads));
+    ProgressBar bar(c.quiet);
+    const scenes::Scene scene = load_scene(c, bar);
+    const auto summary = [&] {
+        PreparationProgress shown(bar);
+        shown.step("check");
+        const scenes::RayCaster caster(scene);
+        return render::summarize(scene, caster, c.config.run.threads);
+    }();
+    std::cout << render::describe(scene, summary);
     return 0;
 }
 

@@ -4,6 +4,7 @@
 // scene overrides; the command line adds only what it alone knows: the files to write,
 // and its own checks. Libraries report bad options in their own terms (OptionError),
 // which Flags::flag_of() turns into flags.
+#include "progress.h"
 #include "render/output_set.h"
 #include "render/run.h"
 #include "scenes/loader.h"
@@ -86,7 +87,9 @@ void add_solve_options(CLI::App& cmd, Command& c);
 // can be written, flags that need others. Throws UsageError.
 void check_command(const CLI::App& cmd, Command& c);
 
-scenes::Scene load_scene(const Command& c, const scenes::PreparationTeam* team = nullptr);
+// The scene the command names, its preparation shown on `bar` (a scene file's or
+// model's steps, apps/progress.h).
+scenes::Scene load_scene(const Command& c, ProgressBar& bar, const scenes::PreparationTeam* team = nullptr);
 // `raybundle solve` (on every rank of `ranks`) and `raybundle check`: exit codes.
 int solve(const Command& c, Ranks& ranks);
 int check_scene(const Command& c);

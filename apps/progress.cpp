@@ -28,7 +28,9 @@ ProgressBar::~ProgressBar() { clear(); }
 std::string ProgressBar::line(const sampling::Progress& p, int width) {
     const double frac = p.total > 0 ? std::clamp(static_cast<double>(p.done) / p.total, 0.0, 1.0) : 0.0;
     char tail[96];
-    if (frac > 0.0 && frac < 1.0)
+    if (p.total <= 0)  // how far is unknown: the seconds alone
+        std::snprintf(tail, sizeof tail, "  %.1f s", p.seconds);
+    else if (frac > 0.0 && frac < 1.0)
         std::snprintf(tail, sizeof tail, " %3d%%  %.1f s, %.1f s left", static_cast<int>(100 * frac), p.seconds,
                       p.seconds * (1.0 - frac) / frac);
     else
@@ -44,7 +46,7 @@ std::string ProgressBar::line(const sampling::Progress& p, int width) {
     std::string label = p.phase;
     const int room = width - 1 - static_cast<int>(label.size()) - static_cast<int>(std::string(tail).size()) - 3;
     std::string out = label;
-    if (room >= 10) {  // the bar, in what is left
+    if (room >= 10 && p.total > 0) {  // the bar, in what is left
         const int bar = std::min(room, 40), filled = static_cast<int>(frac * bar);
         out += " [" + std::string(static_cast<std::size_t>(filled), '#') + std::string(static_cast<std::size_t>(bar - filled), '.') + "]";
     }
@@ -76,6 +78,43 @@ void ProgressBar::clear() {
     std::fprintf(stderr, "\r%*s\r", std::max(0, terminal_width() - 1), "");
     std::fflush(stderr);
     drawn_ = false;
+}
+
+
+PreparationProgress::PreparationProgress(ProgressBar& bar) : bar_(bar) {
+    if (!bar_.enabled()) return;
+    ticker_ = std::thread([this] {
+        std::unique_lock<std::mutex> guard(lock_);
+        while (!done_) {
+            draw();
+            wake_.wait_for(guard, std::chrono::milliseconds(200));
+        }
+    });
+}
+
+PreparationProgress::~PreparationProgress() {
+    if (ticker_.joinable()) {
+        {
+            const std::lock_guard<std::mutex> guard(lock_);
+            done_ = true;
+        }
+        wake_.notify_one();
+        ticker_.join();
+    }
+    bar_.clear();
+}
+
+void PreparationProgress::step(const char* name) {
+    if (!ticker_.joinable()) return;
+    const std::lock_guard<std::mutex> guard(lock_);
+    label_ = std::string("scene: ") + name;
+    draw();  // at once: a short step shows too
+}
+
+// Called with lock_ held.
+void PreparationProgress::draw() {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    bar_({label_.c_str(), 0, 0, seconds});
 }
 
 }  // namespace raybundle::apps

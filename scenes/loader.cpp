@@ -493,6 +493,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
     if (root.has("patch_size") && !root.raw("patch_size").is_string()) {
         size = root.number("patch_size");
         scene.refinement = "patch size " + format_number(size) + " (the scene's)";
+        if (limits.on_step) limits.on_step("refining");
         refine_within(scene, size, shown, budget, limits.threads, finish);
     } else {
         const auto& pos = scene.vertex_positions();
@@ -502,6 +503,7 @@ void refine(Scene& scene, const Node& root, const std::string& shown, const Load
         size = extent / 25.0;
         scene.refinement = "patch size " + format_number(size) + " (automatic: 1/25 of the scene's largest extent, " +
                            format_number(extent) + "; \"patch_size\" sets it, \"none\" keeps the patches as modelled)";
+        if (limits.on_step) limits.on_step("refining");
         try {
             refine_within(scene, size, shown, budget, limits.threads, finish);
         } catch (const SceneError& e) {
@@ -570,6 +572,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         throw SceneError(where, "", "invalid number: " + cut(msg, 200) + " (not finite)");
     }
 
+    if (limits.on_step) limits.on_step("reading");
     for (const Override& o : overrides) apply_override(doc, o, shown);
     Node root(doc, shown, "");
     root.require_object();
@@ -744,13 +747,16 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
+    if (limits.on_step) limits.on_step("normals");
     scene.finalize(limits.threads);
     const bool cuts = !root.has("cut_contacts") || root.boolean("cut_contacts");
     refine(scene, root, shown, limits, cuts ? Finish::leave_mesh : Finish::finalize);  // the cuts finalize
-    if (cuts)
+    if (cuts) {
+        if (limits.on_step) limits.on_step("contacts");
         cut_at_contacts(scene, limits.threads, limits.team);
-    else
+    } else {
         skip_contact_search(scene, limits.team);
+    }
     return scene;
 }
 
@@ -813,7 +819,8 @@ std::string extension_of(const std::string& path) {
 
 // A model file alone as a scene: the document parse_scene would read, with the file's
 // camera (glTF) or one that frames it from +z, and the automatic patch size.
-Scene load_model(const std::string& path, const Overrides& overrides, int threads, const PreparationTeam* team) {
+Scene load_model(const std::string& path, const Overrides& overrides, const LoadLimits& limits) {
+    if (limits.on_step) limits.on_step("reading");
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
     Vec3 lo = data.vertices.front(), hi = lo;
@@ -828,9 +835,6 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
     if (data.camera) camera = camera_json(*data.camera);
     // Its parts named "room.obj: Floor", as in a scene file's object named "room.obj".
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}, {"name", name}}})}};
-    LoadLimits limits;
-    limits.threads = threads;
-    limits.team = team;
     Scene scene = [&] {  // made in place: a Scene copied costs milliseconds
         try {
             return parse_scene(doc.dump(), path, dir_of(path), overrides, limits);
@@ -849,14 +853,18 @@ Scene load_model(const std::string& path, const Overrides& overrides, int thread
 }  // namespace
 
 Scene load_scene(const std::string& path, const Overrides& overrides, int threads, const PreparationTeam* team) {
-    const std::string ext = extension_of(path);
-    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides, threads, team);
-    std::error_code ec;
-    if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
-        throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
     LoadLimits limits;
     limits.threads = threads;
     limits.team = team;
+    return load_scene(path, overrides, limits);
+}
+
+Scene load_scene(const std::string& path, const Overrides& overrides, const LoadLimits& limits) {
+    const std::string ext = extension_of(path);
+    if (ext == "obj" || ext == "gltf" || ext == "glb") return load_model(path, overrides, limits);
+    std::error_code ec;
+    if ((ext == "ply" || ext == "off") && std::filesystem::is_regular_file(path, ec))
+        throw SceneError(path, "", "a " + ext + " file has no materials: name it in a scene file (docs/scene-format.md)");
     Scene scene =
         parse_scene(read_input_file(path, path, "scene file", kMaxSceneFileBytes), path, dir_of(path), overrides, limits);
     scene.files.insert(scene.files.begin(), path);

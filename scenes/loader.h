@@ -4,6 +4,7 @@
 #include "scenes/subdivide.h"
 #include "scenes/team.h"
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -32,14 +33,21 @@ Scene load_scene(const std::string& path, const Overrides& overrides = {}, int t
                  const PreparationTeam* team = nullptr);
 
 // Bounds on what a scene may grow to on load (the fuzzing harnesses lower them so that
-// every input stays within their memory and time limits: tests/fuzz/), and the threads
-// that prepare it.
+// every input stays within their memory and time limits: tests/fuzz/), the threads
+// that prepare it, and who hears of its steps.
 struct LoadLimits {
     double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
     std::uint64_t memory = memory_available();  // bytes the preparation may hold (0: no bound)
     int threads = 1;                   // the preparation (refinement, contacts)
     const PreparationTeam* team = nullptr;  // the processes sharing the contact search
+    // Told, on the calling thread, as each step of a scene file's or model's preparation
+    // begins: "reading" (the files, their welds), "normals", "refining", "contacts". For a
+    // progress display (apps/progress.h); a built-in scene tells nothing.
+    std::function<void(const char* step)> on_step;
 };
+
+// load_scene() with the limits above.
+Scene load_scene(const std::string& path, const Overrides& overrides, const LoadLimits& limits);
 
 // The same from JSON text; mesh paths resolve against base_dir, errors name `shown`.
 Scene parse_scene(const std::string& text, const std::string& shown, const std::string& base_dir,

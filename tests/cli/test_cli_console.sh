@@ -27,6 +27,14 @@ if command -v script >/dev/null; then
   long=$(awk 'length($0) >= 50' bar.txt | wc -l)
   [ "$long" -eq 0 ] || { fail "progress bar wider than 49 columns: $(awk 'length($0) >= 50' bar.txt | head -1)"; ok=1; }
   check $ok "progress bar"
+  # A scene file's preparation and check: each step and its seconds, then the line cleared.
+  script -qc "stty cols 50 2>/dev/null; '$bin' check '$src/scenes/examples/minimal.json' 2>&1 >/dev/null" /dev/null \
+    | tr '\r' '\n' | sed 's/[[:space:]]*$//' | grep -v '^$' > prep.txt
+  ok=0
+  for step in reading normals refining contacts check; do
+    grep -Eq "^scene: $step  [0-9]+\.[0-9] s$" prep.txt || { fail "preparation lacks its step $step: $(tr '\n' '|' <prep.txt)"; ok=1; }
+  done
+  check $ok "preparation progress"
 else
   skip "progress bar: no script(1) to give the run a terminal (Debian: bsdutils)"
 fi
