@@ -10,7 +10,7 @@ namespace raybundle::apps {
 
 int check_scene(const Command& c) {
     ProgressBar bar(c.quiet);
-    const scenes::Scene scene = load_scene(c, bar);
+    const scenes::Scene scene = load_scene(c, scenes::memory_share(), bar);
     const auto summary = [&] {
         PreparationProgress shown(bar);
         shown.step("check");

@@ -87,9 +87,10 @@ void add_solve_options(CLI::App& cmd, Command& c);
 // can be written, flags that need others. Throws UsageError.
 void check_command(const CLI::App& cmd, Command& c);
 
-// The scene the command names, its preparation shown on `bar` (a scene file's or
-// model's steps, apps/progress.h).
-scenes::Scene load_scene(const Command& c, ProgressBar& bar, const scenes::PreparationTeam* team = nullptr);
+// The scene the command names, its patches bounded by `memory` (scenes/machine.h), its
+// preparation shown on `bar` (a scene file's or model's steps, apps/progress.h).
+scenes::Scene load_scene(const Command& c, const scenes::MemoryShare& memory, ProgressBar& bar,
+                         const scenes::PreparationTeam* team = nullptr);
 // `raybundle solve` (on every rank of `ranks`) and `raybundle check`: exit codes.
 int solve(const Command& c, Ranks& ranks);
 int check_scene(const Command& c);

@@ -400,13 +400,15 @@ void check_command(const CLI::App& cmd, Command& c) {
     render::check_outputs(outputs, inputs);  // OutputError: exit 2
 }
 
-scenes::Scene load_scene(const Command& c, ProgressBar& bar, const scenes::PreparationTeam* team) {
+scenes::Scene load_scene(const Command& c, const scenes::MemoryShare& memory, ProgressBar& bar,
+                         const scenes::PreparationTeam* team) {
     const int threads = c.config.run.threads;
-    if (!c.builtin.empty()) return scenes::load_builtin(c.builtin, c.overrides, threads, team);
+    if (!c.builtin.empty()) return scenes::load_builtin(c.builtin, c.overrides, threads, team, memory);
     PreparationProgress preparation(bar);
     scenes::LoadLimits limits;
     limits.threads = threads;
     limits.team = team;
+    limits.memory = memory;
     limits.on_step = [&](const char* step) { preparation.step(step); };
     return scenes::load_scene(c.scene_file, c.overrides, limits);
 }

@@ -85,8 +85,11 @@ int solve(const Command& c, Ranks& ranks) {
     try {
         if (ranks.spread()) render::require_spreadable(config, ranks.size());
         if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
+        // Ranks on one machine share its memory: every rank bounds the scene and the run
+        // alike, by the least share.
+        config.memory = scenes::memory_share(ranks.spread() ? &ranks : nullptr);
         const auto t_scene = std::chrono::steady_clock::now();
-        const scenes::Scene scene = load_scene(c, bar, ranks.spread() ? &ranks : nullptr);
+        const scenes::Scene scene = load_scene(c, config.memory, bar, ranks.spread() ? &ranks : nullptr);
         const double seconds_scene = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_scene).count();
         render::check_outputs(c.outputs, render::with_scene_files(c.inputs, scene));  // its meshes too
         render::require_memory(config, scene);

@@ -28,7 +28,7 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene) {
 using scenes::gigabytes;
 
 void require_memory(const RunConfig& c, const scenes::Scene& scene) {
-    const std::uint64_t available = memory_available();
+    const std::uint64_t available = c.memory.bytes;
     const MemoryNeed need = memory_need(c, scene);
     if (available == 0 || need.bytes <= static_cast<double>(available)) return;
     const std::string largest = need.pixels >= std::max(need.patches, need.maps)
@@ -38,8 +38,7 @@ void require_memory(const RunConfig& c, const scenes::Scene& scene) {
     throw RunError(scene.name + ": " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
                    " pixels and " + std::to_string(scene.patch_count()) + " patches need about " +
                    gigabytes(need.bytes) + " (pixels " + gigabytes(need.pixels) + ", patches " +
-                   gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), this machine has " +
-                   gigabytes(static_cast<double>(available)) + ": try " + largest);
+                   gigabytes(need.patches) + ", maps " + gigabytes(need.maps) + "), " + c.memory.text() + ": try " + largest);
 }
 
 }  // namespace raybundle::render

@@ -32,8 +32,9 @@ MemoryNeed memory_need(const RunConfig& c, const scenes::Scene& scene);
 // groups above it where that is lower (bytes; 0 when none can be read).
 using scenes::memory_available;
 
-// Throws RunError where the run cannot fit in memory_available(): one line with the
-// need, its parts, what the machine has, and what to make smaller.
+// Throws RunError where the run cannot fit in c.memory (what this process may hold: its
+// share of the machine among MPI ranks, scenes/machine.h): one line with the need, its
+// parts, what the machine has, and what to make smaller.
 void require_memory(const RunConfig& c, const scenes::Scene& scene);
 
 

@@ -32,6 +32,7 @@
 #include "render/progressive.h"
 #include "render/shade.h"
 #include "sampling/run.h"
+#include "scenes/machine.h"
 #include "scenes/scene.h"
 #include "scenes/threads.h"
 #include "solver/solver.h"
@@ -83,6 +84,10 @@ struct RunConfig {
     std::optional<Checkpoint> resume;
     std::string resume_file;
     nlohmann::json identity = nlohmann::json::object();
+    // What this process may hold (render/memory.h): the machine's memory, or its share
+    // among the members of a team on it (scenes::memory_share, which the command line
+    // gathers from its ranks).
+    scenes::MemoryShare memory = scenes::memory_share();
 
     static sampling::RunOptions all_cores() {
         sampling::RunOptions r;

@@ -351,7 +351,7 @@ std::vector<BuiltinInfo> builtin_scenes() {
 }
 
 Scene make_builtin(const std::string& name, std::optional<double> patch_size, int threads,
-                   const PreparationTeam* team) {
+                   const PreparationTeam* team, const MemoryShare& memory) {
     double default_size = 0.0;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
@@ -379,7 +379,7 @@ Scene make_builtin(const std::string& name, std::optional<double> patch_size, in
         return s;
     }
     s.finalize(threads);
-    refine_within(s, size, name, patch_budget(), threads, Finish::leave_mesh);  // the cuts finalize
+    refine_within(s, size, name, patch_budget(kMaxPatches, memory), threads, Finish::leave_mesh);  // the cuts finalize
     s.refinement = line.str();
     cut_at_contacts(s, threads, team);
     return s;

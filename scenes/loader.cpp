@@ -873,7 +873,8 @@ Scene load_scene(const std::string& path, const Overrides& overrides, const Load
 
 namespace {
 
-Scene builtin_with(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
+Scene builtin_with(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team,
+                   const MemoryShare& memory) {
     std::optional<double> default_size;
     for (const auto& info : builtin_scenes())
         if (info.name == name) default_size = info.default_patch_size;
@@ -891,7 +892,7 @@ Scene builtin_with(const std::string& name, const Overrides& overrides, int thre
     }
     const std::optional<double> size =
         sized ? std::optional<double>(Node(sizes, name, "").number("patch_size")) : std::nullopt;
-    Scene scene = make_builtin(name, size, threads, team);
+    Scene scene = make_builtin(name, size, threads, team, memory);
     if (!overrides.empty()) {
         camera["camera"] = camera_json(scene.camera);
         for (const Override& o : overrides)
@@ -903,8 +904,9 @@ Scene builtin_with(const std::string& name, const Overrides& overrides, int thre
 
 }  // namespace
 
-Scene load_builtin(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team) {
-    return naming_overrides(overrides, name, [&] { return builtin_with(name, overrides, threads, team); });
+Scene load_builtin(const std::string& name, const Overrides& overrides, int threads, const PreparationTeam* team,
+                   const MemoryShare& memory) {
+    return naming_overrides(overrides, name, [&] { return builtin_with(name, overrides, threads, team, memory); });
 }
 
 }  // namespace raybundle::scenes

@@ -37,7 +37,7 @@ Scene load_scene(const std::string& path, const Overrides& overrides = {}, int t
 // that prepare it, and who hears of its steps.
 struct LoadLimits {
     double max_patches = kMaxPatches;  // after refinement (scenes/subdivide.h)
-    std::uint64_t memory = memory_available();  // bytes the preparation may hold (0: no bound)
+    MemoryShare memory = memory_share();  // what the preparation may hold (bytes 0: no bound)
     int threads = 1;                   // the preparation (refinement, contacts)
     const PreparationTeam* team = nullptr;  // the processes sharing the contact search
     // Told, on the calling thread, as each step of a scene file's or model's preparation
@@ -56,6 +56,6 @@ Scene parse_scene(const std::string& text, const std::string& shown, const std::
 // A built-in scene (scenes/builtin.h) with overrides of its camera ("camera.*") and
 // "patch_size", validated as in a file.
 Scene load_builtin(const std::string& name, const Overrides& overrides = {}, int threads = 1,
-                   const PreparationTeam* team = nullptr);
+                   const PreparationTeam* team = nullptr, const MemoryShare& memory = memory_share());
 
 }  // namespace raybundle::scenes

@@ -599,12 +599,11 @@ std::string shown_size(double max_edge) {
 
 }  // namespace
 
-PatchBudget patch_budget(double max_patches, std::uint64_t memory) {
-    const double held = static_cast<double>(memory) / kPreparationBytes;
-    if (memory > 0 && held < max_patches)
+PatchBudget patch_budget(double max_patches, const MemoryShare& memory) {
+    const double held = static_cast<double>(memory.bytes) / kPreparationBytes;
+    if (memory.bytes > 0 && held < max_patches)
         return {held, "limit " + grouped(held) + ": about " + shown_size(kPreparationBytes / 1e3) +
-                          " KB each while the scene is prepared, and this machine has " +
-                          gigabytes(static_cast<double>(memory))};
+                          " KB each while the scene is prepared, and " + memory.text()};
     return {max_patches, "limit " + grouped(max_patches)};
 }
 

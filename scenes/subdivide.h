@@ -62,8 +62,9 @@ TriMesh::VertexHandle split_edge(Scene& scene, TriMesh::HalfedgeHandle h, double
 // million by default: more than any run can hold), or when max_edge is not a positive
 // number. The count is a lower bound (refinement leaves max_edge^2 / 6 on average): a
 // scene it lets through may still be stopped by subdivide()'s exact count, a pass in.
-// The limit is a PatchBudget: max_patches, or fewer where the machine's memory
-// (scenes/machine.h) holds fewer while the scene is prepared, at kPreparationBytes a
+// The limit is a PatchBudget: max_patches, or fewer where the memory of the process
+// (its share of the machine's among MPI ranks: scenes/machine.h) holds fewer while the
+// scene is prepared, at kPreparationBytes a
 // patch (the peak resident memory of `raybundle check` on a scene in millimetres refined
 // to 1.3 and 5.1 million patches: 0.83 and 1.13 KB a patch). Its `why` ends the error.
 inline constexpr double kPreparationBytes = 1200.0;
@@ -71,7 +72,7 @@ struct PatchBudget {
     double patches;
     std::string why;  // "limit 20,000,000", or the memory's reason
 };
-PatchBudget patch_budget(double max_patches = kMaxPatches, std::uint64_t memory = memory_available());
+PatchBudget patch_budget(double max_patches = kMaxPatches, const MemoryShare& memory = memory_share());
 void check_refinement(const Scene& scene, double max_edge, const std::string& shown, const PatchBudget& budget);
 
 // check_refinement(), then subdivide(), its PatchLimit thrown as SceneError naming

@@ -8,7 +8,8 @@
 #     noise), and the same seed and rank count give the same bytes, for any threads;
 #   - a rank that fails (its scene file missing) makes every rank exit with one line
 #     naming it, exit code 2, and no output written; bad input on every rank gives one
-#     line, not one per rank; what ranks cannot do is refused with one line; ranks
+#     line, not one per rank; the patch limit counts each rank's share of the
+#     machine's memory; what ranks cannot do is refused with one line; ranks
 #     started with different commands all exit at once with one line.
 # Usage: test_mpi.sh PATH/TO/raybundle MPIEXEC PATH/TO/raybundle_without_mpi
 set -uo pipefail
@@ -142,6 +143,17 @@ rc=$?
 if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "s.json: the ranks' scenes differ: rank 1 has" err.txt &&
    [ ! -e diff0/out ] && [ ! -e diff1/out ]; then ok; else
   fail "scenes that differ between nodes: exit $rc, stderr: $(cat err.txt)"
+fi
+
+# Ranks on one machine share its memory: the patch limit counts each rank's share
+# (where the machine's memory is what bounds it: below 48 GB, 2 x 20 million patches'
+# preparation; else the 20 million).
+mpi 2 "$bin" solve --builtin cornell-box -D patch_size=0.3 -o out/img.exr >stdout.txt 2>err.txt
+rc=$?
+if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "patch_size: 0.3 would make about" err.txt &&
+   { grep -q "KB each while the scene is prepared, and .* has .* for 2 ranks)" err.txt ||
+     { ! grep -q "KB each" err.txt && grep -q "(limit 20,000,000)" err.txt; }; } && [ -z "$(ls out)" ]; then ok; else
+  fail "the patch limit on 2 ranks: exit $rc, stderr: $(cat err.txt)"
 fi
 
 # Bad input on every rank: one line, not one per rank.

@@ -552,3 +552,46 @@ TEST_CASE("contacts: large and small triangles (two grids) cut the same on any t
         }
     }
 }
+
+TEST_CASE("memory: ranks on one machine share it, and every member takes the least share", "[scenes][team][memory]") {
+    using scenes::memory_share;
+    constexpr std::uint64_t GB = 1000000000;
+    // Alone: the machine's memory.
+    const scenes::MemoryShare alone = memory_share();
+    CHECK(alone.bytes == scenes::memory_available());
+    CHECK(alone.sharing == 1);
+    CHECK_THAT(alone.text(), Catch::StartsWith("this machine has "));
+    // Two ranks on a 16 GB machine (8 GB each) and one on a 6 GB machine: 6 GB for all.
+    scenes::MemoryShare least = memory_share({{"a", 16 * GB}, {"b", 6 * GB}, {"a", 16 * GB}});
+    CHECK(least.bytes == 6 * GB);
+    CHECK(least.text() == "the machine b has 6.0 GB for 1 rank");
+    // Three ranks on the 16 GB machine: 5.33 GB each, below the other's 6.
+    least = memory_share({{"a", 16 * GB}, {"b", 6 * GB}, {"a", 16 * GB}, {"a", 16 * GB}});
+    CHECK(least.bytes == 16 * GB / 3);
+    CHECK(least.sharing == 3);
+    CHECK(least.text() == "the machine a has 16.0 GB for 3 ranks");
+    // Members of one machine that read different limits (their own control groups): the
+    // least of them, shared.
+    CHECK(memory_share({{"a", 16 * GB}, {"a", 12 * GB}}).bytes == 6 * GB);
+    // A machine whose memory cannot be read bounds nothing; none readable: no bound.
+    CHECK(memory_share({{"a", 0}, {"b", 4 * GB}}).bytes == 4 * GB);
+    CHECK(memory_share({{"a", 0}, {"b", 0}}).bytes == 0);
+    // A team of threads in one process is on one machine: each member gets a third,
+    // every member the same.
+    std::vector<scenes::MemoryShare> shares(3);
+    for (const auto& e : on_team(3, [&](const ThreadTeam::Member& me, std::size_t r) { shares[r] = memory_share(&me); }))
+        CHECK(e.empty());
+    for (const auto& share : shares) {
+        CHECK(share.bytes == scenes::memory_available() / 3);
+        CHECK(share.sharing == 3);
+        CHECK(share.host == shares[0].host);
+    }
+    // The patch limit says whose memory bounds it.
+    scenes::LoadLimits limits;
+    limits.memory = {100 * 1200, 300 * 1200, 3, "node1"};
+    const std::string quad = R"({"camera": {"eye": [0.5, 0.5, 3], "target": [0.5, 0.5, 0]},
+        "materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}},
+        "objects": [{"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "w"}], "patch_size": 0.05})";
+    CHECK_THROWS_WITH(scenes::parse_scene(quad, "s.json", ".", {}, limits),
+                      Catch::Contains("(limit 100: about 1.2 KB each while the scene is prepared, and the machine node1 has 360 KB for 3 ranks)"));
+}

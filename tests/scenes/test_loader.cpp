@@ -100,7 +100,7 @@ TEST_CASE("without a patch size a scene is refined to 1/25 of its largest extent
     // A machine whose memory holds fewer patches than the limit while the scene is
     // prepared lowers it, and says why.
     LoadLimits small;
-    small.memory = 100 * 1200;  // 100 patches' preparation
+    small.memory = {100 * 1200, 100 * 1200, 1, ""};  // 100 patches' preparation
     CHECK_THROWS_WITH(parse_scene(scene_text(kCamera, kMaterials, objects, R"(, "patch_size": 0.25)"), "s.json", ".", {}, small),
                       Contains("s.json: patch_size: 0.25 would make about 320 patches (limit 100: about 1.2 KB each while "
                                "the scene is prepared, and this machine has 120 KB)"));
