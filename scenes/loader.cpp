@@ -599,6 +599,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it)
             scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
     }
+    const std::size_t scene_materials = scene.materials.size();  // the file's own: they replace the meshes'
 
     const json& objects = root.raw("objects");
     if (!objects.is_array()) root.fail("objects", std::string("expected an array, got ") + type_name(objects));
@@ -640,6 +641,12 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             // What a glTF file brings besides its triangles.
             scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
             scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
+            for (std::size_t k = 0; k < data.point_lights.size(); ++k) {
+                const double most = data.point_lights[k].intensity.maxCoeff();
+                if (!(most <= kMaxMagnitude))  // as a scene file's point light
+                    obj.fail("mesh", rel + ": point light " + std::to_string(k) + ": intensity " + format_number(most) +
+                                         " is too large (at most " + format_number(kMaxMagnitude) + ")");
+            }
             scene.point_lights.insert(scene.point_lights.end(), data.point_lights.begin(), data.point_lights.end());
             for (std::size_t v = 0; v < data.vertices.size(); ++v) {
                 if (!data.vertices[v].allFinite())  // a placement's inf - inf
@@ -665,7 +672,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             if (own_materials) {
                 std::vector<int> materials;
                 try {
-                    materials = mesh_materials(scene, data, full, rel, "");
+                    materials = mesh_materials(scene, scene_materials, data, full, rel, "");
                 } catch (const SceneError& e) {
                     obj.fail("mesh", e.what());  // the scene file and object, then the mesh or MTL file
                 }

@@ -58,17 +58,21 @@ struct MtlMaterial {
 std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& shown);
 
 // The scene's material of every triangle of a mesh that brings its own (an OBJ object
-// without "material": its usemtl names). A name the scene has (its "materials", or a
-// material an earlier mesh brought) is the scene's; else the first definition in the
-// mesh's MTL files (its mtllib lines, relative to `path`'s folder) is added to the
-// scene: Kd the albedo, Ke the emission, Ks and Ns the Phong lobe where illum asks for
+// without "material": its usemtl names). A name of the scene file's own materials (the
+// first `scene_materials` of the scene) is the scene's; else the first definition in the
+// mesh's MTL files (its mtllib lines, relative to `path`'s folder), or the glTF file's,
+// is the scene's material of that name where an earlier mesh brought the same values,
+// and otherwise added to the scene, as "NAME (shown)" with a warning where an earlier
+// mesh's of that name differs (Blender calls every default material "Material"). MTL:
+// Kd the albedo, Ke the emission, Ks and Ns the Phong lobe where illum asks for
 // highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
 // is the albedo by its mean linear colour. A scaled material, an illum above 2 and a
 // texture (read as its mean, or not read) are lines of scene.warnings; the MTL files
 // and textures join scene.files. Throws SceneError(shown, where): no usemtl, faces before
-// the first one, a name defined nowhere, an unreadable or malformed MTL file.
-std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
-                                const std::string& where);
+// the first one, a name defined nowhere, an unreadable or malformed MTL file, emission
+// past 1e15.
+std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
+                                const std::string& shown, const std::string& where);
 
 // The most triangles a mesh file may give once its instances are placed (a glTF node
 // tree can place one mesh many times): five times what the patch limit lets through.

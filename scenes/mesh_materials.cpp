@@ -97,6 +97,36 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     return out;
 }
 
+bool same_values(const Material& a, const Material& b) {
+    return (a.albedo == b.albedo).all() && (a.emission == b.emission).all() && (a.specular == b.specular).all() &&
+           a.exponent == b.exponent && a.two_sided == b.two_sided;
+}
+
+// The scene's index for material m, defined by the mesh `shown`: an earlier mesh's of
+// that name with the same values, or m added. Where an earlier mesh's of that name
+// differs (every default material of Blender is "Material"), m is another material,
+// "NAME (shown)", and a warning says so. Emission past 1e15 (as the scene file's) is
+// refused. Returns -1 where an earlier mesh's is the same.
+int add_brought(Scene& scene, Material m, const std::string& shown, const std::string& where) {
+    for (int k = 0; k < 3; ++k)
+        if (!(m.emission[k] <= 1e15))
+            throw SceneError(shown, where, "material '" + m.name + "': emission " + number(m.emission[k]) +
+                                               " is too large (at most 1e+15)");
+    const std::string name = m.name;
+    for (int i = 0;; ++i) {
+        const std::string tried = i == 0 ? name : i == 1 ? name + " (" + shown + ")" : name + " (" + shown + ", " + std::to_string(i) + ")";
+        const int at = scene.find_material(tried);
+        if (at < 0) {
+            if (i > 0)
+                scene.warnings.push_back(shown + ": its material '" + name + "' differs from the one of that name an earlier "
+                                         "mesh brought: it is '" + tried + "' here");
+            m.name = tried;
+            return scene.add_material(std::move(m));
+        }
+        if (same_values(scene.materials[static_cast<std::size_t>(at)], m)) return -1 - at;
+    }
+}
+
 }  // namespace
 
 namespace mesh_detail {
@@ -147,16 +177,22 @@ std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
 
 }  // namespace mesh_detail
 
-std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::string& path, const std::string& shown,
-                                const std::string& where) {
+std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
+                                const std::string& shown, const std::string& where) {
     if (data.materials.empty())
         throw SceneError(shown, where, "has no \"material\", and names none itself (no usemtl)");
+    // The scene file's own material of a name: it replaces the mesh's.
+    const auto own = [&](const std::string& name) {
+        const int m = scene.find_material(name);
+        return m >= 0 && static_cast<std::size_t>(m) < scene_materials ? m : -1;
+    };
+    const auto placed = [](int added) { return added >= 0 ? added : -1 - added; };
     // A glTF file defines its materials itself (one per name, mapped by its reader).
     if (!data.material_defs.empty()) {
         std::vector<int> index(data.materials.size());
         for (std::size_t k = 0; k < data.materials.size(); ++k) {
-            const int m = scene.find_material(data.materials[k]);
-            index[k] = m >= 0 ? m : scene.add_material(data.material_defs[k]);
+            const int m = own(data.materials[k]);
+            index[k] = m >= 0 ? m : placed(add_brought(scene, data.material_defs[k], shown, where));
         }
         std::vector<int> out(data.triangles.size());
         for (std::size_t t = 0; t < out.size(); ++t) out[t] = index[static_cast<std::size_t>(data.triangle_material[t])];
@@ -177,9 +213,8 @@ std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::s
     std::vector<int> index(data.materials.size());
     for (std::size_t k = 0; k < data.materials.size(); ++k) {
         const std::string& name = data.materials[k];
-        // The scene's own material of that name (its "materials", or one an earlier
-        // mesh brought) comes first.
-        if (const int m = scene.find_material(name); m >= 0) {
+        // The scene file's own material of that name comes first.
+        if (const int m = own(name); m >= 0) {
             index[k] = m;
             continue;
         }
@@ -194,8 +229,13 @@ std::vector<int> mesh_materials(Scene& scene, const MeshData& data, const std::s
                                  (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
                                  ") and not in the scene's \"materials\"");
         }
-        index[k] = scene.add_material(from_mtl(it->second.material, it->second.shown, it->second.folder, scene.warnings,
-                                               scene.files));
+        // Read again where an earlier mesh brought the same: its warnings were given then.
+        const std::size_t warnings = scene.warnings.size(), files = scene.files.size();
+        const int added = add_brought(scene, from_mtl(it->second.material, it->second.shown, it->second.folder,
+                                                      scene.warnings, scene.files),
+                                      shown, where);
+        if (added < 0) scene.warnings.resize(warnings), scene.files.resize(files);
+        index[k] = placed(added);
     }
     std::vector<int> out(data.triangles.size());
     std::size_t before = 0;

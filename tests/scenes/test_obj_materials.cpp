@@ -130,6 +130,45 @@ TEST_CASE("OBJ + MTL in a scene: the mesh's materials, overridden by the scene's
     CHECK(one.object_names.size() == 1);
 }
 
+TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree, two where they differ",
+          "[scenes][obj]") {
+    // Blender names every default material "Material": two exported assets both have one.
+    TempDir dir;
+    const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nusemtl Material\nf 1 4 3 2\n";
+    dir.write("a.obj", "mtllib a.mtl\n" + quad);
+    dir.write("a.mtl", "newmtl Material\nKd 0.8 0.1 0.1\nKs 0.5 0.5 0.5\nNs 10\nillum 2\n");  // scaled: a warning
+    dir.write("b.obj", "mtllib b.mtl\n" + quad);
+    dir.write("b.mtl", "newmtl Material\nKd 0.1 0.1 0.8\n");
+    dir.write("c.obj", "mtllib a.mtl\n" + quad);  // the same MTL as a.obj
+    const Scene two = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "b.obj", "translate": [2, 0, 0]})"), "s.json",
+                                  dir.path.string());
+    REQUIRE(two.materials.size() == 2);
+    CHECK(two.materials[0].name == "Material");
+    CHECK(two.materials[0].albedo[0] > 0.5);  // a's red (scaled with its Ks)
+    CHECK(two.materials[1].name == "Material (b.obj)");
+    CHECK(two.materials[1].albedo.isApprox(Rgb(0.1, 0.1, 0.8)));
+    CHECK(two.object_names.back() == "objects[1] (b.obj: Material (b.obj))");
+    REQUIRE(two.warnings.size() == 2);  // a's scaling, then the renaming
+    CHECK(two.warnings[1] == "b.obj: its material 'Material' differs from the one of that name an earlier mesh brought: "
+                             "it is 'Material (b.obj)' here");
+    // The same material twice is one, its warnings given once.
+    const Scene same = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "c.obj", "translate": [2, 0, 0]})"), "s.json",
+                                   dir.path.string());
+    CHECK(same.materials.size() == 1);
+    CHECK(same.warnings.size() == 1);
+    // The scene file's own material of that name replaces both.
+    const Scene over = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "b.obj", "translate": [2, 0, 0]})",
+                                              R"("Material": {"albedo": [0.3, 0.3, 0.3]})"),
+                                   "s.json", dir.path.string());
+    CHECK(over.materials.size() == 1);
+    CHECK(over.warnings.empty());
+    // Emission past 1e15, which a scene file's material may not have, is refused too.
+    dir.write("hot.obj", "mtllib hot.mtl\n" + quad);
+    dir.write("hot.mtl", "newmtl Material\nKd 0.5 0.5 0.5\nKe 1e300 1 1\n");
+    CHECK_THROWS_WITH(parse_scene(scene_with(R"({"mesh": "hot.obj"})"), "s.json", dir.path.string()),
+                      Contains("hot.obj: material 'Material': emission 1e+300 is too large (at most 1e+15)"));
+}
+
 TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one line", "[scenes][obj][errors]") {
     TempDir dir;
     dir.write("room.obj", kObj);
