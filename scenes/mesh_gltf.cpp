@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <set>
 #include <unordered_map>
@@ -196,6 +197,61 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
     return out;
 }
 
+// What tinygltf reads past, checked on the file's JSON first. An index of -1 (glTF's
+// ids start at 0) reads there as "none": a node's mesh would vanish, a primitive lose
+// its material or indices. A node with a matrix and any of translation, rotation, scale
+// (glTF forbids it) would lose the latter.
+void check_ids(std::string_view json_text, const std::string& shown) {
+    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+    if (!doc.is_object()) return;  // tinygltf says what is wrong with it
+    // The keys whose values are ids, or arrays or objects of ids.
+    static const std::set<std::string> ids = {"scene", "camera", "skin", "mesh", "indices", "material", "bufferView",
+                                              "buffer", "sampler", "source", "index", "light", "skeleton",
+                                              "inverseBindMatrices", "node", "input", "output"};
+    static const std::set<std::string> id_lists = {"nodes", "children", "joints", "attributes"};
+    const auto refuse = [&](const nlohmann::json& v, const std::string& at) {
+        if (v.is_number() && v.get<double>() < 0.0)
+            throw SceneError(shown, at, v.dump() + " is not an index (glTF's indices start at 0)");
+    };
+    std::function<void(const nlohmann::json&, const std::string&)> walk = [&](const nlohmann::json& j,
+                                                                              const std::string& at) {
+        const auto below = [&](const std::string& key) { return at.empty() ? key : at + "." + key; };
+        if (j.is_array()) {
+            for (std::size_t i = 0; i < j.size(); ++i) walk(j[i], at + "[" + std::to_string(i) + "]");
+            return;
+        }
+        if (!j.is_object()) return;
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            if (it.key() == "extras") continue;  // the application's own data
+            const std::string where = below(it.key());
+            if (ids.count(it.key())) refuse(it.value(), where);
+            if (id_lists.count(it.key())) {
+                if (it.value().is_array())
+                    for (std::size_t i = 0; i < it.value().size(); ++i) refuse(it.value()[i], where + "[" + std::to_string(i) + "]");
+                if (it.key() == "attributes" && it.value().is_object())
+                    for (auto a = it.value().begin(); a != it.value().end(); ++a) refuse(a.value(), where + "." + a.key());
+            }
+            if (it.key() == "targets" && it.value().is_array())  // morph targets: attribute name -> accessor
+                for (std::size_t i = 0; i < it.value().size(); ++i)
+                    if (it.value()[i].is_object())
+                        for (auto a = it.value()[i].begin(); a != it.value()[i].end(); ++a)
+                            refuse(a.value(), where + "[" + std::to_string(i) + "]." + a.key());
+            walk(it.value(), where);
+        }
+    };
+    walk(doc, "");
+    if (const auto nodes = doc.find("nodes"); nodes != doc.end() && nodes->is_array())
+        for (std::size_t i = 0; i < nodes->size(); ++i) {
+            const auto& n = (*nodes)[i];
+            if (!n.is_object() || !n.contains("matrix")) continue;
+            for (const char* trs : {"translation", "rotation", "scale"})
+                if (n.contains(trs))
+                    throw SceneError(shown, "nodes[" + std::to_string(i) + "]",
+                                     std::string("has both a matrix and a ") + trs +
+                                         " (glTF places a node by one or the other)");
+        }
+}
+
 // The buffer files the asset names (buffers[i].uri other than data URIs), checked before
 // tinygltf reads them: one missing or outside the asset's folder is named with its
 // object (tinygltf says "File not found" of both, and of no object). Images are left to
@@ -243,7 +299,7 @@ void check_resources(std::string_view json_text, const std::string& shown, const
 // The first line of tinygltf's message, without its trailing newline.
 std::string first_line(const std::string& text) {
     std::string line = text.substr(0, text.find('\n'));
-    if (line.size() > 300) line = line.substr(0, 300) + "...";
+    if (line.size() > 160) line = line.substr(0, 160) + "...";
     return line;
 }
 
@@ -826,6 +882,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     check_nesting(json_text, shown);
     Files files{folder, {}, 0};
     check_resources(json_text, shown, files);
+    check_ids(json_text, shown);
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
     loader.SetImageLoader(&keep_image, nullptr);

@@ -262,6 +262,28 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
     doc["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", -5}}}};
     fails(doc, "materials[0]: KHR_materials_emissive_strength: emissiveStrength -5 is not a number >= 0");
+    // An index of -1 is refused, not read as "none" (tinygltf's): the mesh, material or
+    // indices would be lost silently. The application's own "extras" are not read.
+    doc = asset();
+    doc["nodes"][1]["mesh"] = -1;
+    fails(doc, "nodes[1].mesh: -1 is not an index (glTF's indices start at 0)");
+    doc = asset();
+    doc["meshes"][0]["primitives"][0]["material"] = -1;
+    fails(doc, "meshes[0].primitives[0].material: -1 is not an index");
+    doc = asset();
+    doc["meshes"][0]["primitives"][0]["indices"] = -1;
+    fails(doc, "meshes[0].primitives[0].indices: -1 is not an index");
+    doc = asset();
+    doc["scene"] = -1;
+    fails(doc, "scene: -1 is not an index");
+    doc = asset();
+    doc["nodes"][1]["extras"] = {{"index", -1}};
+    CHECK(parse(doc).triangles.size() == 1);
+    // A matrix beside translation, rotation or scale (glTF forbids it): the latter would
+    // be lost.
+    doc = asset();
+    doc["nodes"][1]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    fails(doc, "nodes[1]: has both a matrix and a scale (glTF places a node by one or the other)");
     doc = asset();
     doc["nodes"][1]["children"] = {0};  // a cycle
     fails(doc, "own ancestor");
@@ -407,6 +429,21 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
                    "objects": [{"mesh": "tri.gltf"}]})");
     const Scene s = load_scene(scene);
     CHECK(s.materials[s.find_material("paint")].albedo.isApprox(Rgb(0.1, 0.2, 0.3)));
+    // Emission or a point light past 1e15 (which a scene file may not give) is refused
+    // as it loads, naming the file and the material or light.
+    json hot = doc;
+    hot["materials"][0]["emissiveFactor"] = {1, 1, 1};
+    hot["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", 1e300}}}};
+    hot["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    CHECK_THROWS_WITH(load_scene(dir.write("hot.gltf", hot.dump())),
+                      Contains("hot.gltf: material 'paint': emission 1e+300 is too large (at most 1e+15)"));
+    json bright = doc;
+    bright["extensionsUsed"] = {"KHR_lights_punctual"};
+    bright["extensions"] = json::parse(R"({"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 1e300}]}})");
+    bright["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    bright["scenes"][0]["nodes"] = {0, 2, 3};
+    CHECK_THROWS_WITH(load_scene(dir.write("bright.gltf", bright.dump())),
+                      Contains("point light 0: intensity 1e+300 is too large (at most 1e+15)"));
     // Without a camera of its own, the scene takes the glTF's, placed with its mesh.
     const Scene taken = load_scene(dir.write("c.json", R"({"objects": [{"mesh": "tri.gltf", "translate": [1, 0, 0]}]})"));
     CHECK(taken.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
