@@ -98,18 +98,22 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
     // A front within the contact distance of a surface that faces it lies on that
     // surface (scenes/contacts.h's 1e-3 of the bounding radius).
     const double near = 1e-3 * scene.bounds_radius();
-    // The object whose surface covers patch i's front, or -1.
-    const auto covered = [&](std::size_t i, std::vector<scenes::RayHit>& hits) {
+    // The object whose surface covers patch i's front (faces it within `near`), or -1;
+    // with `backs`, also one whose back it faces there.
+    const auto covered = [&](std::size_t i, std::vector<scenes::RayHit>& hits, bool backs = false) {
         const auto& p = patches[i];
         caster.all_hits(p.centroid + near * p.normal, -p.normal, hits, 0.0, 2.0 * near);
         for (const scenes::RayHit& h : hits) {
             const auto& other = patches[static_cast<std::size_t>(h.patch)];
-            if (h.patch != static_cast<int>(i) && other.normal.dot(p.normal) < 0.0) return other.object;
+            if (h.patch == static_cast<int>(i)) continue;
+            const double facing = other.normal.dot(p.normal);
+            // (t below near: in front of it; a coplanar one at near is an overlap, not this)
+            if (facing < 0.0 || (backs && facing > 0.0 && h.t < 0.999 * near)) return other.object;
         }
         return -1;
     };
     // What each patch's front is (the rays on the threads), then the sums in patch order.
-    enum Front : char { visible, covered_front, unseen_front };
+    enum Front : char { visible, covered_front, unseen_front, behind_front };
     std::vector<char> front(patches.size(), visible);
     std::vector<int> cover(patches.size(), -1);
     std::vector<std::vector<scenes::RayHit>> scratch(static_cast<std::size_t>(std::max(1, threads)));
@@ -121,6 +125,11 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
                 cover[i] = covered(i, scratch[static_cast<std::size_t>(t)]);
                 if (cover[i] >= 0) {
                     front[i] = covered_front;
+                    continue;
+                }
+                cover[i] = covered(i, scratch[static_cast<std::size_t>(t)], true);
+                if (cover[i] >= 0) {
+                    front[i] = behind_front;
                     continue;
                 }
             }
@@ -155,6 +164,9 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             ++s.covered;
             object.covered_area += p.area;
             if (object.covered_by < 0) object.covered_by = cover[i];
+        } else if (front[i] == behind_front) {
+            object.behind_area += p.area;
+            if (object.behind < 0) object.behind = cover[i];
         } else if (front[i] == unseen_front) {
             ++s.unseen;
             object.unseen_area += p.area;
@@ -212,6 +224,12 @@ std::vector<std::string> winding_warnings(const SceneSummary& summary) {
             lines.push_back(o.name + ": the emitting front of " + std::to_string(percent(o.covered_area, o.area)) +
                             " % of its area lies against " + other +
                             ", so its light cannot leave (inverted winding? a light under a ceiling faces down)");
+            continue;
+        }
+        if (o.emissive && !o.two_sided && o.area > 0.0 && o.behind_area > 0.5 * o.area) {
+            lines.push_back(o.name + ": the emitting front of " + std::to_string(percent(o.behind_area, o.area)) +
+                            " % of its area lies just behind '" + summary.objects[static_cast<std::size_t>(o.behind)].name +
+                            "', facing its back, which lets no light through (place the light on the surface's front side)");
             continue;
         }
         if (o.two_sided) continue;

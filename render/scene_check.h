@@ -38,6 +38,10 @@ struct SceneSummary {
         std::string name;
         std::size_t patches = 0;
         double area = 0.0, unseen_area = 0.0, covered_area = 0.0;
+        // A light's front just behind a one-sided surface (its back within the contact
+        // distance, facing the same way: a lamp placed above its ceiling).
+        double behind_area = 0.0;
+        int behind = -1;  // that surface's object
         long front_pixels = 0, back_pixels = 0;  // camera rays meeting its front or back first
         bool two_sided = false;
         bool emissive = false;

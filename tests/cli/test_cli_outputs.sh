@@ -196,6 +196,15 @@ sed 's/"lamp": {"albedo": \[0, 0, 0\], "emission": \[1, 1, 1\]}/"lamp": {"albedo
 "$bin" check lamp-both.json >chk.txt 2>&1
 grep -q '"two_sided": true' lamp-both.json && ! grep -q "emitting front" chk.txt
 check $? "a two-sided lamp under the ceiling was warned about: $(cat chk.txt | grep -E 'warning')"
+# Facing down, just above the ceiling (behind its back): its light meets the back; just
+# below it, as lamps are placed: no warning.
+sed 's/\[\[0.4,0.9999,0.6\], \[0.6,0.9999,0.6\], \[0.6,0.9999,0.4\], \[0.4,0.9999,0.4\]\]/[[0.4,1.0001,0.4], [0.6,1.0001,0.4], [0.6,1.0001,0.6], [0.4,1.0001,0.6]]/' \
+  lamp-up.json > lamp-above.json
+sed 's/1.0001/0.9999/g' lamp-above.json > lamp-below.json
+"$bin" check lamp-above.json >chk.txt 2>&1
+grep -q "warning     panel: the emitting front of 100 % of its area lies just behind 'ceiling', facing its back" chk.txt &&
+  "$bin" check lamp-below.json >chk2.txt 2>&1 && ! grep -q "emitting front" chk2.txt && grep -q "1.0001" lamp-above.json
+check $? "a lamp above the ceiling: $(cat chk.txt chk2.txt | grep -E 'warning')"
 # Floor patches (cy = 0): dark one-sided, lit two-sided (its front-facing twin).
 lit() { awk -F, 'NR > 1 && $3 == 0 && $9 > m { m = $9 } END { print (m > 0.05) ? "lit" : "dark" }' "$1"; }
 [ "$(lit fp.csv)" = dark ] && [ "$(lit fs.csv)" = lit ]
