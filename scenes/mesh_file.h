@@ -50,6 +50,9 @@ struct MtlMaterial {
     int illum = -1;               // illumination model (-1: not given)
     std::string map_kd;           // the diffuse texture's file, as written (its options passed over)
     std::string map_kd_last;      // the last word of the statement (a name after an unknown option)
+    // The file was written by Blender (its first comment says so): Ks is its Principled
+    // BSDF's "specular" (0.5 by default), whose reflectance at normal incidence is 0.08 Ks.
+    bool blender = false;
 };
 // The materials of an MTL file (`shown` names it in errors). Throws SceneError naming
 // the file and line: a value before the first `newmtl`, a malformed or non-finite
@@ -64,8 +67,8 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
 // is the scene's material of that name where an earlier mesh brought the same values,
 // and otherwise added to the scene, as "NAME (shown)" with a warning where an earlier
 // mesh's of that name differs (Blender calls every default material "Material"). MTL:
-// Kd the albedo, Ke the emission, Ks and Ns the Phong lobe where illum asks for
-// highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
+// Kd the albedo, Ke the emission, Ks (0.08 Ks from Blender) and Ns the Phong lobe where
+// illum asks for highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
 // is the albedo by its mean linear colour. A scaled material, an illum above 2 and a
 // texture (read as its mean, or not read) are lines of scene.warnings; the MTL files
 // and textures join scene.files. Throws SceneError(shown, where): no usemtl, faces before

@@ -64,7 +64,9 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     out.emission = m.ke;
     const std::string named = file + ": material '" + m.name + "'";
     if (m.illum != 0 && m.illum != 1 && (m.ks > 0.0).any()) {
-        out.specular = m.ks;
+        // Blender's Ks is its Principled BSDF's specular: a dielectric's reflectance at
+        // normal incidence, 0.08 Ks (4 % at its default 0.5), not a lobe of Ks itself.
+        out.specular = m.blender ? Rgb(0.08 * m.ks) : m.ks;
         out.exponent = m.ns;
     }
     if (m.illum > 2)

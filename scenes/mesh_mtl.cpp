@@ -74,13 +74,20 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
     std::istringstream in{std::string(content)};
     std::string line;
     long line_no = 0;
+    bool blender = false, commented = false;
     while (std::getline(in, line)) {
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
         if (!line.empty() && line.back() == '\r') line.pop_back();
         const std::string where = "line " + std::to_string(line_no);
         std::istringstream ls(line);
         std::string tag;
-        if (!(ls >> tag) || tag[0] == '#') continue;
+        if (!(ls >> tag)) continue;
+        if (tag[0] == '#') {
+            // "# Blender 3.6.0 MTL File: 'None'", "# Blender MTL File: 'room.blend'"
+            if (!commented) blender = line.find("Blender") != std::string::npos && line.find("MTL File") != std::string::npos;
+            commented = true;
+            continue;
+        }
         std::string rest;
         std::getline(ls, rest);
         const auto first = rest.find_first_not_of(" \t"), last = rest.find_last_not_of(" \t");
@@ -94,6 +101,7 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
             out.push_back({});
             out.back().name = rest;
             out.back().line = line_no;
+            out.back().blender = blender;
             continue;
         }
         const bool used = tag == "Kd" || tag == "Ke" || tag == "Ks" || tag == "Ns" || tag == "illum" || tag == "map_Kd";

@@ -169,6 +169,28 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
                       Contains("hot.obj: material 'Material': emission 1e+300 is too large (at most 1e+15)"));
 }
 
+TEST_CASE("MTL: Blender's Ks is its Principled specular, a reflectance of 0.08 Ks", "[scenes][obj]") {
+    // As Blender 3.6 writes every default material (Principled: specular 0.5, roughness 0.5).
+    const std::string blender = "# Blender 3.6.0 MTL File: 'None'\n# www.blender.org\n\nnewmtl Material\nNs 250.000000\n"
+                                "Ka 1.000000 1.000000 1.000000\nKd 0.800000 0.800000 0.800000\nKs 0.500000 0.500000 0.500000\n"
+                                "Ke 0.000000 0.000000 0.000000\nNi 1.450000\nd 1.000000\nillum 2\n";
+    TempDir dir;
+    dir.write("a.obj", "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nusemtl Material\nf 1 3 2\n");
+    dir.write("a.mtl", blender);
+    const Scene scene = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
+    REQUIRE(scene.materials.size() == 1);
+    CHECK(scene.materials[0].specular.isApprox(Rgb::Constant(0.04)));
+    CHECK(scene.materials[0].exponent == 250.0);
+    CHECK(scene.materials[0].albedo.isApprox(Rgb::Constant(0.8)));
+    CHECK(scene.warnings.empty());  // 0.84: nothing scaled
+    // Another program's Ks is the lobe itself.
+    std::string other = blender;
+    other.replace(2, 7, "Maya   ");
+    dir.write("a.mtl", other);
+    const Scene plain = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
+    CHECK((plain.materials[0].albedo + plain.materials[0].specular).maxCoeff() == Approx(0.99));  // 0.8 + 0.5, scaled
+}
+
 TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one line", "[scenes][obj][errors]") {
     TempDir dir;
     dir.write("room.obj", kObj);
