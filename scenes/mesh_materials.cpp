@@ -81,6 +81,12 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
         if (!std::filesystem::exists(in_folder(folder, map), ec) && !m.map_kd_last.empty() &&
             std::filesystem::exists(in_folder(folder, m.map_kd_last), ec))
             map = m.map_kd_last;
+        // A path of the exporter's machine ("C:/Users/bob/textures/wood.png"): the file
+        // of that name beside the MTL, where the asset's textures travel with it.
+        if (const auto slash = map.find_last_of('/'); slash != std::string::npos &&
+            !std::filesystem::exists(in_folder(folder, map), ec) &&
+            std::filesystem::exists(in_folder(folder, map.substr(slash + 1)), ec))
+            map = map.substr(slash + 1);
         if (const auto mean = texture_mean(in_folder(folder, map), why)) {
             out.albedo = *mean;
             files.push_back(in_folder(folder, map));

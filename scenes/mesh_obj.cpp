@@ -37,6 +37,12 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
+        // A comment may end a statement, after a blank ("usemtl red # the left wall").
+        for (std::size_t hash = line.find('#'); hash != std::string::npos; hash = line.find('#', hash + 1))
+            if (hash == 0 || line[hash - 1] == ' ' || line[hash - 1] == '\t') {
+                line.erase(hash);
+                break;
+            }
         const std::string where = "line " + std::to_string(line_no);
         std::istringstream ls(line);
         std::string tag;
@@ -64,9 +70,21 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             else
                 group = index_of(data.groups, name.empty() ? "(unnamed)" : name);
         } else if (tag == "mtllib") {
-            const std::string name = rest(tag);
+            std::string name = rest(tag);
             if (name.empty()) throw SceneError(shown, where, "mtllib without a file name");
-            data.material_libraries.push_back(name);
+            std::replace(name.begin(), name.end(), '\\', '/');  // as Windows exporters write folders
+            // Several files ("mtllib a.mtl b.mtl") where every word names an MTL file;
+            // else one name, spaces and all ("mtllib my room.mtl").
+            std::vector<std::string> words;
+            std::istringstream ws(name);
+            for (std::string w; ws >> w;) words.push_back(w);
+            const auto mtl = [](const std::string& w) {
+                return w.size() > 4 && (w.compare(w.size() - 4, 4, ".mtl") == 0 || w.compare(w.size() - 4, 4, ".MTL") == 0);
+            };
+            if (words.size() > 1 && std::all_of(words.begin(), words.end(), mtl))
+                data.material_libraries.insert(data.material_libraries.end(), words.begin(), words.end());
+            else
+                data.material_libraries.push_back(name);
         } else if (tag == "f") {
             std::vector<int> vs;
             std::vector<Vec3> ns;

@@ -56,6 +56,23 @@ TEST_CASE("OBJ: usemtl, groups and mtllib are recorded per triangle", "[scenes][
     CHECK_THROWS_WITH(parse_mesh("usemtl\n", "obj", "t.obj"), Contains("t.obj") && Contains("line 1") && Contains("usemtl"));
 }
 
+TEST_CASE("OBJ as exporters write it: trailing comments, several MTL files on one line, Windows folders",
+          "[scenes][mesh][obj]") {
+    // A comment after a blank ends any statement; a '#' inside a word is part of it.
+    const MeshData d = parse_mesh("mtllib a.mtl b.MTL # two files\nv 0 0 0 # origin\nv 1 0 0\nv 0 1 0\n"
+                                  "usemtl red # the left wall\nf 1 2 3 # a face\nusemtl wall#2\nf 1 2 3\n",
+                                  "obj", "t.obj");
+    CHECK(d.material_libraries == std::vector<std::string>{"a.mtl", "b.MTL"});
+    CHECK(d.materials == std::vector<std::string>{"red", "wall#2"});
+    CHECK(d.triangles.size() == 2);
+    // One name with spaces stays one; a Windows folder's backslashes are slashes.
+    const std::string face = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    CHECK(parse_mesh("mtllib my room.mtl\n" + face, "obj", "t.obj").material_libraries ==
+          std::vector<std::string>{"my room.mtl"});
+    CHECK(parse_mesh("mtllib sub\\room.mtl\n" + face, "obj", "t.obj").material_libraries ==
+          std::vector<std::string>{"sub/room.mtl"});
+}
+
 TEST_CASE("OBJ: a face given twice the same way round is kept once, the other way round twice", "[scenes][obj]") {
     // The boxes of McGuire's Cornell box OBJ end with a "bottom face" that repeats the
     // right (back) face's vertices: two patches in one place facing one way, of which
@@ -311,6 +328,9 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
     // An option this reader does not know: the last word, where the whole is no file.
     std::filesystem::copy_file(dir.path / "my maps" / "cut out.png", dir.path / "wood.png");
     CHECK(albedo_with("-gamma 2.2 wood.png", warning)[0] == Approx(0.5).epsilon(0.01));
+    CHECK_THAT(warning, Contains("its texture wood.png is read as its mean colour"));
+    // A path of the exporter's machine: the file of that name beside the MTL.
+    CHECK(albedo_with("C:\\Users\\bob\\Desktop\\textures\\wood.png", warning)[0] == Approx(0.5).epsilon(0.01));
     CHECK_THAT(warning, Contains("its texture wood.png is read as its mean colour"));
     CHECK(albedo_with("photo.jpg", warning)[0] == Approx(0.2));
     CHECK_THAT(warning, Contains("its texture photo.jpg is not read (a JPEG, not a PNG); its Kd 0.2 0.2 0.2 is the colour"));
