@@ -72,7 +72,9 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
                    " pairs of coplanar overlapping patches face the same way (e.g. " + overlap_example(scene, overlaps) +
                    "): no visibility map can order them; the higher patch index is in front");
     for (const auto& line : scene.warnings) hooks.warn(line);
-    for (const auto& line : winding_warnings(summary)) hooks.warn(scene.name + ": " + line);
+    // (An OBJ or glTF file alone names its parts "room.obj: lamp": not "room.obj: room.obj: lamp".)
+    const std::string prefix = scene.name + ": ";
+    for (const auto& line : winding_warnings(summary)) hooks.warn(line.rfind(prefix, 0) == 0 ? line : prefix + line);
     if (!has_light(scene)) hooks.warn(scene.name + ": " + kNoLight);
 }
 

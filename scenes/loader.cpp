@@ -848,6 +848,16 @@ Scene load_model(const std::string& path, const Overrides& overrides, const Load
         } catch (const SceneError& e) {
             // The model's own error ("room.obj: line 7: ..."), not that of a scene file's
             // objects[0].mesh, which the user never wrote; the file as the user named it.
+            // The camera placed to frame it, past the coordinates' bound: the model's
+            // size and place are the reason, not a camera the user never set.
+            const bool eye_given = std::any_of(overrides.begin(), overrides.end(), [](const Override& o) {
+                return o.key == "camera" || o.key == "camera.eye" || o.key.rfind("camera.eye[", 0) == 0;
+            });
+            if (e.where() == "camera.eye" && !data.camera && !eye_given && e.problem().find("too large") != std::string::npos)
+                throw SceneError(path, "", "the camera placed to frame it (" + format_number(distance) +
+                                               " from its centre) would lie past 1e15 from the origin: give camera.eye "
+                                               "(-D camera.eye=[x, y, z]) or a model nearer the origin, of a size "
+                                               "below 1e15");
             if (e.where() != "objects[0].mesh") throw;
             const std::string& problem = e.problem();
             throw SceneError(path, "", problem.rfind(name + ": ", 0) == 0 ? problem.substr(name.size() + 2) : problem);

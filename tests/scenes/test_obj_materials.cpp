@@ -263,6 +263,11 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     CHECK_THROWS_WITH(load_scene(dir.path.string() + "/bad.obj"),
                       dir.path.string() + "/bad.obj: line 5: usemtl 'lite': defined in no material file (mtllib "
                                           "room.mtl) and not in the scene's \"materials\"");
+    // A model so large that the camera framing it would lie past 1e15: the model is the
+    // reason, not a camera the user never set.
+    dir.write("far.obj", "mtllib room.mtl\nusemtl red\nv 0 0 0\nv 9e14 0 0\nv 0 9e14 0\nf 1 2 3\n");
+    CHECK_THROWS_WITH(load_scene(dir.path.string() + "/far.obj"),
+                      Contains("far.obj: the camera placed to frame it (") && Contains("would lie past 1e15"));
     dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 4\n");
     CHECK_THROWS_WITH(load_scene(dir.path.string() + "/bad.obj"),
                       dir.path.string() + "/bad.obj: line 4: face references vertex 4, but only 3 vertices are "
