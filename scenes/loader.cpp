@@ -382,6 +382,17 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     } catch (const json::exception&) {
         value = o.value;  // a bare word: a string
     }
+    // One value of a material the file does not define (a mesh brought it from its MTL
+    // or glTF file) would make a material of that value alone: "albedo: missing".
+    if (o.key.rfind("materials.", 0) == 0) {
+        const std::size_t at = o.key.find_first_of(".[", 10);
+        const std::string name = o.key.substr(10, at == std::string::npos ? std::string::npos : at - 10);
+        const bool defined = doc.contains("materials") && doc["materials"].is_object() && doc["materials"].contains(name);
+        if (at != std::string::npos && !defined)
+            throw SceneError(shown, "materials." + name,
+                             "no material '" + name + "' of the scene's own to change a value of (one a mesh brings "
+                             "is replaced whole: -D 'materials." + name + "={\"albedo\": [r, g, b], \"emission\": [r, g, b]}')");
+    }
     json* node = &doc;
     std::size_t pos = 0;
     while (pos < o.key.size()) {

@@ -253,6 +253,11 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     const Scene moved = load_scene(path, {{"camera.eye", "[1, 5, 5]"}, {"materials.lamp", R"({"albedo": [0, 0, 0], "emission": [1, 1, 1]})"}});
     CHECK(moved.camera.eye.isApprox(Vec3(1, 5, 5)));
     CHECK(moved.materials[static_cast<std::size_t>(moved.find_material("lamp"))].emission.isApprox(Rgb::Constant(1)));
+    // One value of an MTL's material cannot be set alone (it would be a material of
+    // that value only): the message says how to replace it.
+    CHECK_THROWS_WITH(load_scene(path, {{"materials.lamp.emission", "[1, 1, 1]"}}),
+                      Contains("materials.lamp: no material 'lamp' of the scene's own to change a value of (one a mesh "
+                               "brings is replaced whole: -D 'materials.lamp={\"albedo\": [r, g, b]"));
     dir.write("m.ply", "ply\n");
     CHECK_THROWS_WITH(load_scene(dir.path.string() + "/m.ply"), Contains("m.ply") && Contains("has no materials"));
     // Alone, its errors and its parts are its own: no objects[0] of a scene file the
