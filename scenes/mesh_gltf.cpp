@@ -625,6 +625,19 @@ private:
         if (e.components <= 0 || bytes <= 0) fail(named, "unknown type or componentType");
         const std::size_t size = static_cast<std::size_t>(e.components) * static_cast<std::size_t>(bytes);
         const std::size_t declared = model_.bufferViews[static_cast<std::size_t>(a.bufferView)].byteStride;
+        // Indices are told by their type before their size: a float or strided index
+        // accessor is not "too long for its view".
+        if (std::string(what) == "indices") {
+            if (e.components != 1) fail(named, "expected SCALAR");
+            if (a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+                a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+                fail(named, "expected UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, got componentType " +
+                                std::to_string(a.componentType));
+            if (declared != 0)
+                fail(named, "its bufferView has a byteStride (" + std::to_string(declared) +
+                                "), which glTF does not allow for indices");
+        }
         e.stride = declared == 0 ? size : declared;
         if (e.stride < size) fail(named, "byteStride " + std::to_string(e.stride) + " is less than an element");
         e.count = a.count;
@@ -815,7 +828,8 @@ private:
         if (out_.camera) return;  // the first camera counts
         const auto& cam = model_.cameras[static_cast<std::size_t>(node.camera)];
         if (cam.type != "perspective") {
-            warn(where + ": an " + cam.type + " camera is not read (the model is framed instead)");
+            warn(where + ": an " + cam.type + " camera is not read (the next perspective camera is taken, or else the "
+                         "model is framed)");
             return;
         }
         const Vec3 eye = world.block<3, 1>(0, 3);
@@ -823,7 +837,8 @@ private:
         const double fov = cam.perspective.yfov * 180.0 / M_PI;
         if (!(forward.norm() > 0.0) || !(up.cross(forward).norm() > 1e-9 * up.norm() * forward.norm()) ||
             !(fov > 0.0 && fov < 180.0)) {
-            warn(where + ": its camera is degenerate (the model is framed instead)");
+            warn(where + ": its camera is degenerate (the next perspective camera is taken, or else the model is "
+                         "framed)");
             return;
         }
         Camera c;

@@ -247,6 +247,12 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc["accessors"][0]["componentType"] = 5123;  // positions as shorts
     fails(doc, "POSITION: expected VEC3 of FLOAT, got VEC3 of UNSIGNED_SHORT");
     doc = asset();
+    doc["accessors"][2]["componentType"] = 5126;  // float indices: their type, not "do not fit"
+    fails(doc, "indices (accessors[2]): expected UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, got componentType 5126");
+    doc = asset();
+    doc["bufferViews"][2]["byteStride"] = 4;
+    fails(doc, "indices (accessors[2]): its bufferView has a byteStride (4), which glTF does not allow for indices");
+    doc = asset();
     doc["accessors"][0]["count"] = 0;
     fails(doc, "POSITION (accessors[0]): count 0 (glTF asks for at least 1)");
     doc = asset();
