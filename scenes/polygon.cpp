@@ -37,11 +37,16 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Vec3>& cor
     for (int k = 1; k + 1 < static_cast<int>(corners.size()); ++k) fan.push_back({0, k, k + 1});
     if (corners.size() <= 3) return fan;
     // A corner repeated next to itself adds nothing: the rest is cut, and the indices
-    // mapped back.
+    // mapped back. Repeated to rounding too (within 1e-9 of the polygon's size: a UV
+    // sphere's pole written at full precision, sin(pi) = 1.2e-16 off).
+    Vec3 lo = corners.front(), hi = lo;
+    for (const auto& c : corners) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+    const double same = 1e-9 * (hi - lo).norm();
+    const auto repeat = [&](int a, int b) { return (corners[a] - corners[b]).norm() <= same; };
     std::vector<int> index;
     for (int i = 0; i < static_cast<int>(corners.size()); ++i)
-        if (index.empty() || corners[i] != corners[index.back()]) index.push_back(i);
-    while (index.size() > 1 && corners[index.back()] == corners[index.front()]) index.pop_back();
+        if (index.empty() || !repeat(i, index.back())) index.push_back(i);
+    while (index.size() > 1 && repeat(index.back(), index.front())) index.pop_back();
     if (index.size() < 3) return fan;  // zero area: dropped on load
     // Relative to the first corner: the normal's cross products then cancel nothing
     // of a large offset (a 3 m quad at x = 1e9 has a normal of 18, not of rounding).

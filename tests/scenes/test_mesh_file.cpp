@@ -406,6 +406,12 @@ TEST_CASE("polygons: convex fanned, concave cut into ears, bent or crossing ones
     SECTION("a corner repeated next to itself is no crossing") {
         const MeshData m = read("repeat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2 3\n");
         CHECK(cut_of(m, Vec3::UnitZ()).area == Approx(0.5));
+        // Repeated to rounding (a UV sphere's pole at full precision): no crossing either.
+        const MeshData near = read("near.obj", "v 0 0 0\nv 1 0 0\nv 0.5000000000001 1 0\nv 0.5 1 0\nf 1 2 3 4\n");
+        CHECK(cut_of(near, Vec3::UnitZ()).area == Approx(0.5));
+        // A corner 1e-7 of the size away is a corner of its own.
+        const MeshData apart = read("apart.obj", "v 0 0 0\nv 1 0 0\nv 0.5000001 1 0\nv 0.5 1 0\nf 1 2 3 4\n");
+        CHECK(apart.triangles.size() == 2);
     }
     SECTION("slightly bent quads (a few percent, as organic models have) are accepted") {
         const MeshData m = read("bent.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0.05\nv 0 1 0\nf 1 2 3 4\n");
