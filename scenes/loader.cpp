@@ -367,6 +367,27 @@ json camera_json(const Camera& c) {
             {"fov_y", c.fov_y}, {"width", c.width}, {"height", c.height}};
 }
 
+// One side of the image given (--width 64, -D camera.height=...): the other follows the
+// camera's aspect, its sides before the settings in `before` (512 where absent, as
+// Camera's): a smaller image of the same view, not a 64 x 512 sliver. Both given, both
+// hold. `camera` is the camera's document after the settings.
+void follow_aspect(json& camera, const json& before, const Overrides& overrides) {
+    const auto given = [&](const char* key) {
+        return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) { return o.key == key; });
+    };
+    const bool width = given("camera.width");
+    if (width == given("camera.height")) return;
+    const char* side = width ? "width" : "height";
+    const char* other = width ? "height" : "width";
+    const auto side_of = [&](const char* key) {
+        return before.is_object() && before.contains(key) && before[key].is_number() ? before[key].get<double>() : 512.0;
+    };
+    if (!camera.is_object() || !camera.contains(side) || !camera[side].is_number_integer() || !(side_of(side) > 0.0))
+        return;  // parse_camera names what is wrong with it
+    const double scaled = std::round(side_of(other) * camera[side].get<double>() / side_of(side));
+    camera[other] = static_cast<int>(std::clamp(scaled, 1.0, 16384.0));
+}
+
 // Sets doc at the path `key` (dots between object keys, [i] for array elements) to
 // `text` read as JSON, or as a string when it is not JSON.
 void apply_override(json& doc, const Override& o, const std::string& shown) {
@@ -584,7 +605,11 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     }
 
     if (limits.on_step) limits.on_step("reading");
+    const json camera_before = doc.is_object() && doc.contains("camera") && doc["camera"].is_object() ? doc["camera"] : json();
     for (const Override& o : overrides) apply_override(doc, o, shown);
+    if (doc.is_object() && doc.contains("camera") && doc["camera"].is_object() &&
+        (doc["camera"].contains("eye") || doc["camera"].contains("target")))
+        follow_aspect(doc["camera"], camera_before, overrides);  // a camera of its own
     Node root(doc, shown, "");
     root.require_object();
     root.check_keys(
@@ -749,8 +774,13 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             root.fail("camera", "missing (and no glTF mesh of the scene brings one)");
         }
         json merged = camera_json(*brought);
+        json was = merged;  // the brought camera's sides, where the file set none
+        if (camera_before.is_object())
+            for (const char* key : {"width", "height"})
+                if (camera_before.contains(key)) was[key] = camera_before[key];
         if (given_camera)
             for (auto it = given_camera->begin(); it != given_camera->end(); ++it) merged[it.key()] = it.value();
+        follow_aspect(merged, was, overrides);
         scene.camera = parse_camera(Node(merged, shown, "camera"));
     }
 
@@ -923,8 +953,10 @@ Scene builtin_with(const std::string& name, const Overrides& overrides, int thre
     Scene scene = make_builtin(name, size, threads, team, memory);
     if (!overrides.empty()) {
         camera["camera"] = camera_json(scene.camera);
+        const json before = camera["camera"];
         for (const Override& o : overrides)
             if (o.key.rfind("camera", 0) == 0) apply_override(camera, o, name);
+        follow_aspect(camera["camera"], before, overrides);
         scene.camera = parse_camera(Node(camera, name, "").child("camera"));
     }
     return scene;

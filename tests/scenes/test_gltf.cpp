@@ -458,6 +458,7 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     const Scene wide = load_scene((dir.path / "c.json").string(), {{"camera.width", "64"}});
     CHECK(wide.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
     CHECK(wide.camera.width == 64);
+    CHECK(wide.camera.height == 64);  // the height follows the glTF camera's aspect (512 x 512)
     dir.write("none.json", R"({"materials": {"w": {"albedo": [0.5, 0.5, 0.5]}},
                                "objects": [{"triangle": [[0,0,0],[1,0,0],[0,1,0]], "material": "w"}]})");
     CHECK_THROWS_WITH(load_scene((dir.path / "none.json").string()),

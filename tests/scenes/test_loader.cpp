@@ -109,6 +109,30 @@ TEST_CASE("without a patch size a scene is refined to 1/25 of its largest extent
     CHECK_THAT(load_builtin("homogeneous-box", {{"patch_size", "0.5"}}).refinement, Contains("patch size 0.5 (given)"));
 }
 
+TEST_CASE("one side of the image given: the other follows the camera's aspect", "[scenes]") {
+    const std::string doc = R"({"camera": {"eye": [0, 0, 3], "target": [0, 0, 0], "width": 512, "height": 384},
+        "materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}},
+        "objects": [{"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "w"}], "patch_size": "none"})";
+    const auto sides = [&](const Overrides& o) {
+        const Camera c = parse_scene(doc, "s.json", ".", o).camera;
+        return std::pair{c.width, c.height};
+    };
+    CHECK(sides({}) == std::pair{512, 384});
+    CHECK(sides({{"camera.width", "64"}}) == std::pair{64, 48});
+    CHECK(sides({{"camera.height", "96"}}) == std::pair{128, 96});
+    CHECK(sides({{"camera.width", "64"}, {"camera.height", "64"}}) == std::pair{64, 64});  // both: both hold
+    CHECK(sides({{"camera.width", "1"}}) == std::pair{1, 1});                                // at least 1
+    CHECK(sides({{"camera.width", "16384"}, {"camera.fov_y", "30"}}) == std::pair{16384, 12288});
+    // A camera without sides is 512 x 512; a built-in scene's as its camera is.
+    CHECK(parse_scene(R"({"camera": {"eye": [0, 0, 3], "target": [0, 0, 0]},
+        "materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}},
+        "objects": [{"quad": [[0,0,0], [1,0,0], [1,1,0], [0,1,0]], "material": "w"}]})", "s.json", ".",
+                      {{"camera.width", "64"}}).camera.height == 64);
+    const Camera box = load_builtin("cornell-box", {{"camera.height", "100"}}).camera;
+    CHECK(box.width == 100);
+    CHECK(box.height == 100);
+}
+
 TEST_CASE("point lights and the sky load", "[scenes]") {
     const Scene s = parse(scene_text(kCamera, kMaterials, kQuad,
                                      R"(, "point_lights": [{"position": [0, 0, 2], "intensity": [10, 5, 1]}],
