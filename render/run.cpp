@@ -73,8 +73,10 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
                    "): no visibility map can order them; the higher patch index is in front");
     for (const auto& line : scene.warnings) hooks.warn(line);
     // (An OBJ or glTF file alone names its parts "room.obj: lamp": not "room.obj: room.obj: lamp".)
-    const std::string prefix = scene.name + ": ";
-    for (const auto& line : winding_warnings(summary)) hooks.warn(line.rfind(prefix, 0) == 0 ? line : prefix + line);
+    const std::string prefix = scene.name + ": ",
+                      file = scene.name.substr(scene.name.find_last_of('/') == std::string::npos ? 0 : scene.name.find_last_of('/') + 1) + ": ";
+    for (const auto& line : winding_warnings(summary))
+        hooks.warn(line.rfind(prefix, 0) == 0 || line.rfind(file, 0) == 0 ? line : prefix + line);
     if (!has_light(scene)) hooks.warn(scene.name + ": " + kNoLight);
 }
 

@@ -368,10 +368,13 @@ json camera_json(const Camera& c) {
 }
 
 // One side of the image given (--width 64, -D camera.height=...): the other follows the
-// camera's aspect, its sides before the settings in `before` (512 where absent, as
-// Camera's): a smaller image of the same view, not a 64 x 512 sliver. Both given, both
-// hold. `camera` is the camera's document after the settings.
-void follow_aspect(json& camera, const json& before, const Overrides& overrides) {
+// camera's aspect, its sides in `before` (the camera as the other settings made it; 512
+// where absent, as Camera's): a smaller image of the same view, not a 64 x 512 sliver.
+// Both given, both hold. `camera` is the camera's document after the settings; a side
+// past 16384 is refused, naming the one given.
+bool image_side(const Override& o) { return o.key == "camera.width" || o.key == "camera.height"; }
+
+void follow_aspect(json& camera, const json& before, const Overrides& overrides, const std::string& shown) {
     const auto given = [&](const char* key) {
         return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) { return o.key == key; });
     };
@@ -384,8 +387,12 @@ void follow_aspect(json& camera, const json& before, const Overrides& overrides)
     };
     if (!camera.is_object() || !camera.contains(side) || !camera[side].is_number_integer() || !(side_of(side) > 0.0))
         return;  // parse_camera names what is wrong with it
-    const double scaled = std::round(side_of(other) * camera[side].get<double>() / side_of(side));
-    camera[other] = static_cast<int>(std::clamp(scaled, 1.0, 16384.0));
+    const double scaled = std::max(1.0, std::round(side_of(other) * camera[side].get<double>() / side_of(side)));
+    if (scaled > 16384.0)
+        throw SceneError(shown, std::string("camera.") + side,
+                         std::string(side) + " " + std::to_string(camera[side].get<long long>()) + " makes the " + other +
+                             " " + format_number(scaled) + " at the camera's aspect, past 16384: give both sides");
+    camera[other] = static_cast<int>(scaled);
 }
 
 // Sets doc at the path `key` (dots between object keys, [i] for array elements) to
@@ -402,17 +409,6 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
         throw SceneError(shown, o.key, cut(msg, 200));
     } catch (const json::exception&) {
         value = o.value;  // a bare word: a string
-    }
-    // One value of a material the file does not define (a mesh brought it from its MTL
-    // or glTF file) would make a material of that value alone: "albedo: missing".
-    if (o.key.rfind("materials.", 0) == 0) {
-        const std::size_t at = o.key.find_first_of(".[", 10);
-        const std::string name = o.key.substr(10, at == std::string::npos ? std::string::npos : at - 10);
-        const bool defined = doc.contains("materials") && doc["materials"].is_object() && doc["materials"].contains(name);
-        if (at != std::string::npos && !defined)
-            throw SceneError(shown, "materials." + name,
-                             "no material '" + name + "' of the scene's own to change a value of (one a mesh brings "
-                             "is replaced whole: -D 'materials." + name + "={\"albedo\": [r, g, b], \"emission\": [r, g, b]}')");
     }
     json* node = &doc;
     std::size_t pos = 0;
@@ -605,11 +601,16 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     }
 
     if (limits.on_step) limits.on_step("reading");
+    const json materials_before = doc.is_object() && doc.contains("materials") ? doc["materials"] : json();
+    // The image's sides last: the other side follows the camera as the rest made it.
+    for (const Override& o : overrides)
+        if (!image_side(o)) apply_override(doc, o, shown);
     const json camera_before = doc.is_object() && doc.contains("camera") && doc["camera"].is_object() ? doc["camera"] : json();
-    for (const Override& o : overrides) apply_override(doc, o, shown);
+    for (const Override& o : overrides)
+        if (image_side(o)) apply_override(doc, o, shown);
     if (doc.is_object() && doc.contains("camera") && doc["camera"].is_object() &&
         (doc["camera"].contains("eye") || doc["camera"].contains("target")))
-        follow_aspect(doc["camera"], camera_before, overrides);  // a camera of its own
+        follow_aspect(doc["camera"], camera_before, overrides, shown);  // a camera of its own
     Node root(doc, shown, "");
     root.require_object();
     root.check_keys(
@@ -632,8 +633,20 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     if (root.has("materials")) {
         const Node mats = root.child("materials");
         mats.require_object();
-        for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it)
-            scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
+        for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it) {
+            try {
+                scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
+            } catch (const SceneError& e) {
+                // A value of a material the file does not define (one a mesh brings from
+                // its MTL or glTF file): a material of that value alone, with no albedo.
+                const bool the_files = materials_before.is_object() && materials_before.contains(it.key());
+                if (the_files || e.where() != "materials." + it.key() + ".albedo") throw;
+                throw SceneError(shown, "materials." + it.key(),
+                                 "the scene's own materials have no '" + it.key() + "' to change a value of (a new "
+                                 "material needs its albedo; one a mesh brings is replaced whole: -D 'materials." +
+                                     it.key() + "={\"albedo\": [r, g, b], \"emission\": [r, g, b]}')");
+            }
+        }
     }
     const std::size_t scene_materials = scene.materials.size();  // the file's own: they replace the meshes'
 
@@ -780,7 +793,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 if (camera_before.contains(key)) was[key] = camera_before[key];
         if (given_camera)
             for (auto it = given_camera->begin(); it != given_camera->end(); ++it) merged[it.key()] = it.value();
-        follow_aspect(merged, was, overrides);
+        follow_aspect(merged, was, overrides, shown);
         scene.camera = parse_camera(Node(merged, shown, "camera"));
     }
 
@@ -953,10 +966,12 @@ Scene builtin_with(const std::string& name, const Overrides& overrides, int thre
     Scene scene = make_builtin(name, size, threads, team, memory);
     if (!overrides.empty()) {
         camera["camera"] = camera_json(scene.camera);
+        for (const Override& o : overrides)
+            if (o.key.rfind("camera", 0) == 0 && !image_side(o)) apply_override(camera, o, name);
         const json before = camera["camera"];
         for (const Override& o : overrides)
-            if (o.key.rfind("camera", 0) == 0) apply_override(camera, o, name);
-        follow_aspect(camera["camera"], before, overrides);
+            if (image_side(o)) apply_override(camera, o, name);
+        follow_aspect(camera["camera"], before, overrides, name);
         scene.camera = parse_camera(Node(camera, name, "").child("camera"));
     }
     return scene;

@@ -634,7 +634,7 @@ private:
                 a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
                 fail(named, "expected UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, got componentType " +
                                 std::to_string(a.componentType));
-            if (declared != 0)
+            if (declared != 0 && declared != size)  // (one of the element's own size reads alike)
                 fail(named, "its bufferView has a byteStride (" + std::to_string(declared) +
                                 "), which glTF does not allow for indices");
         }

@@ -238,11 +238,11 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
                                  ") and not in the scene's \"materials\"");
         }
         // Read again where an earlier mesh brought the same: its warnings were given then.
-        const std::size_t warnings = scene.warnings.size(), files = scene.files.size();
+        const std::size_t warnings = scene.warnings.size();
         const int added = add_brought(scene, from_mtl(it->second.material, it->second.shown, it->second.folder,
                                                       scene.warnings, scene.files),
                                       shown, where);
-        if (added < 0) scene.warnings.resize(warnings), scene.files.resize(files);
+        if (added < 0) scene.warnings.resize(warnings);  // (its texture stays among the files read)
         index[k] = placed(added);
     }
     std::vector<int> out(data.triangles.size());

@@ -123,6 +123,13 @@ TEST_CASE("one side of the image given: the other follows the camera's aspect", 
     CHECK(sides({{"camera.width", "64"}, {"camera.height", "64"}}) == std::pair{64, 64});  // both: both hold
     CHECK(sides({{"camera.width", "1"}}) == std::pair{1, 1});                                // at least 1
     CHECK(sides({{"camera.width", "16384"}, {"camera.fov_y", "30"}}) == std::pair{16384, 12288});
+    CHECK_THROWS_WITH(sides({{"camera.height", "16384"}}),
+                      Contains("camera.height: height 16384 makes the width 21845 at the camera's aspect, past 16384: "
+                               "give both sides"));
+    // The aspect of the camera as the other settings made it, whatever their order.
+    const std::string hd = R"({"eye": [0, 0, 3], "target": [0, 0, 0], "width": 1920, "height": 1080})";
+    CHECK(sides({{"camera", hd}, {"camera.width", "960"}}) == std::pair{960, 540});
+    CHECK(sides({{"camera.width", "960"}, {"camera", hd}}) == std::pair{960, 540});
     // A camera without sides is 512 x 512; a built-in scene's as its camera is.
     CHECK(parse_scene(R"({"camera": {"eye": [0, 0, 3], "target": [0, 0, 0]},
         "materials": {"w": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}},

@@ -58,12 +58,13 @@ TEST_CASE("OBJ: usemtl, groups and mtllib are recorded per triangle", "[scenes][
 
 TEST_CASE("OBJ as exporters write it: trailing comments, several MTL files on one line, Windows folders",
           "[scenes][mesh][obj]") {
-    // A comment after a blank ends any statement; a '#' inside a word is part of it.
-    const MeshData d = parse_mesh("mtllib a.mtl b.MTL # two files\nv 0 0 0 # origin\nv 1 0 0\nv 0 1 0\n"
-                                  "usemtl red # the left wall\nf 1 2 3 # a face\nusemtl wall#2\nf 1 2 3\n",
+    // A comment after a blank ends a statement of numbers; a name keeps its '#' (3ds
+    // Max names materials "Material #25", in its MTL too).
+    const MeshData d = parse_mesh("mtllib a.mtl b.MTL\nv 0 0 0 # origin\nv 1 0 0\nv 0 1 0\n"
+                                  "usemtl Material #25\nf 1 2 3 # a face\nusemtl wall#2\nf 1 2 3\n",
                                   "obj", "t.obj");
     CHECK(d.material_libraries == std::vector<std::string>{"a.mtl", "b.MTL"});
-    CHECK(d.materials == std::vector<std::string>{"red", "wall#2"});
+    CHECK(d.materials == std::vector<std::string>{"Material #25", "wall#2"});
     CHECK(d.triangles.size() == 2);
     // One name with spaces stays one; a Windows folder's backslashes are slashes.
     const std::string face = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
@@ -256,8 +257,11 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     // One value of an MTL's material cannot be set alone (it would be a material of
     // that value only): the message says how to replace it.
     CHECK_THROWS_WITH(load_scene(path, {{"materials.lamp.emission", "[1, 1, 1]"}}),
-                      Contains("materials.lamp: no material 'lamp' of the scene's own to change a value of (one a mesh "
-                               "brings is replaced whole: -D 'materials.lamp={\"albedo\": [r, g, b]"));
+                      Contains("materials.lamp: the scene's own materials have no 'lamp' to change a value of (a new "
+                               "material needs its albedo; one a mesh brings is replaced whole: -D "
+                               "'materials.lamp={\"albedo\": [r, g, b]"));
+    // A new material of its albedo alone is a material.
+    CHECK(load_scene(path, {{"materials.grey.albedo", "[0.5, 0.5, 0.5]"}}).find_material("grey") >= 0);
     dir.write("m.ply", "ply\n");
     CHECK_THROWS_WITH(load_scene(dir.path.string() + "/m.ply"), Contains("m.ply") && Contains("has no materials"));
     // Alone, its errors and its parts are its own: no objects[0] of a scene file the
