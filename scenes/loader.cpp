@@ -367,13 +367,14 @@ json camera_json(const Camera& c) {
             {"fov_y", c.fov_y}, {"width", c.width}, {"height", c.height}};
 }
 
+// A setting of one of the image's sides (applied after the others: follow_aspect).
+bool image_side(const Override& o) { return o.key == "camera.width" || o.key == "camera.height"; }
+
 // One side of the image given (--width 64, -D camera.height=...): the other follows the
 // camera's aspect, its sides in `before` (the camera as the other settings made it; 512
 // where absent, as Camera's): a smaller image of the same view, not a 64 x 512 sliver.
 // Both given, both hold. `camera` is the camera's document after the settings; a side
 // past 16384 is refused, naming the one given.
-bool image_side(const Override& o) { return o.key == "camera.width" || o.key == "camera.height"; }
-
 void follow_aspect(json& camera, const json& before, const Overrides& overrides, const std::string& shown) {
     const auto given = [&](const char* key) {
         return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) { return o.key == key; });
