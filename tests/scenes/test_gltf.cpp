@@ -283,6 +283,12 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc["scene"] = -1;
     fails(doc, "scene: -1 is not an index");
     doc = asset();
+    doc["nodes"][0]["children"] = {-1};
+    fails(doc, "nodes[0].children[0]: -1 is not an index");
+    doc = asset();
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = -1;
+    fails(doc, "meshes[0].primitives[0].attributes.NORMAL: -1 is not an index");
+    doc = asset();
     doc["nodes"][1]["extras"] = {{"index", -1}};
     CHECK(parse(doc).triangles.size() == 1);
     // A matrix beside translation, rotation or scale (glTF forbids it): the latter would
@@ -290,6 +296,9 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc = asset();
     doc["nodes"][1]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     fails(doc, "nodes[1]: has both a matrix and a scale (glTF places a node by one or the other)");
+    doc = asset();
+    doc["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    fails(doc, "nodes[0]: has both a matrix and a translation");
     doc = asset();
     doc["nodes"][1]["children"] = {0};  // a cycle
     fails(doc, "own ancestor");
@@ -435,6 +444,20 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
                    "objects": [{"mesh": "tri.gltf"}]})");
     const Scene s = load_scene(scene);
     CHECK(s.materials[s.find_material("paint")].albedo.isApprox(Rgb(0.1, 0.2, 0.3)));
+    // Two glTF files whose materials share a name: one material where they agree, two
+    // where they differ, the second named by its file.
+    json blue = doc;
+    blue["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {0.1, 0.2, 0.7, 1};
+    dir.write("blue.gltf", blue.dump());
+    const Scene two = load_scene(dir.write("two.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]},
+        "objects": [{"mesh": "tri.gltf"}, {"mesh": "tri.gltf", "translate": [3, 0, 0]}, {"mesh": "blue.gltf", "translate": [6, 0, 0]}]})"));
+    REQUIRE(two.materials.size() == 2);
+    CHECK(two.materials[0].name == "paint");
+    CHECK(two.materials[1].name == "paint (blue.gltf)");
+    CHECK(two.materials[1].albedo.isApprox(Rgb(0.1, 0.2, 0.7)));
+    CHECK(std::count_if(two.warnings.begin(), two.warnings.end(), [](const std::string& w) {
+              return w.find("blue.gltf: its material 'paint' differs") != std::string::npos;
+          }) == 1);
     // Emission or a point light past 1e15 (which a scene file may not give) is refused
     // as it loads, naming the file and the material or light.
     json hot = doc;
