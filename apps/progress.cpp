@@ -80,7 +80,6 @@ void ProgressBar::clear() {
     drawn_ = false;
 }
 
-
 PreparationProgress::PreparationProgress(ProgressBar& bar) : bar_(bar) {
     if (!bar_.enabled()) return;
     ticker_ = std::thread([this] {

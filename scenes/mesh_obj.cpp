@@ -37,21 +37,18 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
+        std::string tag;
+        std::istringstream(line) >> tag;
         // A comment may end a statement of numbers, after a blank ("f 1 2 3 # the floor").
         // Names keep theirs: "usemtl Material #25" is 3ds Max's name, as its MTL has it.
-        if (const auto tag_end = line.find_first_of(" \t", line.find_first_not_of(" \t")); tag_end != std::string::npos) {
-            const std::string first = line.substr(0, tag_end);
-            const bool numbers = first == "v" || first == "vn" || first == "vt" || first == "f" || first == "l" ||
-                                 first == "p" || first == "s" || first == "vp";
-            for (std::size_t hash = line.find('#', tag_end); numbers && hash != std::string::npos; hash = line.find('#', hash + 1))
-                if (line[hash - 1] == ' ' || line[hash - 1] == '\t') {
+        if (tag == "v" || tag == "vn" || tag == "vt" || tag == "vp" || tag == "f" || tag == "l" || tag == "p" || tag == "s")
+            for (std::size_t hash = line.find('#'); hash != std::string::npos; hash = line.find('#', hash + 1))
+                if (hash > 0 && (line[hash - 1] == ' ' || line[hash - 1] == '\t')) {
                     line.erase(hash);
                     break;
                 }
-        }
         const std::string where = "line " + std::to_string(line_no);
         std::istringstream ls(line);
-        std::string tag;
         ls >> tag;
         if (tag == "v") {
             data.vertices.push_back(read_coordinates(line.substr(line.find('v') + 1), shown, where));

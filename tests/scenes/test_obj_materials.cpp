@@ -60,7 +60,7 @@ TEST_CASE("OBJ as exporters write it: trailing comments, several MTL files on on
           "[scenes][mesh][obj]") {
     // A comment after a blank ends a statement of numbers; a name keeps its '#' (3ds
     // Max names materials "Material #25", in its MTL too).
-    const MeshData d = parse_mesh("mtllib a.mtl b.MTL\nv 0 0 0 # origin\nv 1 0 0\nv 0 1 0\n"
+    const MeshData d = parse_mesh("mtllib a.mtl b.MTL\nv 0 0 0 # origin\nv 1 0 0\n  v 0 1 0\t# indented\n"
                                   "usemtl Material #25\nf 1 2 3 # a face\nusemtl wall#2\nf 1 2 3\n",
                                   "obj", "t.obj");
     CHECK(d.material_libraries == std::vector<std::string>{"a.mtl", "b.MTL"});
