@@ -396,8 +396,9 @@ void follow_aspect(json& camera, const json& before, const Overrides& overrides,
     camera[other] = static_cast<int>(scaled);
 }
 
-// Sets doc at the path `key` (dots between object keys, [i] for array elements) to
-// `text` read as JSON, or as a string when it is not JSON.
+// Sets doc at the path `key` (dots between object keys, [i] for array elements, ["k"]
+// for a key with dots or brackets of its own) to `text` read as JSON, or as a string
+// when it is not JSON.
 void apply_override(json& doc, const Override& o, const std::string& shown) {
     if (o.key.empty()) throw SceneError(shown, "", "an override needs a key (-D key=value)");
     json value;
@@ -423,7 +424,17 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
             node = &(*node)[part];
         }
         if (end == std::string::npos) break;
-        if (o.key[end] == '[') {
+        if (o.key.compare(end, 2, "[\"") == 0) {
+            // ["name"]: an object key of any characters but `"]` (a material "Material (b.obj)").
+            const std::size_t close = o.key.find("\"]", end + 2);
+            if (close == std::string::npos) throw SceneError(shown, o.key, "malformed key in -D " + o.key + " (no closing \"])");
+            if (node->is_null()) *node = json::object();
+            if (!node->is_object())
+                throw SceneError(shown, o.key.substr(0, end), "cannot set: not an object (-D " + o.key + ")");
+            node = &(*node)[o.key.substr(end + 2, close - end - 2)];
+            pos = close + 2;
+            if (pos < o.key.size() && o.key[pos] == '.') ++pos;
+        } else if (o.key[end] == '[') {
             const std::size_t close = o.key.find(']', end);
             const std::string digits = close == std::string::npos ? "" : o.key.substr(end + 1, close - end - 1);
             // Digits only, and few enough to be a number (the array check below bounds it).

@@ -67,6 +67,12 @@ std::string vector_text(const Vec3& v) {
     return os.str();
 }
 
+std::string zero_normals_warning(const std::string& shown, long count, const std::string& first) {
+    return shown + ": " + (count == 1 ? "a normal" : std::to_string(count) + " normals") + " of zero length (" +
+           (count == 1 ? "" : "the first ") + "at " + first + "): the corners that use " +
+           (count == 1 ? "it get a computed normal" : "them get computed normals");
+}
+
 std::string lower_extension(const std::string& path) {
     const auto dot = path.find_last_of('.');
     if (dot == std::string::npos) return "";

@@ -71,9 +71,10 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
 // illum asks for highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
 // is the albedo by its mean linear colour. A scaled material, an illum above 2 and a
 // texture (read as its mean, or not read) are lines of scene.warnings; the MTL files
-// and textures join scene.files. Throws SceneError(shown, where): no usemtl, faces before
-// the first one, a name defined nowhere, an unreadable or malformed MTL file, emission
-// past 1e15.
+// and textures join scene.files. What an asset lacks is 0.8 grey with a warning, as
+// Blender imports it: a missing MTL file, a name no MTL file defines, faces before the
+// first usemtl (the material "default"). Throws SceneError(shown, where): no usemtl, an
+// unreadable or malformed MTL file, emission past 1e15.
 std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
                                 const std::string& shown, const std::string& where);
 
@@ -86,10 +87,13 @@ inline constexpr std::size_t kMaxMeshTriangles = 100'000'000;
 // directory, FIFO or device), unknown extension, a malformed header or count, a face
 // with fewer than 3 corners, a polygon that crosses itself or is not planar
 // (triangulate_polygon), a face index out of range, a file shorter than its header
-// promises, non-finite coordinates, a bad normal (non-finite, zero length, an OBJ
-// normal index out of range, an OBJ face with normals at some corners only, a PLY
-// vertex with some of nx, ny, nz).
-// Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz.
+// promises, non-finite coordinates, a bad normal (non-finite, an OBJ normal index out
+// of range, an OBJ face with normals at some corners only, a PLY vertex with some of
+// nx, ny, nz).
+// Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz;
+// one of zero length (exporters write them at degenerate faces) is a zero normal in
+// MeshData (its corners computed) and a warning. An OBJ line ending in `\` goes on in
+// the next.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
 // glTF 2.0 (.gltf, .glb; scenes/mesh_gltf.cpp): the triangles of the default scene's
 // nodes in world space, its materials, point lights and first camera. Throws

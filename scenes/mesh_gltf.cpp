@@ -352,6 +352,11 @@ private:
         const std::string& version = model_.asset.version;
         if (version.rfind("2.", 0) != 0)
             fail("asset.version", "'" + version + "': raybundle reads glTF 2.0 (a 1.0 file would be misread)");
+        // A file that needs a later 2.x reader says so (the version is at least 2.0).
+        const std::string& least = model_.asset.minVersion;
+        if (!least.empty() && least != "2.0")
+            fail("asset.minVersion", "'" + least + "': the file needs a reader of glTF " + least +
+                                         ", and raybundle reads glTF 2.0");
         static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
         for (const auto& e : model_.extensionsRequired)
             if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");
@@ -507,7 +512,7 @@ private:
         return out;
     }
 
-    Matrix4 local(const tinygltf::Node& n, const std::string& where) const {
+    Matrix4 local(const tinygltf::Node& n, const std::string& where) {
         Matrix4 m = Matrix4::Identity();
         if (n.matrix.size() == 16) {
             for (int i = 0; i < 16; ++i) m(i % 4, i / 4) = n.matrix[static_cast<std::size_t>(i)];  // column-major
@@ -517,6 +522,11 @@ private:
             if (n.rotation.size() == 4) {
                 const Eigen::Quaterniond q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
                 if (!(q.norm() > 0.0)) fail(where, "rotation is not a unit quaternion");
+                // Exporters write floats: a length within 1e-3 of 1 is theirs to round.
+                if (std::abs(q.norm() - 1.0) > 1e-3)
+                    warn(where + ": rotation (" + number(n.rotation[0]) + ", " + number(n.rotation[1]) + ", " +
+                         number(n.rotation[2]) + ", " + number(n.rotation[3]) + ") has length " + number(q.norm()) +
+                         ", not 1: taken as the rotation of its direction");
                 rs = q.normalized().toRotationMatrix();
             }
             if (n.scale.size() == 3) rs = rs * Vec3(n.scale[0], n.scale[1], n.scale[2]).asDiagonal();

@@ -114,8 +114,10 @@ bool same_values(const Material& a, const Material& b) {
 // that name with the same values, or m added. Where an earlier mesh's of that name
 // differs (every default material of Blender is "Material"), m is another material,
 // "NAME (shown)", and a warning says so. Emission past 1e15 (as the scene file's) is
-// refused. Returns -1 where an earlier mesh's is the same.
-int add_brought(Scene& scene, Material m, const std::string& shown, const std::string& where) {
+// refused. Returns -1 - its index where an earlier mesh's is the same, or where the
+// scene file's own materials (the first `scene_materials`) define "NAME (shown)".
+int add_brought(Scene& scene, std::size_t scene_materials, Material m, const std::string& shown,
+                const std::string& where) {
     for (int k = 0; k < 3; ++k)
         if (!(m.emission[k] <= 1e15))
             throw SceneError(shown, where, "material '" + m.name + "': emission " + number(m.emission[k]) +
@@ -124,10 +126,12 @@ int add_brought(Scene& scene, Material m, const std::string& shown, const std::s
     for (int i = 0;; ++i) {
         const std::string tried = i == 0 ? name : i == 1 ? name + " (" + shown + ")" : name + " (" + shown + ", " + std::to_string(i) + ")";
         const int at = scene.find_material(tried);
+        if (i > 0 && at >= 0 && static_cast<std::size_t>(at) < scene_materials) return -1 - at;  // the scene's own
         if (at < 0) {
             if (i > 0)
                 scene.warnings.push_back(shown + ": its material '" + name + "' differs from the one of that name an earlier "
-                                         "mesh brought: it is '" + tried + "' here");
+                                         "mesh brought: it is '" + tried + "' here (-D 'materials[\"" + tried +
+                                         "\"]={...}' sets it)");
             m.name = tried;
             return scene.add_material(std::move(m));
         }
@@ -200,25 +204,45 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         std::vector<int> index(data.materials.size());
         for (std::size_t k = 0; k < data.materials.size(); ++k) {
             const int m = own(data.materials[k]);
-            index[k] = m >= 0 ? m : placed(add_brought(scene, data.material_defs[k], shown, where));
+            index[k] = m >= 0 ? m : placed(add_brought(scene, scene_materials, data.material_defs[k], shown, where));
         }
         std::vector<int> out(data.triangles.size());
         for (std::size_t t = 0; t < out.size(); ++t) out[t] = index[static_cast<std::size_t>(data.triangle_material[t])];
         return out;
     }
     // The MTL files, relative to the mesh's folder; the first definition of a name counts.
+    // A file that is not there (an asset copied without it, or named by a folder of the
+    // exporter's machine and not beside the mesh either) is a warning, as in Blender: its
+    // materials are then defined nowhere, and 0.8 grey.
     struct Defined {
         MtlMaterial material;
         std::string shown, folder;  // its file as shown, and the folder of its textures
     };
     std::map<std::string, Defined> defined;
+    std::vector<std::string> missing;
     for (const auto& lib : data.material_libraries) {
-        const std::string file = in_folder(folder_of(path), lib), file_shown = in_folder(folder_of(shown), lib);
+        std::string file = in_folder(folder_of(path), lib), file_shown = in_folder(folder_of(shown), lib);
+        std::error_code ec;
+        if (!std::filesystem::exists(file, ec)) {
+            const std::string beside = in_folder(folder_of(path), lib.substr(lib.find_last_of('/') + 1));
+            if (beside == file || !std::filesystem::exists(beside, ec)) {
+                missing.push_back(lib);
+                continue;
+            }
+            file = beside;
+            file_shown = in_folder(folder_of(shown), lib.substr(lib.find_last_of('/') + 1));
+        }
         scene.files.push_back(file);
         const std::string bytes = read_input_file(file, file_shown, "material file", kMaxSceneFileBytes);
         for (auto& m : parse_mtl(bytes, file_shown)) defined.emplace(m.name, Defined{m, file_shown, folder_of(file)});
     }
+    for (const auto& lib : missing)
+        scene.warnings.push_back(shown + ": mtllib " + lib + ": no such file" +
+                                 (lib.find('/') != std::string::npos ? ", nor one of its name beside the mesh" : "") +
+                                 "; the materials it would define are 0.8 grey");
     std::vector<int> index(data.materials.size());
+    std::vector<std::string> nowhere;  // names defined nowhere, as "'name' (line n)"
+    std::string first_nowhere;
     for (std::size_t k = 0; k < data.materials.size(); ++k) {
         const std::string& name = data.materials[k];
         // The scene file's own material of that name comes first.
@@ -226,36 +250,60 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
             index[k] = m;
             continue;
         }
-        const auto it = defined.find(name);
+        auto it = defined.find(name);
         if (it == defined.end()) {
-            std::string libs;
-            for (const auto& lib : data.material_libraries) libs += (libs.empty() ? "" : ", ") + lib;
-            const std::string line =
-                k < data.material_lines.size() ? "line " + std::to_string(data.material_lines[k]) + ": " : "";
-            throw SceneError(shown, where,
-                             line + "usemtl '" + name + "': defined in no material file (" +
-                                 (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
-                                 ") and not in the scene's \"materials\"");
+            // A material of no values: the MTL's defaults, 0.8 grey (as Blender shows it).
+            nowhere.push_back("'" + name + "'" +
+                              (k < data.material_lines.size() ? " (line " + std::to_string(data.material_lines[k]) + ")"
+                                                             : std::string()));
+            if (first_nowhere.empty()) first_nowhere = name;
+            MtlMaterial grey;
+            grey.name = name;
+            it = defined.emplace(name, Defined{grey, shown, folder_of(path)}).first;
         }
         // Read again where an earlier mesh brought the same: its warnings were given then.
         const std::size_t warnings = scene.warnings.size();
-        const int added = add_brought(scene, from_mtl(it->second.material, it->second.shown, it->second.folder,
+        const int added = add_brought(scene, scene_materials, from_mtl(it->second.material, it->second.shown, it->second.folder,
                                                       scene.warnings, scene.files),
                                       shown, where);
         if (added < 0) scene.warnings.resize(warnings);  // (its texture stays among the files read)
         index[k] = placed(added);
     }
-    std::vector<int> out(data.triangles.size());
+    if (!nowhere.empty()) {
+        std::string libs, names;
+        for (const auto& lib : data.material_libraries) libs += (libs.empty() ? "" : ", ") + lib;
+        constexpr std::size_t kShown = 4;
+        for (std::size_t k = 0; k < std::min(nowhere.size(), kShown); ++k) names += (k ? ", " : "") + nowhere[k];
+        if (nowhere.size() > kShown) names += " and " + std::to_string(nowhere.size() - kShown) + " more";
+        scene.warnings.push_back(shown + ": usemtl " + names + ": defined in no material file (" +
+                                 (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
+                                 ") and not in the scene's \"materials\", so 0.8 grey; -D 'materials." +
+                                 first_nowhere + "={\"albedo\": [r, g, b]}' or the scene's \"materials\" defines one");
+    }
+    // Faces before the first usemtl (Blender writes an object without a material so):
+    // the material "default", 0.8 grey, as Blender shows them.
     std::size_t before = 0;
+    for (std::size_t t = 0; t < data.triangles.size(); ++t)
+        before += t >= data.triangle_material.size() || data.triangle_material[t] < 0;
+    int unnamed = -1;
+    if (before > 0) {
+        if (const int m = own("default"); m >= 0) {
+            unnamed = m;
+        } else {
+            MtlMaterial grey;
+            grey.name = "default";
+            unnamed = placed(add_brought(scene, scene_materials, from_mtl(grey, shown, folder_of(path), scene.warnings, scene.files),
+                                         shown, where));
+            scene.warnings.push_back(shown + ": " + std::to_string(before) + (before == 1 ? " face comes" : " faces come") +
+                                     " before the first usemtl: material '" + scene.materials[unnamed].name +
+                                     "', 0.8 grey (the scene's \"materials\" may define it)");
+        }
+    }
+    std::vector<int> out(data.triangles.size());
     for (std::size_t t = 0; t < out.size(); ++t) {
         const int m = t < data.triangle_material.size() ? data.triangle_material[t] : -1;
-        if (m < 0) ++before;
-        out[t] = m < 0 ? -1 : index[static_cast<std::size_t>(m)];
+        out[t] = m < 0 ? unnamed : index[static_cast<std::size_t>(m)];
     }
-    if (before > 0)
-        throw SceneError(shown, where,
-                         std::to_string(before) + " faces come before the first usemtl, and the object gives no "
-                                                  "\"material\" for them");
     return out;
 }
 

@@ -5,6 +5,16 @@
 
 namespace raybundle::scenes::mesh_detail {
 
+namespace {
+
+// A line ending in a backslash (before any blanks and a carriage return).
+bool ends_in_backslash(const std::string& line) {
+    const auto last = line.find_last_not_of(" \t\r");
+    return last != std::string::npos && line[last] == '\\';
+}
+
+}  // namespace
+
 // ---------------------------------------------------------------------------- OBJ
 // Read here rather than through OpenMesh, which keeps one normal per vertex: `v` and
 // `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
@@ -34,9 +44,16 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         names.push_back(name);
         return static_cast<int>(names.size() - 1);
     };
+    long zero_normals = 0, first_zero = 0;  // `vn 0 0 0`: its corners get computed normals
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
+        // A backslash at the end of a line joins the next to it (errors name the first).
+        const long first_line = line_no;
+        for (std::string next; ends_in_backslash(line) && std::getline(in, next); ++line_no) {
+            line.erase(line.find_last_of('\\'));
+            line += " " + next;
+        }
         std::string tag;
         std::istringstream(line) >> tag;
         // A comment may end a statement of numbers, after a blank ("f 1 2 3 # the floor").
@@ -47,15 +64,16 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                     line.erase(hash);
                     break;
                 }
-        const std::string where = "line " + std::to_string(line_no);
+        const std::string where = "line " + std::to_string(first_line);
         std::istringstream ls(line);
         ls >> tag;
         if (tag == "v") {
             data.vertices.push_back(read_coordinates(line.substr(line.find('v') + 1), shown, where));
         } else if (tag == "vn") {
             const Vec3 n = read_coordinates(line.substr(line.find("vn") + 2), shown, where, "normal");
-            if (!(n.norm() > 0.0)) throw SceneError(shown, where, "normal " + vector_text(n) + " has zero length");
-            normals.push_back(n.normalized());
+            // Exporters write `vn 0 0 0` at degenerate faces: no direction, as if not given.
+            if (!(n.norm() > 0.0) && zero_normals++ == 0) first_zero = first_line;
+            normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
         } else if (tag == "vt") {
             ++texture_coordinates;
         } else if (tag == "usemtl" || tag == "o" || tag == "g") {
@@ -68,7 +86,7 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             }
             if (tag == "usemtl") {
                 material = index_of(data.materials, name);
-                if (data.material_lines.size() < data.materials.size()) data.material_lines.push_back(line_no);
+                if (data.material_lines.size() < data.materials.size()) data.material_lines.push_back(first_line);
             }
             else
                 group = index_of(data.groups, name.empty() ? "(unnamed)" : name);
@@ -145,6 +163,7 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         }
     }
     if (any_normals) data.normals = std::move(corner_normals);
+    if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, "line " + std::to_string(first_zero)));
     return data;
 }
 

@@ -138,6 +138,8 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     PlyValues values(std::string_view(content).substr(std::min(pos, content.size())), format, shown);
     MeshData data;
     std::vector<Vec3> normals;
+    long zero_normals = 0;
+    std::string first_zero;
     std::vector<std::vector<int>> faces;
     std::vector<double> row;
     std::string holds;  // what the header says an element holds, for a line that does not (values' rows point here)
@@ -198,8 +200,9 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                 if (has_normals) {
                     const Vec3 n(row[nxyz[0]], row[nxyz[1]], row[nxyz[2]]);
                     if (!n.allFinite()) throw SceneError(shown, where(), "normal " + vector_text(n) + " is not finite");
-                    if (!(n.norm() > 0.0)) throw SceneError(shown, where(), "normal " + vector_text(n) + " has zero length");
-                    normals.push_back(n.normalized());
+                    // A zero normal (at a degenerate face) has no direction: as if not given.
+                    if (!(n.norm() > 0.0) && zero_normals++ == 0) first_zero = where();
+                    normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
                 }
             }
         }
@@ -211,6 +214,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
             for (const auto& t : local)
                 data.normals.push_back({normals[corners[t[0]]], normals[corners[t[1]]], normals[corners[t[2]]]});
     }
+    if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, first_zero));
     return data;
 }
 

@@ -22,6 +22,7 @@
 
 using namespace raybundle::scenes;
 using Catch::Matchers::Contains;
+using Catch::Matchers::StartsWith;
 using nlohmann::json;
 using raybundle::test::TempDir;
 
@@ -264,6 +265,13 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc = asset();
     doc["asset"]["version"] = "1.0";
     fails(doc, "asset.version: '1.0': raybundle reads glTF 2.0");
+    // A file that needs a later reader than 2.0 says so; "2.0" is ours.
+    doc = asset();
+    doc["asset"]["version"] = "2.1";
+    doc["asset"]["minVersion"] = "2.1";
+    fails(doc, "asset.minVersion: '2.1': the file needs a reader of glTF 2.1, and raybundle reads glTF 2.0");
+    doc["asset"]["minVersion"] = "2.0";
+    CHECK(parse(doc).triangles.size() == 1);
     doc = asset();
     doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
     doc["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", -5}}}};
@@ -418,6 +426,16 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     CHECK(e.triangles.size() == 1);
     REQUIRE(e.warnings.size() == 1);
     CHECK_THAT(e.warnings[0], Contains("meshes[1] (placed by nodes[2]) has no primitives"));
+    // A rotation that is not of unit length: its direction, with a warning past the
+    // rounding of floats (glTF asks for unit quaternions).
+    json twice = asset();
+    twice["nodes"][1]["rotation"] = {2 * std::sin(M_PI / 4), 0, 0, 2 * std::cos(M_PI / 4)};
+    const MeshData q = parse(twice);
+    CHECK(q.vertices[2].isApprox(Vec3(0, 0, 7)));
+    REQUIRE(q.warnings.size() == 1);
+    CHECK_THAT(q.warnings[0], StartsWith("a.gltf: nodes[1]: rotation (1.41421, 0, 0, 1.41421) has length 2, not 1"));
+    twice["nodes"][1]["rotation"] = {std::sin(M_PI / 4) * 1.0002, 0, 0, std::cos(M_PI / 4) * 1.0002};
+    CHECK(parse(twice).warnings.empty());
 }
 
 TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file it brings its materials",

@@ -264,6 +264,34 @@ TEST_CASE("the shading normal is never on the back of its patch", "[scenes][norm
     CHECK(tilt.shading_normal(0, 0.0, 1.0).z() > 0.0);
 }
 
+TEST_CASE("a normal of zero length, as exporters write at degenerate faces: its corners computed", "[scenes][normals]") {
+    TempDir dir;
+    // A triangle facing +z: the file tilts two corners, and gives the first (0, 0, 0).
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    dir.write("zero.obj", tri + "v 1 1 0\nvn 0 0 0\nvn 0 0.6 0.8\nvn 0 0 0\nf 1//1 2//2 3//2\nf 2//3 4//2 3//2\n");
+    const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                               "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    dir.write("zero.ply", header + "0 0 0 0 0 0\n1 0 0 0 0.6 0.8\n0 1 0 0 0.6 0.8\n3 0 1 2\n");
+    for (const std::string file : {"zero.obj", "zero.ply"}) {
+        INFO(file);
+        const Scene scene = load(dir, R"({"mesh": ")" + file + R"(", "material": "white", "crease_angle": 0})");
+        REQUIRE(scene.patch_count() >= 1);
+        int computed = 0, given = 0;
+        for (const Vec3& n : scene.corner_normals()[0]) {
+            computed += n.isApprox(Vec3(0, 0, 1));
+            given += n.isApprox(Vec3(0, 0.6, 0.8));
+        }
+        CHECK(computed == 1);
+        CHECK(given == 2);
+        REQUIRE(scene.warnings.size() == 1);
+        CHECK(scene.warnings[0] ==
+              (file == "zero.obj"
+                   ? "zero.obj: 2 normals of zero length (the first at line 5): the corners that use them get computed normals"
+                   : "zero.ply: a normal of zero length (at vertex 0): the corners that use it get a computed normal"));
+    }
+}
+
 TEST_CASE("bad normals and normal keys give one clear error", "[scenes][normals][errors]") {
     TempDir dir;
     auto fails_with = [&](const std::string& objects, const std::string& extra, const std::string& needle) {
@@ -282,8 +310,6 @@ TEST_CASE("bad normals and normal keys give one clear error", "[scenes][normals]
     };
     dir.write("nan.obj", tri + "vn 0 nan 1\nf 1//1 2//1 3//1\n");
     fails_with(mesh("nan.obj"), "", "objects[0].mesh: nan.obj: line 4: normal coordinate 'nan' is not finite");
-    dir.write("zero.obj", tri + "vn 0 0 0\nf 1//1 2//1 3//1\n");
-    fails_with(mesh("zero.obj"), "", "zero.obj: line 4: normal (0, 0, 0) has zero length");
     dir.write("short.obj", tri + "vn 0 0\nf 1//1 2//1 3//1\n");
     fails_with(mesh("short.obj"), "", "short.obj: line 4: normal has fewer than 3 coordinates");
     dir.write("range.obj", tri + "vn 0 0 1\nf 1//1 2//1 3//2\n");
@@ -297,9 +323,6 @@ TEST_CASE("bad normals and normal keys give one clear error", "[scenes][normals]
     const std::string faces = "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
     dir.write("two.ply", header + "property float nx\nproperty float ny\n" + faces + "0 0 0 0 0\n1 0 0 0 0\n0 1 0 0 0\n3 0 1 2\n");
     fails_with(mesh("two.ply"), "", "two.ply: header: vertex normals need all of nx, ny, nz (found nx, ny)");
-    dir.write("zero.ply", header + "property float nx\nproperty float ny\nproperty float nz\n" + faces +
-                              "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n3 0 1 2\n");
-    fails_with(mesh("zero.ply"), "", "zero.ply: vertex 1: normal (0, 0, 0) has zero length");
 
     dir.write("plain.obj", tri + "f 1 2 3\n");
     fails_with(mesh("plain.obj", R"(, "normals": "file")"), "", "objects[0].normals: 'file', but plain.obj has no normals");

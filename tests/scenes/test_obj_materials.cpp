@@ -168,7 +168,18 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
     CHECK(two.object_names.back() == "objects[1] (b.obj: Material (b.obj))");
     REQUIRE(two.warnings.size() == 2);  // a's scaling, then the renaming
     CHECK(two.warnings[1] == "b.obj: its material 'Material' differs from the one of that name an earlier mesh brought: "
-                             "it is 'Material (b.obj)' here");
+                             "it is 'Material (b.obj)' here (-D 'materials[\"Material (b.obj)\"]={...}' sets it)");
+    // That name, dot and all, is the scene's to define: -D names it in brackets.
+    const std::string both = scene_with(R"({"mesh": "a.obj"}, {"mesh": "b.obj", "translate": [2, 0, 0]})");
+    const Scene set = parse_scene(both, "s.json", dir.path.string(),
+                                  {{"materials[\"Material (b.obj)\"]", R"({"albedo": [0.2, 0.7, 0.2]})", ""}});
+    REQUIRE(set.find_material("Material (b.obj)") >= 0);
+    CHECK(set.materials[static_cast<std::size_t>(set.find_material("Material (b.obj)"))].albedo.isApprox(Rgb(0.2, 0.7, 0.2)));
+    CHECK(set.materials[static_cast<std::size_t>(set.find_material("Material"))].albedo[0] > 0.5);  // a's, as it was
+    CHECK(set.object_names.back() == "objects[1] (b.obj: Material (b.obj))");
+    CHECK(set.warnings.size() == 1);  // no renaming: the scene's own material is b's
+    CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"Material (b.obj)", "1", ""}}),
+                      Contains("malformed key in -D materials[\"Material (b.obj) (no closing \"])"));
     // The same material twice is one, its warnings given once.
     const Scene same = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "c.obj", "translate": [2, 0, 0]})"), "s.json",
                                    dir.path.string());
@@ -232,11 +243,85 @@ TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one
     };
     const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
     fails(tri + "f 1 3 2\n", "", "names none itself (no usemtl)");
-    fails("mtllib bad.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 1 3 2\n", "newmtl x\n", "1 faces come before the first usemtl");
-    fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl x\n", "line 5: usemtl 'y': defined in no material file (mtllib bad.mtl)");
-    fails(tri + "usemtl y\nf 1 3 2\n", "", "the mesh has no mtllib");
-    fails("mtllib missing.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", "missing.mtl");
     fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl y\nKd 1 x 1\n", "bad.mtl: line 2");
+    std::filesystem::create_directory(dir.path / "dir.mtl");
+    fails("mtllib dir.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", "dir.mtl");
+}
+
+TEST_CASE("OBJ + MTL as assets come: a material file or name missing is 0.8 grey, with a warning", "[scenes][obj]") {
+    // As Blender imports them: a missing MTL file, a name it does not define and faces
+    // before the first usemtl are its default grey, and the run says which.
+    TempDir dir;
+    const auto load = [&](const std::string& obj, const std::string& mtl = "", const std::string& materials = "") {
+        dir.write("a.obj", obj);
+        if (!mtl.empty()) dir.write("a.mtl", mtl);
+        return parse_scene(scene_with(R"({"mesh": "a.obj"})", materials), "s.json", dir.path.string());
+    };
+    const auto albedo = [](const Scene& s, const std::string& name) {
+        const int m = s.find_material(name);
+        return m < 0 ? Rgb(Rgb::Constant(-1)) : s.materials[static_cast<std::size_t>(m)].albedo;
+    };
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 1\n";
+    const Scene missing = load("mtllib missing.mtl\n" + tri + "usemtl y\nf 1 3 2\nusemtl z\nf 2 3 4\n");
+    CHECK(albedo(missing, "y").isApprox(Rgb::Constant(0.8)));
+    CHECK(albedo(missing, "z").isApprox(Rgb::Constant(0.8)));
+    REQUIRE(missing.warnings.size() == 2);
+    CHECK(missing.warnings[0] == "a.obj: mtllib missing.mtl: no such file; the materials it would define are 0.8 grey");
+    CHECK(missing.warnings[1] == "a.obj: usemtl 'y' (line 6), 'z' (line 8): defined in no material file (mtllib "
+                                 "missing.mtl) and not in the scene's \"materials\", so 0.8 grey; -D "
+                                 "'materials.y={\"albedo\": [r, g, b]}' or the scene's \"materials\" defines one");
+    // The scene's own material of that name is the material, as always: no warning for it.
+    const Scene own = load("mtllib missing.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", R"("y": {"albedo": [0.1, 0.2, 0.3]})");
+    CHECK(albedo(own, "y").isApprox(Rgb(0.1, 0.2, 0.3)));
+    CHECK(own.warnings.size() == 1);
+    // A name the file does not define; no mtllib at all.
+    const Scene undefined = load("mtllib a.mtl\n" + tri + "usemtl y\nf 1 3 2\nusemtl x\nf 2 3 4\n", "newmtl x\nKd 0.2 0.2 0.2\n");
+    CHECK(albedo(undefined, "y").isApprox(Rgb::Constant(0.8)));
+    CHECK(albedo(undefined, "x").isApprox(Rgb::Constant(0.2)));
+    REQUIRE(undefined.warnings.size() == 1);
+    CHECK_THAT(undefined.warnings[0], StartsWith("a.obj: usemtl 'y' (line 6): defined in no material file (mtllib a.mtl)"));
+    const Scene none = load(tri + "usemtl y\nf 1 3 2\n");
+    REQUIRE(none.warnings.size() == 1);
+    CHECK_THAT(none.warnings[0], Contains("(the mesh has no mtllib)"));
+    // Many: four named, the rest counted.
+    std::string many = tri;
+    for (int k = 0; k < 6; ++k) many += "usemtl m" + std::to_string(k) + "\nf 1 3 2\n";
+    const Scene six = load(many);
+    REQUIRE(six.warnings.size() == 1);
+    CHECK_THAT(six.warnings[0], Contains("usemtl 'm0' (line 5), 'm1' (line 7), 'm2' (line 9), 'm3' (line 11) and 2 more:"));
+    // Faces before the first usemtl (Blender writes an object without a material so):
+    // the material "default", which the scene may define.
+    const Scene before = load("mtllib a.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 2 3 4\n");
+    CHECK(albedo(before, "default").isApprox(Rgb::Constant(0.8)));
+    CHECK(albedo(before, "x").isApprox(Rgb::Constant(0.2)));
+    REQUIRE(before.warnings.size() == 1);
+    CHECK(before.warnings[0] == "a.obj: 1 face comes before the first usemtl: material 'default', 0.8 grey (the scene's "
+                                "\"materials\" may define it)");
+    const Scene set = load("mtllib a.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 2 3 4\n", "", R"("default": {"albedo": [0.5, 0.5, 0.5]})");
+    CHECK(albedo(set, "default").isApprox(Rgb::Constant(0.5)));
+    CHECK(set.warnings.empty());
+    // A library named by the exporter's folder is the file of its name beside the OBJ.
+    const Scene windows = load("mtllib C:\\Users\\me\\a.mtl\n" + tri + "usemtl x\nf 1 3 2\n");
+    CHECK(albedo(windows, "x").isApprox(Rgb::Constant(0.2)));
+    CHECK(windows.warnings.empty());
+    CHECK(std::find(windows.files.begin(), windows.files.end(), dir.path.string() + "/a.mtl") != windows.files.end());
+    const Scene elsewhere = load("mtllib C:\\Users\\me\\b.mtl\n" + tri + "usemtl x\nf 1 3 2\n");
+    REQUIRE(elsewhere.warnings.size() == 2);
+    CHECK(elsewhere.warnings[0] == "a.obj: mtllib C:/Users/me/b.mtl: no such file, nor one of its name beside the mesh; "
+                                   "the materials it would define are 0.8 grey");
+}
+
+TEST_CASE("OBJ: a backslash at a line's end goes on in the next", "[scenes][obj]") {
+    TempDir dir;
+    dir.write("a.obj", "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 \\\n 1\nusemtl x\nf 1 3 \\  \r\n 4 2\nf 1 9\n");
+    dir.write("a.mtl", "newmtl x\n");
+    // Errors name the line the statement begins on.
+    CHECK_THROWS_WITH(parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string()),
+                      Contains("a.obj: line 10: face references vertex 9"));
+    dir.write("a.obj", "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 \\\n 1\nusemtl x\nf 1 3 \\  \r\n 4 2\n");
+    const Scene scene = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
+    CHECK(scene.patch_count() == 2);  // the quad 1 3 4 2, its fourth vertex (1, 0, 1)
+    CHECK(scene.total_area() == Approx(1.0));
 }
 
 TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its size", "[scenes][obj]") {
@@ -267,11 +352,10 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     // Alone, its errors and its parts are its own: no objects[0] of a scene file the
     // user never wrote, the file as the user named it.
     CHECK_THAT(scene.object_names.front(), StartsWith("room.obj: "));
-    dir.write("bad.obj", "mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl lite\nf 1 3 2\n");
-    dir.write("bad.mtl", "");
-    CHECK_THROWS_WITH(load_scene(dir.path.string() + "/bad.obj"),
-                      dir.path.string() + "/bad.obj: line 5: usemtl 'lite': defined in no material file (mtllib "
-                                          "room.mtl) and not in the scene's \"materials\"");
+    dir.write("grey.obj", "mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl lite\nf 1 3 2\n");
+    const Scene grey = load_scene(dir.path.string() + "/grey.obj");
+    REQUIRE_FALSE(grey.warnings.empty());
+    CHECK_THAT(grey.warnings[0], StartsWith("grey.obj: usemtl 'lite' (line 5): defined in no material file (mtllib room.mtl)"));
     // A model so large that the camera framing it would lie past 1e15: the model is the
     // reason, not a camera the user never set.
     dir.write("far.obj", "mtllib room.mtl\nusemtl red\nv 0 0 0\nv 9e14 0 0\nv 0 9e14 0\nf 1 2 3\n");
