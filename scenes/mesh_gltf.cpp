@@ -429,6 +429,12 @@ private:
             out.albedo = base;
         }
         Rgb emission = factor(m.emissiveFactor, 3, "emissiveFactor");
+        // glTF keeps the factor in 0..1 (KHR_materials_emissive_strength scales it); a
+        // file past that is read as it says.
+        if ((emission > 1.0).any())
+            warn("material '" + name + "': emissiveFactor (" + number(emission[0]) + ", " + number(emission[1]) + ", " +
+                 number(emission[2]) + ") is past 1, which glTF does not allow (KHR_materials_emissive_strength "
+                 "scales emission): read as given");
         if (const auto it = m.extensions.find("KHR_materials_emissive_strength"); it != m.extensions.end()) {
             if (!it->second.IsObject()) fail(where, "KHR_materials_emissive_strength is not an object");
             const auto& strength = it->second.Get("emissiveStrength");  // 1 where absent
@@ -565,9 +571,10 @@ private:
             if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size())
                 fail(item.from, "node " + std::to_string(index) + " out of range (" +
                                     std::to_string(model_.nodes.size()) + " nodes)");
-            if (!placed_.insert(index).second)
+            if (const auto [it, first] = placed_.emplace(index, item.from); !first)
                 fail(where, on_path_.count(index) ? "is its own ancestor (the node tree has a cycle)"
-                                                  : "has two parents (a node is placed once)");
+                                                  : "is placed twice, by " + it->second + " and by " + item.from +
+                                                        " (a node has one parent, and a root none)");
             on_path_.insert(index);
             const auto& node = model_.nodes[static_cast<std::size_t>(index)];
             const Matrix4 world = item.parent * local(node, where);
@@ -892,7 +899,8 @@ private:
     std::size_t max_triangles_;
     MeshData& out_;
     int default_material_ = -1;
-    std::set<int> placed_, on_path_;
+    std::map<int, std::string> placed_;  // each node placed, and where its index was written
+    std::set<int> on_path_;
     std::map<std::pair<int, std::size_t>, Primitive> decoded_;
     std::size_t placements_ = 0;
     std::map<int, std::optional<Rgb>> texture_means_;  // per texture, decoded once

@@ -313,7 +313,11 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc = asset();
     doc["nodes"].push_back({{"children", {1}}});  // a second parent
     doc["scenes"][0]["nodes"] = {0, 2};
-    fails(doc, "two parents");
+    fails(doc, "nodes[1]: is placed twice, by nodes[0].children[0] and by nodes[2].children[0] (a node has one parent, "
+               "and a root none)");
+    doc = asset();
+    doc["scenes"][0]["nodes"] = {0, 1};  // a root and a child
+    fails(doc, "nodes[1]: is placed twice, by nodes[0].children[0] and by scenes[0].nodes[1]");
     doc = asset();
     doc["nodes"][1]["mesh"] = 3;
     fails(doc, "mesh 3 out of range");
@@ -405,6 +409,14 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     REQUIRE(u.warnings.size() == 1);
     CHECK_THAT(u.warnings[0], Contains("KHR_materials_unlit"));
     CHECK(u.material_defs[0].emission.isApprox(Rgb::Constant(0.5)));
+    // An emissiveFactor past 1 (glTF keeps it in 0..1): read as given, with a warning.
+    json bright = asset();
+    bright["materials"][0]["emissiveFactor"] = {5, 4, 0.5};
+    const MeshData b = parse(bright);
+    CHECK(b.material_defs[0].emission.isApprox(Rgb(5, 4, 0.5)));
+    REQUIRE(b.warnings.size() == 1);
+    CHECK(b.warnings[0] == "a.gltf: material 'paint': emissiveFactor (5, 4, 0.5) is past 1, which glTF does not allow "
+                           "(KHR_materials_emissive_strength scales emission): read as given");
     // A key glTF does not define, where it decides what is placed or how it looks: a
     // warning with the nearest known key (glTF lets files carry such keys).
     json typo = asset();
