@@ -84,10 +84,10 @@ int solve(const Command& c, Ranks& ranks) {
     // The checkpoint to go on from: read first (a wrong file stops the run at once).
     try {
         if (ranks.spread()) render::require_spreadable(config, ranks.size());
-        if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume);
-        // Ranks on one machine share its memory: every rank bounds the scene and the run
-        // alike, by the least share.
+        // Ranks on one machine share its memory: every rank bounds the checkpoint, the
+        // scene and the run alike, by the least share.
         config.memory = scenes::memory_share(ranks.spread() ? &ranks : nullptr);
+        if (!c.resume.empty()) config.resume = render::read_checkpoint(c.resume, config.memory);
         const auto t_scene = std::chrono::steady_clock::now();
         const scenes::Scene scene = load_scene(c, config.memory, bar, ranks.spread() ? &ranks : nullptr);
         const double seconds_scene = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_scene).count();

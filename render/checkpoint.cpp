@@ -190,9 +190,10 @@ void write_checkpoint(const std::string& path, const Checkpoint& k, const Tempor
     untrack();
 }
 
-Checkpoint read_checkpoint(const std::string& path) {
+Checkpoint read_checkpoint(const std::string& path, const scenes::MemoryShare& memory_share) {
     // Its first bytes and its size before the whole file: a file that is not a
-    // checkpoint, or one this machine could not hold, is refused without reading it.
+    // checkpoint, or one this process could not hold (its share of the machine where
+    // ranks share one), is refused without reading it.
     if (std::ifstream in(path, std::ios::binary); in) {
         std::string head(sizeof kMagicPrefix - 1, '\0');
         in.read(head.data(), static_cast<std::streamsize>(head.size()));
@@ -201,10 +202,11 @@ Checkpoint read_checkpoint(const std::string& path) {
             throw bad(path, "not a raybundle checkpoint");
         std::error_code ec;
         const std::uintmax_t size = std::filesystem::file_size(path, ec);
-        const std::uint64_t memory = memory_available();
+        const std::uint64_t memory = memory_share.bytes;
         if (!ec && memory > 0 && size > memory / 2)
-            throw bad(path, std::to_string(size >> 20) + " MiB, more than half of this machine's memory (" +
-                                std::to_string(memory >> 20) + " MiB): not a checkpoint it could go on from");
+            throw bad(path, std::to_string(size >> 20) + " MiB, more than half of the memory this process may hold (" +
+                                std::to_string(memory >> 20) + " MiB: " + memory_share.text() +
+                                "): not a checkpoint it could go on from");
     }
     std::string bytes;
     try {

@@ -19,6 +19,7 @@
 // It is written to a temporary beside it and renamed, so a kill at any moment leaves
 // the last complete checkpoint (or none).
 #include "render/image_io.h"
+#include "scenes/machine.h"
 #include "scenes/scene.h"
 
 #include <nlohmann/json.hpp>
@@ -56,8 +57,9 @@ std::uint64_t identity_hash(const nlohmann::json& identity);
 // ...") where it cannot.
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint, const TemporaryTracker& tracker = {});
 // Throws CheckpointError ("F: ...") for a file that is not a complete checkpoint of
-// this machine's byte order.
-Checkpoint read_checkpoint(const std::string& path);
+// this machine's byte order, or one larger than half of `memory` (what this process may
+// hold: scenes::memory_share) before it is read.
+Checkpoint read_checkpoint(const std::string& path, const scenes::MemoryShare& memory = scenes::memory_share());
 // The same for a checkpoint's bytes (read_checkpoint once it has read the file; the
 // fuzzer), `path` naming it in errors.
 Checkpoint parse_checkpoint(std::string bytes, const std::string& path);
