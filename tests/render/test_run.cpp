@@ -3,6 +3,7 @@
 // another run refused, and results that depend on the seed alone.
 #include "../scenes/temp_dir.h"
 #include "render/checkpoint.h"
+#include "render/memory.h"
 #include "render/output_set.h"
 #include "render/run.h"
 #include "scenes/builtin.h"
@@ -195,6 +196,28 @@ TEST_CASE("run: a checkpoint of an older format, and what a team cannot do, are 
     CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--checkpoint works in one process"));
     config = patch_image("pathtrace", 1);
     CHECK_THROWS_WITH(render::require_spreadable(config, 2), Catch::StartsWith("--method pathtrace runs in one process"));
+}
+
+TEST_CASE("run: the memory guards count the process's share of its machine", "[render][run][memory]") {
+    test::TempDir dir;
+    // Three ranks on node1, 30 MB among them: a 2048 x 2048 image needs more than 10 MB.
+    const scenes::MemoryShare shared{10'000'000, 30'000'000, 3, "node1"};
+    auto config = patch_image("iteration", 50);
+    config.memory = shared;
+    auto scene = small_box();
+    scene.camera.width = scene.camera.height = 2048;
+    CHECK_THROWS_WITH(render::require_memory(config, scene),
+                      Catch::Contains("the machine node1 has 30 MB for 3 ranks: try"));
+    config.memory.bytes = 0;  // unknown: no bound
+    CHECK_NOTHROW(render::require_memory(config, scene));
+    // A checkpoint past half of the share is refused before it is read.
+    std::string big = "raybundle checkpoint 2\n";
+    big.resize(6'000'000, '\0');
+    const std::string path = dir.write("big.ckpt", big);
+    CHECK_THROWS_WITH(render::read_checkpoint(path, shared),
+                      Catch::Contains("big.ckpt") &&
+                          Catch::Contains("5 MiB, more than half of the memory this process may hold (9 MiB: the "
+                                          "machine node1 has 30 MB for 3 ranks)"));
 }
 
 TEST_CASE("checkpoints: a header of the wrong types or out of range is refused, naming the file and the value",

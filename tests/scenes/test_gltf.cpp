@@ -297,6 +297,9 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = -1;
     fails(doc, "meshes[0].primitives[0].attributes.NORMAL: -1 is not an index");
     doc = asset();
+    doc["meshes"][0]["primitives"][0]["targets"] = {{{"POSITION", 1}}, {{"POSITION", 0}, {"NORMAL", -1}}};
+    fails(doc, "meshes[0].primitives[0].targets[1].NORMAL: -1 is not an index");
+    doc = asset();
     doc["nodes"][1]["extras"] = {{"index", -1}};
     CHECK(parse(doc).triangles.size() == 1);
     // A matrix beside translation, rotation or scale (glTF forbids it): the latter would
