@@ -35,6 +35,22 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             const scenes::RayHit hit = caster.intersect(centre, w.normalized());
             closed = hit.valid() && patches[static_cast<std::size_t>(hit.patch)].normal.dot(w) < 0.0;
         }
+        // A room holds the scene: from its centre most of the area is in sight, not
+        // behind the shell (an inverted ball on a wide floor is closed around the
+        // centre too, but the floor lies outside it). Up to 256 patches, by area.
+        if (closed) {
+            const std::size_t stride = std::max<std::size_t>(1, patches.size() / 256);
+            double beyond = 0.0, sampled = 0.0;
+            for (std::size_t i = 0; i < patches.size(); i += stride) {
+                const scenes::Vec3 d = patches[i].centroid - centre;
+                const double dist = d.norm();
+                sampled += patches[i].area;
+                if (!(dist > 0.0)) continue;
+                const scenes::RayHit hit = caster.intersect(centre, d / dist);
+                if (hit.valid() && hit.t < 0.98 * dist) beyond += patches[i].area;
+            }
+            closed = beyond <= 0.5 * sampled;
+        }
         s.room_from_outside = closed;
     }
     {

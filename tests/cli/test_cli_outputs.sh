@@ -172,6 +172,15 @@ grep -q "warning     cube: the camera sees its back side in 100 % of the pixels 
   "$bin" check inside-out.json -D "camera.eye=[0.5,0.5,0.5]" -D "camera.target=[0.5,0.5,0]" >chk2.txt 2>&1 &&
   ! grep -q "back side" chk2.txt
 check $? "check of an inside-out cube: $(cat chk.txt)"
+# The same cube on a wide floor, a lamp above it: closed around the scene's centre too,
+# but no room (the floor lies outside it): the warning does not send the eye inside.
+printf '{"camera": {"eye": [0.5, 3, 6], "target": [0.5, 0.5, 0.5]}, %s, "objects": [{"mesh": "inside-out.obj", "material": "w", "name": "cube"}, %s, %s]}\n' \
+  "$lit_materials" '{"quad": [[-2.5,0,-2.5], [-2.5,0,3.5], [3.5,0,3.5], [3.5,0,-2.5]], "material": "w", "name": "floor"}' \
+  '{"quad": [[0,1.5,0], [1,1.5,0], [1,1.5,1], [0,1.5,1]], "material": "lamp", "name": "lamp"}' > ball-on-floor.json
+"$bin" check ball-on-floor.json >chk.txt 2>&1
+grep -q "warning     cube: the camera sees its back side in 100 % of the pixels that show it (inverted winding?" chk.txt &&
+  ! grep -q "room closed on all sides" chk.txt
+check $? "check of an inside-out cube on a floor: $(cat chk.txt)"
 # The camera inside a closed cube (facing out): it sees the cube's back, and the image is
 # black; the warning says where the eye is, not that the winding is wrong.
 printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n' > cube.obj
