@@ -17,7 +17,7 @@ namespace raybundle::scenes {
 // are validated exactly like the file, and win over its values.
 struct Override {
     std::string key, value;
-    std::string given;  // as the user gave it, for messages ("--fov 200"); empty: -D key=value
+    std::string given = {};  // as the user gave it, for messages ("--fov 200"); empty: -D key=value
 };
 using Overrides = std::vector<Override>;
 
