@@ -92,8 +92,8 @@ inline constexpr std::size_t kMaxMeshTriangles = 100'000'000;
 // nx, ny, nz).
 // Normals: OBJ `vn` (faces `v//vn`, `v/vt/vn`) and the PLY vertex properties nx, ny, nz;
 // one of zero length (exporters write them at degenerate faces) is a zero normal in
-// MeshData (its corners computed) and a warning. An OBJ line ending in `\` goes on in
-// the next.
+// MeshData (its corners computed) and a warning. An OBJ statement ending in `\` goes
+// on in the next line.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
 // glTF 2.0 (.gltf, .glb; scenes/mesh_gltf.cpp): the triangles of the default scene's
 // nodes in world space, its materials, point lights and first camera. Throws

@@ -48,9 +48,12 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
-        // A backslash at the end of a line joins the next to it (errors name the first).
+        // A backslash at the end of a statement joins the next line to it (errors name
+        // the first); a comment's is its own (a Windows folder may end one).
         const long first_line = line_no;
-        for (std::string next; ends_in_backslash(line) && std::getline(in, next); ++line_no) {
+        const auto first = line.find_first_not_of(" \t");
+        const bool comment = first != std::string::npos && line[first] == '#';
+        for (std::string next; !comment && ends_in_backslash(line) && std::getline(in, next); ++line_no) {
             line.erase(line.find_last_of('\\'));
             line += " " + next;
         }

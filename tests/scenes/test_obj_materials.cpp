@@ -318,7 +318,8 @@ TEST_CASE("OBJ: a backslash at a line's end goes on in the next", "[scenes][obj]
     // Errors name the line the statement begins on.
     CHECK_THROWS_WITH(parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string()),
                       Contains("a.obj: line 10: face references vertex 9"));
-    dir.write("a.obj", "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 \\\n 1\nusemtl x\nf 1 3 \\  \r\n 4 2\n");
+    // A comment's backslash is its own: the statement after it stays one.
+    dir.write("a.obj", "mtllib a.mtl\n# C:\\models\\\nv 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 \\\n 1\nusemtl x\nf 1 3 \\  \r\n 4 2\n");
     const Scene scene = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
     CHECK(scene.patch_count() == 2);  // the quad 1 3 4 2, its fourth vertex (1, 0, 1)
     CHECK(scene.total_area() == Approx(1.0));
