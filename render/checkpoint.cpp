@@ -92,6 +92,11 @@ std::string scene_hash(const scenes::Scene& scene) {
     for (const auto& l : scene.point_lights) {
         f.vec(l.position);
         f.rgb(l.intensity);
+        if (l.spot()) {  // (an isotropic light's record as before spots were read)
+            f.vec(l.axis);
+            f.value(l.cos_inner);
+            f.value(l.cos_outer);
+        }
     }
     if (scene.sky) {
         f.rgb(scene.sky->radiance);

@@ -80,10 +80,11 @@ void DirectLighting::add_point_lights(const Surface& at, const Rgb& weight, Rgb&
         if (!(r > 0.0)) continue;
         const Vec3 w = d / r;
         const double cos_x = at.normal.dot(w);
-        if (cos_x <= 0.0) continue;
+        const double sent = light.falloff(-w);  // a spot's cone
+        if (cos_x <= 0.0 || sent == 0.0) continue;
         ++rays;
         if (!visible(at.from, w, r)) continue;
-        sum += weight * scenes::brdf(at.material, at.normal, -w, at.to_eye) * light.intensity * (cos_x / (r * r));
+        sum += weight * scenes::brdf(at.material, at.normal, -w, at.to_eye) * light.intensity * (sent * cos_x / (r * r));
     }
 }
 

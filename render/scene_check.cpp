@@ -299,8 +299,10 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
         print(" %s%s%s%s", m.name.c_str(), m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "",
                     m.two_sided ? " (two-sided)" : "");
     print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
-    print("lights      %zu emissive patches (area %.6g), %zu point lights\n", s.emissive_patches, s.emissive_area,
-                scene.point_lights.size());
+    const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
+                                     [](const scenes::PointLight& l) { return l.spot(); });
+    print("lights      %zu emissive patches (area %.6g), %zu point lights%s\n", s.emissive_patches, s.emissive_area,
+          scene.point_lights.size(), spots > 0 ? (" (" + std::to_string(spots) + (spots == 1 ? " a spot)" : " spots)")).c_str() : "");
     print("sky         %s\n", !scene.sky                                            ? "none"
                                     : scene.sky->model == scenes::Sky::Model::constant ? "constant"
                                                                                           : "CIE overcast");

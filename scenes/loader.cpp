@@ -220,7 +220,10 @@ void place_mesh(const Node& obj, MeshData& data) {
     for (auto& corners : data.normals)
         for (auto& n : corners)
             if (n != Vec3::Zero()) n = (normal_matrix * n).normalized();
-    for (auto& light : data.point_lights) light.position = linear * light.position + offset;
+    for (auto& light : data.point_lights) {
+        light.position = linear * light.position + offset;
+        if (light.spot()) light.axis = (linear * light.axis).normalized();  // (its cone as it was)
+    }
     if (data.camera) {
         data.camera->eye = linear * data.camera->eye + offset;
         data.camera->target = linear * data.camera->target + offset;
@@ -321,13 +324,30 @@ Camera parse_camera(const Node& n) {
     return c;
 }
 
+// A point light; with "direction", a spot of "outer_angle" and "inner_angle" (degrees
+// from its axis; 45 and 0 by default, as glTF's).
 PointLight parse_point_light(const Node& n) {
     n.require_object();
-    n.check_keys({"position", "intensity"});
+    n.check_keys({"position", "intensity", "direction", "inner_angle", "outer_angle"});
     PointLight l;
     l.position = n.vec3("position");
     l.intensity = n.vec3("intensity").array();
     if ((l.intensity < 0).any()) n.fail("intensity", "negative intensity " + rgb_text(l.intensity));
+    if (!n.has("direction")) {
+        for (const char* key : {"inner_angle", "outer_angle"})
+            if (n.has(key)) n.fail(key, "a cone needs the spot's \"direction\"");
+        return l;
+    }
+    const Vec3 axis = n.vec3("direction");
+    if (!(axis.norm() > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(axis.array()));
+    l.axis = axis.normalized();
+    const double outer = n.has("outer_angle") ? n.number("outer_angle") : 45.0;
+    const double inner = n.has("inner_angle") ? n.number("inner_angle") : 0.0;
+    if (!(outer > 0.0 && outer <= 180.0)) n.fail("outer_angle", "must be in (0, 180] degrees, got " + format_number(outer));
+    if (!(inner >= 0.0 && inner <= outer))
+        n.fail("inner_angle", "must be in [0, outer_angle = " + format_number(outer) + "] degrees, got " + format_number(inner));
+    l.cos_outer = std::cos(outer * M_PI / 180.0);
+    l.cos_inner = std::cos(inner * M_PI / 180.0);
     return l;
 }
 

@@ -878,8 +878,8 @@ private:
             fail(where, "KHR_lights_punctual: light index missing or out of range");
         const auto& light = model_.lights[static_cast<std::size_t>(index.Get<int>())];
         const std::string named = "light '" + (light.name.empty() ? std::to_string(index.Get<int>()) : light.name) + "'";
-        if (light.type != "point") {
-            warn(where + ": " + named + ": a " + light.type + " light is not read (point lights are)");
+        if (light.type != "point" && light.type != "spot") {
+            warn(where + ": " + named + ": a " + light.type + " light is not read (point and spot lights are)");
             return;
         }
         Rgb colour = Rgb::Ones();
@@ -891,6 +891,20 @@ private:
         PointLight p;
         p.position = world.block<3, 1>(0, 3);
         p.intensity = intensity;  // candela (lm/sr): the scene's radiant intensity unit
+        if (light.type == "spot") {
+            // Along the node's -z; cones in radians from that axis, 0 <= inner < outer <= pi/2.
+            const double inner = light.spot.innerConeAngle, outer = light.spot.outerConeAngle;
+            if (!(outer > 0.0 && outer <= M_PI / 2 + 1e-9))
+                fail(where, named + ": outerConeAngle " + number(outer) + " is not in (0, pi/2]");
+            if (!(inner >= 0.0 && inner < outer))
+                fail(where, named + ": innerConeAngle " + number(inner) + " is not in [0, outerConeAngle = " +
+                                number(outer) + ")");
+            const Vec3 axis = -world.block<3, 1>(0, 2);
+            if (!(axis.norm() > 0.0)) fail(where, named + ": its node's transform has no -z direction (a scale of 0)");
+            p.axis = axis.normalized();
+            p.cos_inner = std::cos(inner);
+            p.cos_outer = std::cos(outer);
+        }
         out_.point_lights.push_back(p);
     }
 

@@ -51,11 +51,28 @@ struct Camera {
     int height = 512;
 };
 
-// An isotropic point light; intensity in W/sr (radiant intensity per channel).
-// Handled by the first shot: its direct effect is computed exactly, with shadows.
+// A point light, isotropic or a spot; intensity in W/sr (radiant intensity per
+// channel). Handled by the first shot: its direct effect is computed exactly, with
+// shadows.
 struct PointLight {
     Vec3 position = Vec3::Zero();
-    Rgb intensity = Rgb::Zero();
+    Rgb intensity = Rgb::Zero();  // radiant intensity (W/sr); a spot's on its axis
+    // A spot: its axis (unit), full intensity within the inner cone, none past the outer
+    // one, between them the square of the linear ramp in the cosine (glTF's
+    // KHR_lights_punctual). A zero axis: the light is isotropic.
+    Vec3 axis = Vec3::Zero();
+    double cos_inner = 1.0, cos_outer = -1.0;
+
+    bool spot() const { return axis != Vec3::Zero(); }
+    // The fraction of `intensity` the light sends along the unit direction w.
+    double falloff(const Vec3& w) const {
+        if (!spot()) return 1.0;
+        const double c = axis.dot(w);
+        if (c >= cos_inner) return 1.0;
+        if (c <= cos_outer) return 0.0;
+        const double t = (c - cos_outer) / (cos_inner - cos_outer);
+        return t * t;
+    }
 };
 
 // Light from directions no patch covers. "constant": the same radiance from every

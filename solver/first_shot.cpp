@@ -372,7 +372,16 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                 // are one-sided); a light on the plane gives nothing.
                 if (p.normal.dot(light.position - a) <= 0.0) continue;
                 const double dist = std::max(to_centre.norm(), eps);
-                const int N = std::clamp(static_cast<int>(std::ceil(8.0 * edge / dist)), 2, 64);
+                int N = std::clamp(static_cast<int>(std::ceil(8.0 * edge / dist)), 2, 64);
+                // A spot's cone edge across the patch: four times the samples along it.
+                if (light.spot()) {
+                    int full = 0, none = 0;
+                    for (const Vec3& x : {a, b, c}) {
+                        const double f = light.falloff((x - light.position).normalized());
+                        full += f == 1.0, none += f == 0.0;
+                    }
+                    if (full < 3 && none < 3) N = std::min(64, 4 * N);
+                }
                 double sum = 0.0;
                 auto sample = [&](double u, double v) {
                     const Vec3 x = a + u * (b - a) + v * (c - a);
@@ -380,10 +389,12 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                     const double r = d.norm();
                     const double cos_theta = -p.normal.dot(d) / r;
                     if (cos_theta <= 0.0) return;
+                    const double sent = light.falloff(d / r);  // a spot's cone
+                    if (sent == 0.0) return;
                     ++rays[static_cast<std::size_t>(t)];
                     // Blocked if anything lies between the light and x (x's own patch is at r).
                     if (caster.occluded(light.position, d / r, 0.0, r * (1.0 - 1e-5))) return;
-                    sum += cos_theta / (r * r);
+                    sum += sent * cos_theta / (r * r);
                 };
                 subtriangle_centroids(N, sample);
                 const Rgb e = light.intensity * (sum / (static_cast<double>(N) * N));

@@ -191,19 +191,41 @@ TEST_CASE("glTF: point lights and the first camera, placed by their nodes", "[sc
     doc["extensionsUsed"] = {"KHR_lights_punctual"};
     doc["extensions"] = json::parse(R"({"KHR_lights_punctual": {"lights": [
         {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 40.0},
-        {"type": "spot", "name": "torch", "intensity": 1.0, "spot": {}}]}})");
+        {"type": "spot", "name": "torch", "intensity": 7.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+        {"type": "directional", "name": "sun", "intensity": 3.0}]}})");
     doc["nodes"].push_back({{"translation", {1, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
-    doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+    // The spot at a node turned a quarter about +x, which takes its -z to +y.
+    doc["nodes"].push_back({{"translation", {0, 1, 0}},
+                            {"rotation", {std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}},
+                            {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+    doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}});
     // A camera 10 above the origin looking down (-z turned to -y), 4:3.
     doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", M_PI / 4}, {"aspectRatio", 4.0 / 3.0}, {"znear", 0.1}}}}};
     doc["nodes"].push_back({{"camera", 0}, {"translation", {0, 10, 0}}, {"rotation", {-std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}}});
-    doc["scenes"][0]["nodes"] = {0, 2, 3, 4};
+    doc["scenes"][0]["nodes"] = {0, 2, 3, 4, 5};
     const MeshData d = parse(doc);
-    REQUIRE(d.point_lights.size() == 1);
+    REQUIRE(d.point_lights.size() == 2);
     CHECK(d.point_lights[0].position.isApprox(Vec3(1, 2, 3)));
     CHECK(d.point_lights[0].intensity.isApprox(Rgb(40.0, 20.0, 10.0)));
+    CHECK_FALSE(d.point_lights[0].spot());
+    const PointLight& torch = d.point_lights[1];
+    CHECK(torch.position.isApprox(Vec3(0, 1, 0)));
+    CHECK(torch.intensity.isApprox(Rgb::Constant(7.0)));
+    REQUIRE(torch.spot());
+    CHECK(torch.axis.isApprox(Vec3(0, 1, 0)));
+    CHECK(torch.cos_inner == Approx(std::cos(0.2)));
+    CHECK(torch.cos_outer == Approx(std::cos(0.5)));
+    CHECK(torch.falloff(Vec3(0, 1, 0)) == 1.0);
+    CHECK(torch.falloff(Vec3(0, 0, -1)) == 0.0);
+    CHECK(torch.falloff(Vec3(0, std::cos(0.35), std::sin(0.35))) ==
+          Approx(std::pow((std::cos(0.35) - std::cos(0.5)) / (std::cos(0.2) - std::cos(0.5)), 2)));
     REQUIRE(d.warnings.size() == 1);
-    CHECK_THAT(d.warnings[0], Contains("torch") && Contains("spot"));
+    CHECK_THAT(d.warnings[0], Contains("sun") && Contains("a directional light is not read (point and spot lights are)"));
+    // Cones out of glTF's range are refused.
+    doc["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.6;
+    CHECK_THROWS_WITH(parse(doc), Contains("nodes[3]: light 'torch': innerConeAngle 0.6 is not in [0, outerConeAngle = 0.5)"));
+    doc["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"] = {{"outerConeAngle", 2.0}};
+    CHECK_THROWS_WITH(parse(doc), Contains("outerConeAngle 2 is not in (0, pi/2]"));
     REQUIRE(d.camera);
     CHECK(d.camera->eye.isApprox(Vec3(0, 10, 0)));
     CHECK((d.camera->target - d.camera->eye).normalized().isApprox(Vec3(0, -1, 0)));

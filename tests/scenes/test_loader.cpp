@@ -156,6 +156,27 @@ TEST_CASE("point lights and the sky load", "[scenes]") {
     const Scene plain = parse(scene_text(kCamera, kMaterials, kQuad));
     CHECK(plain.point_lights.empty());
     CHECK(!plain.sky);
+    // A spot: its direction, its cones in degrees (outer 45 and inner 0 unless given).
+    const Scene spot = parse(scene_text(kCamera, kMaterials, kQuad,
+                                        R"(, "point_lights": [{"position": [0, 0, 2], "intensity": [1, 1, 1],
+                                               "direction": [0, 0, -2], "inner_angle": 10, "outer_angle": 30},
+                                              {"position": [0, 0, 2], "intensity": [1, 1, 1], "direction": [1, 0, 0]}])"));
+    REQUIRE(spot.point_lights.size() == 2);
+    CHECK(spot.point_lights[0].axis.isApprox(Vec3(0, 0, -1)));
+    CHECK(spot.point_lights[0].cos_inner == Approx(std::cos(10 * M_PI / 180)));
+    CHECK(spot.point_lights[0].cos_outer == Approx(std::cos(30 * M_PI / 180)));
+    CHECK(spot.point_lights[1].cos_inner == 1.0);
+    CHECK(spot.point_lights[1].cos_outer == Approx(std::sqrt(0.5)));
+    const auto light = [&](const std::string& keys) {
+        return parse(scene_text(kCamera, kMaterials, kQuad,
+                                R"(, "point_lights": [{"position": [0, 0, 2], "intensity": [1, 1, 1], )" + keys + "}]"));
+    };
+    CHECK_THROWS_WITH(light(R"("outer_angle": 30)"), Contains("point_lights[0].outer_angle: a cone needs the spot's \"direction\""));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, 0])"), Contains("point_lights[0].direction: must be a direction, not [0, 0, 0]"));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, -1], "outer_angle": 0)"),
+                      Contains("point_lights[0].outer_angle: must be in (0, 180] degrees, got 0"));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, -1], "outer_angle": 20, "inner_angle": 25)"),
+                      Contains("point_lights[0].inner_angle: must be in [0, outer_angle = 20] degrees, got 25"));
 }
 
 TEST_CASE("meshes load with polygons triangulated", "[scenes]") {

@@ -91,6 +91,42 @@ TEST_CASE("point light over a plane: radiance = rho I cos / (pi r^2), patch-aver
     CHECK(worst < 0.01);
 }
 
+TEST_CASE("spot light over a plane: its cone and fall-off, patch-averaged, within 1 %", "[solver][first-shot]") {
+    // A spot 0.5 above the plane aimed straight down, tilted a little: full within 20
+    // degrees of its axis, nothing past 40, glTF's ramp between (the ground under it is
+    // lit out to a radius of 0.42, the plane's edge at 1 stays dark).
+    const double rho = 0.6;
+    auto scene = plane(rho, 0.1);
+    scenes::PointLight spot;
+    spot.position = Vec3(0.1, 0.05, 0.5);
+    spot.intensity = Rgb(4.0, 2.0, 1.0);
+    spot.axis = Vec3(0.1, 0.0, -1.0).normalized();
+    spot.cos_inner = std::cos(20.0 * M_PI / 180.0);
+    spot.cos_outer = std::cos(40.0 * M_PI / 180.0);
+    scene.point_lights.push_back(spot);
+    const auto field = iterate(scene, "painter", 20);
+    const auto& pos = scene.vertex_positions();
+    double worst = 0.0, dark = 0.0, sum = 0.0, exact_sum = 0.0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+        const auto& p = scene.patch_list()[i];
+        const double e = triangle_mean({pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]}, 7, [&](const Vec3& x) {
+            const Vec3 d = spot.position - x;
+            return spot.falloff(-d.normalized()) * d.z() / d.norm() / d.squaredNorm();
+        });
+        const double exact = rho * spot.intensity[0] * e / M_PI;
+        sum += field.radiance[i][0] * p.area;
+        exact_sum += exact * p.area;
+        if (exact == 0.0)
+            dark = std::max(dark, field.radiance[i][0]);
+        else if (exact > 0.2)  // where the light is more than a tenth of its peak
+            worst = std::max(worst, std::abs(field.radiance[i][0] / exact - 1.0));
+    }
+    INFO("worst relative deviation " << worst << ", total " << sum / exact_sum);
+    CHECK(worst < 0.01);
+    CHECK(sum / exact_sum == Approx(1.0).epsilon(0.002));
+    CHECK(dark == 0.0);  // outside the cone: nothing
+}
+
 TEST_CASE("point light: shadows are exact, and a light behind a patch gives nothing", "[solver][first-shot]") {
     auto scene = plane(0.5, 0.06);
     // An occluder 0.25 x 0.25 at z = 0.25 under a light at z = 1 (facing up, so it
