@@ -302,7 +302,7 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
                                      [](const scenes::PointLight& l) { return l.spot(); });
     print("lights      %zu emissive patches (area %.6g), %zu point lights%s\n", s.emissive_patches, s.emissive_area,
-          scene.point_lights.size(), spots > 0 ? (" (" + std::to_string(spots) + (spots == 1 ? " a spot)" : " spots)")).c_str() : "");
+          scene.point_lights.size(), spots > 0 ? (" (" + std::to_string(spots) + (spots == 1 ? " spot)" : " spots)")).c_str() : "");
     print("sky         %s\n", !scene.sky                                            ? "none"
                                     : scene.sky->model == scenes::Sky::Model::constant ? "constant"
                                                                                           : "CIE overcast");
@@ -331,7 +331,15 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     if (s.overlaps.pairs > 0)
         print("overlaps    %zu pairs of coplanar overlapping patches face the same way (e.g. %s)\n", s.overlaps.pairs,
               overlap_example(scene, s.overlaps).c_str());
-    for (const auto& w : scene.warnings) print("warning     %s\n", w.c_str());
+    // Each warning once, as the solve passes them on (a mesh placed twice gives its own twice).
+    std::vector<std::pair<std::string, int>> distinct;
+    for (const auto& w : scene.warnings) {
+        const auto it = std::find_if(distinct.begin(), distinct.end(), [&](const auto& d) { return d.first == w; });
+        if (it != distinct.end()) ++it->second;
+        else distinct.emplace_back(w, 1);
+    }
+    for (const auto& [w, times] : distinct)
+        print("warning     %s%s\n", w.c_str(), times > 1 ? (" (" + std::to_string(times) + " times)").c_str() : "");
     for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
     if (!has_light(scene)) print("warning     %s\n", kNoLight);
     return out;

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 
 namespace raybundle::scenes {
@@ -661,26 +662,60 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     std::optional<Camera> brought;
 
     // Materials: the scene's, then those its meshes bring (mesh_materials); a scene of
-    // such meshes alone needs none of its own.
+    // such meshes alone needs none of its own. Some values of a material the file does
+    // not define, given by -D (-D materials.lamp.emission=[9, 9, 9], not the whole
+    // material), edit the material of that name a mesh brings: its own values with
+    // those laid over them. Where no mesh brings one, they are a new material, which
+    // needs its albedo.
+    std::map<std::string, json> edits;  // name: the values -D gives it
+    std::map<std::string, int> edited;  // name: its index in the scene, once it has one
+    std::set<std::string> taken;        // the edits a mesh's material took
+    const auto given_whole = [&overrides](const std::string& name) {
+        return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) {
+            return o.key == "materials." + name || o.key == "materials[\"" + name + "\"]";
+        });
+    };
     if (root.has("materials")) {
         const Node mats = root.child("materials");
         mats.require_object();
         for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it) {
-            try {
-                scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
-            } catch (const SceneError& e) {
-                // A value of a material the file does not define (one a mesh brings from
-                // its MTL or glTF file): a material of that value alone, with no albedo.
-                const bool the_files = materials_before.is_object() && materials_before.contains(it.key());
-                if (the_files || e.where() != "materials." + it.key() + ".albedo") throw;
-                throw SceneError(shown, "materials." + it.key(),
-                                 "the scene's own materials have no '" + it.key() + "' to change a value of (a new "
-                                 "material needs its albedo; one a mesh brings is replaced whole: -D 'materials." +
-                                     it.key() + "={\"albedo\": [r, g, b], \"emission\": [r, g, b]}')");
+            const bool the_files = materials_before.is_object() && materials_before.contains(it.key());
+            if (!the_files && !given_whole(it.key()) && it.value().is_object()) {
+                edits[it.key()] = it.value();  // made where a mesh brings it, an object names it, or at the end
+                continue;
             }
+            scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
         }
     }
+    // An edit no mesh's material took: a new material, which needs its albedo.
+    const auto new_material = [&](const std::string& name) {
+        const json& values = edits.at(name);
+        if (!values.contains("albedo"))
+            throw SceneError(shown, material_setting(name),
+                             "no material '" + name + "' for -D to change a value of: the scene's own materials and "
+                             "its meshes' have none of that name (a new material needs its albedo)");
+        return edited[name] = scene.add_material(parse_material(Node(values, shown, material_setting(name)), name));
+    };
     const std::size_t scene_materials = scene.materials.size();  // the file's own: they replace the meshes'
+    // A brought material with the values -D gives it: made where the first mesh brings it.
+    const MaterialEdits apply_edits = [&](const Material& brought) {
+        const auto e = edits.find(brought.name);
+        if (e == edits.end()) return -1;
+        const auto at = edited.find(brought.name);
+        if (taken.count(brought.name)) return at->second;
+        const auto rgb = [](const Rgb& c) { return json::array({c[0], c[1], c[2]}); };
+        json merged = {{"albedo", rgb(brought.albedo)},     {"emission", rgb(brought.emission)},
+                       {"specular", rgb(brought.specular)}, {"exponent", brought.exponent},
+                       {"two_sided", brought.two_sided}};
+        merged.merge_patch(e->second);
+        Material made = parse_material(Node(merged, shown, material_setting(brought.name)), brought.name);
+        taken.insert(brought.name);
+        if (at != edited.end()) {
+            scene.materials[static_cast<std::size_t>(at->second)] = std::move(made);
+            return at->second;
+        }
+        return edited[brought.name] = scene.add_material(std::move(made));
+    };
 
     const json& objects = root.raw("objects");
     if (!objects.is_array()) root.fail("objects", std::string("expected an array, got ") + type_name(objects));
@@ -700,6 +735,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         if (!own_materials) {
             const std::string mat_name = obj.string("material");
             mat = scene.find_material(mat_name);
+            if (mat < 0 && edits.count(mat_name)) mat = new_material(mat_name);
             if (mat < 0) {
                 std::string known;
                 for (const auto& m : scene.materials) known += (known.empty() ? "" : ", ") + m.name;
@@ -753,8 +789,10 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             if (own_materials) {
                 std::vector<int> materials;
                 try {
-                    materials = mesh_materials(scene, scene_materials, data, full, rel, "");
+                    materials = mesh_materials(scene, scene_materials, data, full, rel, "", apply_edits);
                 } catch (const SceneError& e) {
+                    // A -D edit the brought material's values refuse: the setting's error.
+                    if (e.file() == shown && e.where().rfind("materials", 0) == 0) throw;
                     obj.fail("mesh", e.what());  // the scene file and object, then the mesh or MTL file
                 }
                 add_mesh_groups(scene, data, materials, !given.empty() ? given : obj.path() + " (" + rel, !given.empty(),
@@ -838,6 +876,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 parse_point_light(Node(lights[i], shown, "point_lights[" + std::to_string(i) + "]")));
     }
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
+    for (const auto& [name, values] : edits)
+        if (!edited.count(name)) new_material(name);
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     if (limits.on_step) limits.on_step("normals");

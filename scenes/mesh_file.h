@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -67,16 +68,24 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
 // is the scene's material of that name where an earlier mesh brought the same values,
 // and otherwise added to the scene, as "NAME (shown)" with a warning where an earlier
 // mesh's of that name differs (Blender calls every default material "Material"). MTL:
-// Kd the albedo, Ke the emission, Ks (0.08 Ks from Blender) and Ns the Phong lobe where
-// illum asks for highlights (not 0 or 1), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
+// Kd the albedo, Ke the emission, Ks and Ns the Phong lobe where illum asks for
+// highlights (not 0 or 1; Ns 0 joins the albedo, Blender's Ks is a dielectric's Fresnel
+// reflection and no lobe), both scaled down where Kd + Ks reaches 1; a PNG map_Kd
 // is the albedo by its mean linear colour. A scaled material, an illum above 2 and a
 // texture (read as its mean, or not read) are lines of scene.warnings; the MTL files
 // and textures join scene.files. What an asset lacks is 0.8 grey with a warning, as
 // Blender imports it: a missing MTL file, a name no MTL file defines, faces before the
-// first usemtl (the material "default"). Throws SceneError(shown, where): no usemtl, an
-// unreadable or malformed MTL file, emission past 1e15.
+// first usemtl or an OBJ without any (the material "default"). `edits` (the scene's -D
+// settings of one value of a material, scenes/loader.cpp) gives the scene's index of a
+// brought material with those values laid over its own, or -1 where none applies. A
+// mesh's warnings are given once however often it is placed. Throws SceneError(shown,
+// where): an unreadable or malformed MTL file, emission past 1e15.
+using MaterialEdits = std::function<int(const Material& brought)>;
 std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
-                                const std::string& shown, const std::string& where);
+                                const std::string& shown, const std::string& where, const MaterialEdits& edits = {});
+// The -D key of a material of the scene: "materials.NAME", or materials["NAME"] where the
+// name holds a dot, a bracket or a quote ("Material.001", "Material (b.obj)").
+std::string material_setting(const std::string& name);
 
 // The most triangles a mesh file may give once its instances are placed (a glTF node
 // tree can place one mesh many times): five times what the patch limit lets through.

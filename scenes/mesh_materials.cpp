@@ -55,7 +55,8 @@ std::optional<Rgb> texture_mean(const std::string& path, std::string& why) {
 
 // A material of the scene from an MTL's: Kd the albedo, Ke the emission, Ks and Ns the
 // Phong lobe where illum asks for highlights (not 0 or 1), scaled down where Kd + Ks
-// reaches 1. What is read otherwise or not at all is a warning.
+// reaches 1; a lobe of exponent 0 is Lambertian and joins the albedo, and Blender's Ks
+// is no lobe (below). What is read otherwise or not at all is a warning.
 Material from_mtl(const MtlMaterial& m, const std::string& file, const std::string& folder,
                   std::vector<std::string>& warnings, std::vector<std::string>& files) {
     Material out;
@@ -63,11 +64,17 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     out.albedo = m.kd;
     out.emission = m.ke;
     const std::string named = file + ": material '" + m.name + "'";
-    if (m.illum != 0 && m.illum != 1 && (m.ks > 0.0).any()) {
-        // Blender's Ks is its Principled BSDF's specular: a dielectric's reflectance at
-        // normal incidence, 0.08 Ks (4 % at its default 0.5), not a lobe of Ks itself.
-        out.specular = m.blender ? Rgb(0.08 * m.ks) : m.ks;
-        out.exponent = m.ns;
+    // Blender's Ks is its Principled BSDF's specular: a dielectric's Fresnel reflection
+    // (0.08 Ks at normal incidence, more at grazing angles), not a lobe of Ks. As a glTF
+    // dielectric's (metallic 0), it is no lobe here: the surface is diffuse, so that a
+    // scene exported from Blender is not glossy for every material's default 0.5.
+    if (m.illum != 0 && m.illum != 1 && (m.ks > 0.0).any() && !m.blender) {
+        if (m.ns > 0.0) {
+            out.specular = m.ks;
+            out.exponent = m.ns;
+        } else {
+            out.albedo += m.ks;  // (n + 2) / 2pi cos^0: a Lambertian reflector of Ks
+        }
     }
     if (m.illum > 2)
         warnings.push_back(named + ": illum " + std::to_string(m.illum) +
@@ -130,8 +137,8 @@ int add_brought(Scene& scene, std::size_t scene_materials, Material m, const std
         if (at < 0) {
             if (i > 0)
                 scene.warnings.push_back(shown + ": its material '" + name + "' differs from the one of that name an earlier "
-                                         "mesh brought: it is '" + tried + "' here (-D 'materials[\"" + tried +
-                                         "\"]={...}' sets it)");
+                                         "mesh brought: it is '" + tried + "' here (-D '" + material_setting(tried) +
+                                         "={...}' sets it)");
             m.name = tried;
             return scene.add_material(std::move(m));
         }
@@ -189,22 +196,57 @@ std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
 
 }  // namespace mesh_detail
 
+std::string material_setting(const std::string& name) {
+    return name.find_first_of(".[]\"") == std::string::npos ? "materials." + name : "materials[\"" + name + "\"]";
+}
+
 std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
-                                const std::string& shown, const std::string& where) {
-    if (data.materials.empty())
-        throw SceneError(shown, where, "has no \"material\", and names none itself (no usemtl)");
+                                const std::string& shown, const std::string& where, const MaterialEdits& edits) {
+    // PLY and OFF name no materials: the object gives its own.
+    if (data.materials.empty() && data.material_defs.empty()) {
+        const std::string ext = mesh_detail::lower_extension(path);
+        if (ext != "obj") throw SceneError(shown, where, "has no \"material\", and a ." + ext + " file names none");
+    }
     // The scene file's own material of a name: it replaces the mesh's.
     const auto own = [&](const std::string& name) {
         const int m = scene.find_material(name);
         return m >= 0 && static_cast<std::size_t>(m) < scene_materials ? m : -1;
     };
     const auto placed = [](int added) { return added >= 0 ? added : -1 - added; };
-    // A glTF file defines its materials itself (one per name, mapped by its reader).
+    // A mesh's warning once, however many times the mesh is placed.
+    const auto warn = [&scene](const std::string& line) {
+        if (std::find(scene.warnings.begin(), scene.warnings.end(), line) == scene.warnings.end())
+            scene.warnings.push_back(line);
+    };
+    // The scene's index for a material the mesh brings: the brought one with the values
+    // -D gives it, the scene's own of its name, an earlier mesh's of the same values, or
+    // the brought one added (`fresh`: its warnings are news).
+    struct Brought {
+        int index;
+        bool fresh;
+    };
+    const auto bring = [&](const Material& m) -> Brought {
+        if (edits) {
+            if (const int edited = edits(m); edited >= 0) return {edited, true};
+        }
+        if (const int mine = own(m.name); mine >= 0) return {mine, false};
+        const int added = add_brought(scene, scene_materials, m, shown, where);
+        return {placed(added), added >= 0};
+    };
+    // A glTF file defines its materials itself (one per name, mapped by its reader); what
+    // its reader said of a material the scene's own replaces is moot.
     if (!data.material_defs.empty()) {
         std::vector<int> index(data.materials.size());
         for (std::size_t k = 0; k < data.materials.size(); ++k) {
-            const int m = own(data.materials[k]);
-            index[k] = m >= 0 ? m : placed(add_brought(scene, scene_materials, data.material_defs[k], shown, where));
+            const Brought b = bring(data.material_defs[k]);
+            index[k] = b.index;
+            if (!b.fresh && own(data.material_defs[k].name) >= 0) {
+                const std::string about = shown + ": material '" + data.material_defs[k].name + "'";
+                auto& w = scene.warnings;
+                w.erase(std::remove_if(w.begin(), w.end(),
+                                       [&](const std::string& line) { return line.compare(0, about.size(), about) == 0; }),
+                        w.end());
+            }
         }
         std::vector<int> out(data.triangles.size());
         for (std::size_t t = 0; t < out.size(); ++t) out[t] = index[static_cast<std::size_t>(data.triangle_material[t])];
@@ -224,25 +266,39 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         std::string file = in_folder(folder_of(path), lib), file_shown = in_folder(folder_of(shown), lib);
         std::error_code ec;
         if (!std::filesystem::exists(file, ec)) {
-            const std::string beside = in_folder(folder_of(path), lib.substr(lib.find_last_of('/') + 1));
-            if (beside == file || !std::filesystem::exists(beside, ec)) {
+            const std::string base = lib.substr(lib.find_last_of('/') + 1);
+            const std::string beside = in_folder(folder_of(path), base);
+            if (base.empty() || beside == file || !std::filesystem::is_regular_file(beside, ec)) {
                 missing.push_back(lib);
                 continue;
             }
             file = beside;
-            file_shown = in_folder(folder_of(shown), lib.substr(lib.find_last_of('/') + 1));
+            file_shown = in_folder(folder_of(shown), base);
         }
         scene.files.push_back(file);
         const std::string bytes = read_input_file(file, file_shown, "material file", kMaxSceneFileBytes);
         for (auto& m : parse_mtl(bytes, file_shown)) defined.emplace(m.name, Defined{m, file_shown, folder_of(file)});
     }
     for (const auto& lib : missing)
-        scene.warnings.push_back(shown + ": mtllib " + lib + ": no such file" +
-                                 (lib.find('/') != std::string::npos ? ", nor one of its name beside the mesh" : "") +
-                                 "; the materials it would define are 0.8 grey");
+        warn(shown + ": mtllib " + lib + ": no such file" +
+             (lib.find('/') != std::string::npos ? ", nor one of its name beside the mesh" : "") +
+             "; the materials it would define are 0.8 grey");
+    // A material of no values: the MTL's defaults, 0.8 grey, as Blender shows it.
+    const auto grey = [&](const std::string& name) {
+        MtlMaterial m;
+        m.name = name;
+        return Defined{m, shown, folder_of(path)};
+    };
     std::vector<int> index(data.materials.size());
     std::vector<std::string> nowhere;  // names defined nowhere, as "'name' (line n)"
-    std::string first_nowhere;
+    std::string first_nowhere;         // its name in the scene
+    const auto from_file = [&](const Defined& d) {
+        // Read again where an earlier mesh brought the same, its warnings were given then.
+        const std::size_t warnings = scene.warnings.size();
+        const Brought b = bring(from_mtl(d.material, d.shown, d.folder, scene.warnings, scene.files));
+        if (!b.fresh) scene.warnings.resize(warnings);  // (its texture stays among the files read)
+        return b.index;
+    };
     for (std::size_t k = 0; k < data.materials.size(); ++k) {
         const std::string& name = data.materials[k];
         // The scene file's own material of that name comes first.
@@ -251,37 +307,29 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
             continue;
         }
         auto it = defined.find(name);
-        if (it == defined.end()) {
-            // A material of no values: the MTL's defaults, 0.8 grey (as Blender shows it).
+        const bool found = it != defined.end();
+        if (!found) it = defined.emplace(name, grey(name)).first;
+        index[k] = from_file(it->second);
+        if (!found) {
             nowhere.push_back("'" + name + "'" +
                               (k < data.material_lines.size() ? " (line " + std::to_string(data.material_lines[k]) + ")"
                                                              : std::string()));
-            if (first_nowhere.empty()) first_nowhere = name;
-            MtlMaterial grey;
-            grey.name = name;
-            it = defined.emplace(name, Defined{grey, shown, folder_of(path)}).first;
+            if (first_nowhere.empty()) first_nowhere = scene.materials[static_cast<std::size_t>(index[k])].name;
         }
-        // Read again where an earlier mesh brought the same: its warnings were given then.
-        const std::size_t warnings = scene.warnings.size();
-        const int added = add_brought(scene, scene_materials, from_mtl(it->second.material, it->second.shown, it->second.folder,
-                                                      scene.warnings, scene.files),
-                                      shown, where);
-        if (added < 0) scene.warnings.resize(warnings);  // (its texture stays among the files read)
-        index[k] = placed(added);
     }
-    if (!nowhere.empty()) {
+    if (!nowhere.empty() && !first_nowhere.empty()) {
         std::string libs, names;
         for (const auto& lib : data.material_libraries) libs += (libs.empty() ? "" : ", ") + lib;
         constexpr std::size_t kShown = 4;
         for (std::size_t k = 0; k < std::min(nowhere.size(), kShown); ++k) names += (k ? ", " : "") + nowhere[k];
         if (nowhere.size() > kShown) names += " and " + std::to_string(nowhere.size() - kShown) + " more";
-        scene.warnings.push_back(shown + ": usemtl " + names + ": defined in no material file (" +
-                                 (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) +
-                                 ") and not in the scene's \"materials\", so 0.8 grey; -D 'materials." +
-                                 first_nowhere + "={\"albedo\": [r, g, b]}' or the scene's \"materials\" defines one");
+        warn(shown + ": usemtl " + names + ": defined in no material file (" +
+             (libs.empty() ? "the mesh has no mtllib" : "mtllib " + libs) + ") and not in the scene's \"materials\", so 0.8 grey; -D '" +
+             material_setting(first_nowhere) + "={\"albedo\": [r, g, b]}' or the scene's \"materials\" defines one");
     }
-    // Faces before the first usemtl (Blender writes an object without a material so):
-    // the material "default", 0.8 grey, as Blender shows them.
+    // Faces before the first usemtl, or an OBJ with none (Blender writes an object without
+    // a material so): the material "default" (its MTL's where one defines it; else 0.8
+    // grey, as Blender shows them).
     std::size_t before = 0;
     for (std::size_t t = 0; t < data.triangles.size(); ++t)
         before += t >= data.triangle_material.size() || data.triangle_material[t] < 0;
@@ -290,13 +338,15 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         if (const int m = own("default"); m >= 0) {
             unnamed = m;
         } else {
-            MtlMaterial grey;
-            grey.name = "default";
-            unnamed = placed(add_brought(scene, scene_materials, from_mtl(grey, shown, folder_of(path), scene.warnings, scene.files),
-                                         shown, where));
-            scene.warnings.push_back(shown + ": " + std::to_string(before) + (before == 1 ? " face comes" : " faces come") +
-                                     " before the first usemtl: material '" + scene.materials[unnamed].name +
-                                     "', 0.8 grey (the scene's \"materials\" may define it)");
+            const auto it = defined.find("default");
+            unnamed = from_file(it != defined.end() ? it->second : grey("default"));
+            const std::string what = before == data.triangles.size()
+                                         ? "its faces name no material (no usemtl)"
+                                         : std::to_string(before) + (before == 1 ? " face comes" : " faces come") +
+                                               " before the first usemtl";
+            const std::string& name = scene.materials[static_cast<std::size_t>(unnamed)].name;
+            warn(shown + ": " + what + ": material '" + name + "'" + (it != defined.end() ? "" : ", 0.8 grey") +
+                 " (the scene's \"materials\" or -D '" + material_setting(name) + "={...}' defines it)");
         }
     }
     std::vector<int> out(data.triangles.size());

@@ -493,6 +493,10 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     // -D overrides the generated document, the camera too.
     const Scene moved = load_scene(path, {{"camera.eye", "[0.5, 0.5, 20]"}});
     CHECK(moved.camera.eye.isApprox(Vec3(0.5, 0.5, 20)));
+    // One value of its material: that value, the rest as the file has it.
+    const Scene lit = load_scene(path, {{"materials.paint.emission", "[2, 2, 2]"}});
+    CHECK(lit.materials[lit.find_material("paint")].albedo.isApprox(Rgb(0.5, 0.4, 0.3)));
+    CHECK(lit.materials[lit.find_material("paint")].emission.isApprox(Rgb::Constant(2)));
     // In a scene file: the scene's material of the same name wins.
     const std::string scene = dir.write(
         "s.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]}, "materials": {"paint": {"albedo": [0.1, 0.2, 0.3]}},

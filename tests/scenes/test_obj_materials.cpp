@@ -198,7 +198,7 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
                       Contains("hot.obj: material 'Material': emission 1e+300 is too large (at most 1e+15)"));
 }
 
-TEST_CASE("MTL: Blender's Ks is its Principled specular, a reflectance of 0.08 Ks", "[scenes][obj]") {
+TEST_CASE("MTL: Blender's Ks is its Principled specular, a dielectric's, no lobe; Ns 0 is Lambertian", "[scenes][obj]") {
     // As Blender 3.6 writes every default material (Principled: specular 0.5, roughness 0.5).
     const std::string blender = "# Blender 3.6.0 MTL File: 'None'\n# www.blender.org\n\nnewmtl Material\nNs 250.000000\n"
                                 "Ka 1.000000 1.000000 1.000000\nKd 0.800000 0.800000 0.800000\nKs 0.500000 0.500000 0.500000\n"
@@ -208,16 +208,21 @@ TEST_CASE("MTL: Blender's Ks is its Principled specular, a reflectance of 0.08 K
     dir.write("a.mtl", blender);
     const Scene scene = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
     REQUIRE(scene.materials.size() == 1);
-    CHECK(scene.materials[0].specular.isApprox(Rgb::Constant(0.04)));
-    CHECK(scene.materials[0].exponent == 250.0);
+    CHECK_FALSE(scene.materials[0].glossy());  // as a glTF dielectric: the scene stays diffuse
     CHECK(scene.materials[0].albedo.isApprox(Rgb::Constant(0.8)));
-    CHECK(scene.warnings.empty());  // 0.84: nothing scaled
+    CHECK(scene.warnings.empty());
     // Another program's Ks is the lobe itself.
     std::string other = blender;
     other.replace(2, 7, "Maya   ");
     dir.write("a.mtl", other);
     const Scene plain = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
     CHECK((plain.materials[0].albedo + plain.materials[0].specular).maxCoeff() == Approx(0.99));  // 0.8 + 0.5, scaled
+    CHECK(plain.materials[0].exponent == 250.0);
+    // A lobe of exponent 0 (MeshLab writes Ns 0) reflects as a Lambertian surface: albedo.
+    dir.write("a.mtl", "newmtl Material\nKd 0.3 0.3 0.3\nKs 0.2 0.1 0\nNs 0\nillum 2\n");
+    const Scene lambert = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
+    CHECK_FALSE(lambert.materials[0].glossy());
+    CHECK(lambert.materials[0].albedo.isApprox(Rgb(0.5, 0.4, 0.3)));
 }
 
 TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one line", "[scenes][obj][errors]") {
@@ -242,7 +247,10 @@ TEST_CASE("OBJ + MTL: what is read otherwise is a warning, what cannot be is one
                           Contains("objects[0]") && Contains(needle));
     };
     const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
-    fails(tri + "f 1 3 2\n", "", "names none itself (no usemtl)");
+    dir.write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 0 1\n3 0 2 1\n");
+    CHECK_THROWS_WITH(parse_scene(scene_with(R"({"mesh": "bad.ply"})"), "s.json", dir.path.string()),
+                      Contains("objects[0].mesh: bad.ply: has no \"material\", and a .ply file names none"));
     fails("mtllib bad.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "newmtl y\nKd 1 x 1\n", "bad.mtl: line 2");
     std::filesystem::create_directory(dir.path / "dir.mtl");
     fails("mtllib dir.mtl\n" + tri + "usemtl y\nf 1 3 2\n", "", "dir.mtl");
@@ -296,7 +304,21 @@ TEST_CASE("OBJ + MTL as assets come: a material file or name missing is 0.8 grey
     CHECK(albedo(before, "x").isApprox(Rgb::Constant(0.2)));
     REQUIRE(before.warnings.size() == 1);
     CHECK(before.warnings[0] == "a.obj: 1 face comes before the first usemtl: material 'default', 0.8 grey (the scene's "
-                                "\"materials\" may define it)");
+                                "\"materials\" or -D 'materials.default={...}' defines it)");
+    // No usemtl at all: every face is "default"; the MTL's "default" where it has one,
+    // the same material as the usemtl of that name.
+    const Scene none_named = load("mtllib a.mtl\n" + tri + "f 1 3 2\n");
+    CHECK(albedo(none_named, "default").isApprox(Rgb::Constant(0.8)));
+    REQUIRE(none_named.warnings.size() == 1);
+    CHECK_THAT(none_named.warnings[0], StartsWith("a.obj: its faces name no material (no usemtl): material 'default', 0.8 grey"));
+    dir.write("a.mtl", "newmtl x\nKd 0.2 0.2 0.2\nnewmtl default\nKd 0.3 0.3 0.3\n");
+    const Scene defined_default = load("mtllib a.mtl\n" + tri + "f 1 3 2\nusemtl default\nf 2 3 4\n");
+    CHECK(defined_default.materials.size() == 1);
+    CHECK(albedo(defined_default, "default").isApprox(Rgb::Constant(0.3)));
+    REQUIRE(defined_default.warnings.size() == 1);
+    CHECK(defined_default.warnings[0] == "a.obj: 1 face comes before the first usemtl: material 'default' (the scene's "
+                                         "\"materials\" or -D 'materials.default={...}' defines it)");
+    dir.write("a.mtl", "newmtl x\nKd 0.2 0.2 0.2\n");
     const Scene set = load("mtllib a.mtl\n" + tri + "f 1 3 2\nusemtl x\nf 2 3 4\n", "", R"("default": {"albedo": [0.5, 0.5, 0.5]})");
     CHECK(albedo(set, "default").isApprox(Rgb::Constant(0.5)));
     CHECK(set.warnings.empty());
@@ -340,12 +362,24 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     const Scene moved = load_scene(path, {{"camera.eye", "[1, 5, 5]"}, {"materials.lamp", R"({"albedo": [0, 0, 0], "emission": [1, 1, 1]})"}});
     CHECK(moved.camera.eye.isApprox(Vec3(1, 5, 5)));
     CHECK(moved.materials[static_cast<std::size_t>(moved.find_material("lamp"))].emission.isApprox(Rgb::Constant(1)));
-    // One value of an MTL's material cannot be set alone (it would be a material of
-    // that value only): the message says how to replace it.
-    CHECK_THROWS_WITH(load_scene(path, {{"materials.lamp.emission", "[1, 1, 1]"}}),
-                      Contains("materials.lamp: the scene's own materials have no 'lamp' to change a value of (a new "
-                               "material needs its albedo; one a mesh brings is replaced whole: -D "
-                               "'materials.lamp={\"albedo\": [r, g, b]"));
+    // One value of an MTL's material: that value changes, the rest as the MTL has it.
+    const Scene brighter = load_scene(path, {{"materials.lamp.emission", "[10, 10, 10]"}, {"materials.red.albedo", "[0.5, 0, 0]"}});
+    const auto material = [](const Scene& s, const std::string& name) -> const Material& {
+        return s.materials[static_cast<std::size_t>(s.find_material(name))];
+    };
+    CHECK(material(brighter, "lamp").emission.isApprox(Rgb::Constant(10)));
+    CHECK(material(brighter, "lamp").albedo.isApprox(Rgb::Zero()));
+    CHECK(material(brighter, "red").albedo.isApprox(Rgb(0.5, 0, 0)));
+    CHECK(material(brighter, "green").specular.isApprox(Rgb::Constant(0.2)));
+    CHECK(brighter.materials.size() == scene.materials.size());
+    // A value that leaves it out of range is refused, naming the setting.
+    CHECK_THROWS_WITH(load_scene(path, {{"materials.green.albedo", "[0.9, 0.9, 0.9]"}}),
+                      Contains("materials.green: albedo + specular = 1.1 in channel r") &&
+                          Contains("-D materials.green.albedo=[0.9, 0.9, 0.9]"));
+    // A value of a material no mesh brings, without an albedo, is no material.
+    CHECK_THROWS_WITH(load_scene(path, {{"materials.lmap.emission", "[1, 1, 1]"}}),
+                      Contains("materials.lmap: no material 'lmap' for -D to change a value of: the scene's own materials "
+                               "and its meshes' have none of that name (a new material needs its albedo)"));
     // A new material of its albedo alone is a material.
     CHECK(load_scene(path, {{"materials.grey.albedo", "[0.5, 0.5, 0.5]"}}).find_material("grey") >= 0);
     dir.write("m.ply", "ply\n");
