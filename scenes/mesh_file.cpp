@@ -67,8 +67,8 @@ std::string vector_text(const Vec3& v) {
     return os.str();
 }
 
-std::string zero_normals_warning(const std::string& shown, long count, const std::string& first) {
-    return shown + ": " + (count == 1 ? "a normal" : std::to_string(count) + " normals") + " of zero length (" +
+std::string zero_normals_warning(const std::string& shown, long count, const std::string& first, const std::string& kind) {
+    return shown + ": " + (count == 1 ? "a normal " : std::to_string(count) + " normals ") + kind + " (" +
            (count == 1 ? "" : "the first ") + "at " + first + "): the corners that use " +
            (count == 1 ? "it get a computed normal" : "them get computed normals");
 }

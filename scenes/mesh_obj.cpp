@@ -13,6 +13,24 @@ bool ends_in_backslash(const std::string& line) {
     return last != std::string::npos && line[last] == '\\';
 }
 
+// Cuts a comment off a statement of numbers: from a '#' at the start or after a blank.
+void strip_comment(std::string& line) {
+    for (std::size_t hash = line.find('#'); hash != std::string::npos; hash = line.find('#', hash + 1))
+        if (hash == 0 || line[hash - 1] == ' ' || line[hash - 1] == '\t') {
+            line.erase(hash);
+            return;
+        }
+}
+
+// Words a normal that is not finite is written as: "nan", "-nan(ind)", "inf", and
+// MSVC's "-1.#IND00", "1.#QNAN0", "1.#INF00".
+bool not_finite_words(std::string text) {
+    for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (const char* word : {"nan", "inf", "#ind", "#qnan"})
+        if (text.find(word) != std::string::npos) return true;
+    return false;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------- OBJ
@@ -44,38 +62,43 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         names.push_back(name);
         return static_cast<int>(names.size() - 1);
     };
-    long zero_normals = 0, first_zero = 0;  // `vn 0 0 0`: its corners get computed normals
+    long zero_normals = 0, first_zero = 0;  // `vn 0 0 0` or `vn nan nan nan`: its corners get computed normals
+    long broken_normals = 0;                // of those, the ones not finite
     while (std::getline(in, line)) {
         // A UTF-8 byte order mark before the first line is not part of it.
         if (++line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
-        // A backslash at the end of a statement joins the next line to it (errors name
-        // the first); a comment's is its own (a Windows folder may end one).
         const long first_line = line_no;
-        const auto first = line.find_first_not_of(" \t");
-        const bool comment = first != std::string::npos && line[first] == '#';
-        for (std::string next; !comment && ends_in_backslash(line) && std::getline(in, next); ++line_no) {
-            line.erase(line.find_last_of('\\'));
-            line += " " + next;
-        }
         std::string tag;
         std::istringstream(line) >> tag;
-        // A comment may end a statement of numbers, after a blank ("f 1 2 3 # the floor").
-        // Names keep theirs: "usemtl Material #25" is 3ds Max's name, as its MTL has it.
-        if (tag == "v" || tag == "vn" || tag == "vt" || tag == "vp" || tag == "f" || tag == "l" || tag == "p" || tag == "s")
-            for (std::size_t hash = line.find('#'); hash != std::string::npos; hash = line.find('#', hash + 1))
-                if (hash > 0 && (line[hash - 1] == ' ' || line[hash - 1] == '\t')) {
-                    line.erase(hash);
-                    break;
-                }
+        // A statement of numbers: a comment may end it after a blank ("f 1 2 3 # the
+        // floor"), and a backslash at its end joins the next line to it (errors name the
+        // first; at the file's end it joins nothing). Names keep theirs: "usemtl Material
+        // #25" is 3ds Max's name, as its MTL has it, and a backslash may end a folder.
+        if (tag == "v" || tag == "vn" || tag == "vt" || tag == "vp" || tag == "f" || tag == "l" || tag == "p" ||
+            tag == "s") {
+            strip_comment(line);
+            for (std::string next; ends_in_backslash(line); ++line_no) {
+                line.erase(line.find_last_of('\\'));
+                if (!std::getline(in, next)) break;
+                strip_comment(next);
+                line += " " + next;
+            }
+        }
         const std::string where = "line " + std::to_string(first_line);
         std::istringstream ls(line);
         ls >> tag;
         if (tag == "v") {
             data.vertices.push_back(read_coordinates(line.substr(line.find('v') + 1), shown, where));
         } else if (tag == "vn") {
-            const Vec3 n = read_coordinates(line.substr(line.find("vn") + 2), shown, where, "normal");
-            // Exporters write `vn 0 0 0` at degenerate faces: no direction, as if not given.
-            if (!(n.norm() > 0.0) && zero_normals++ == 0) first_zero = first_line;
+            // Exporters write `vn 0 0 0`, or one not finite, at degenerate faces: no
+            // direction, as if not given.
+            const std::string text = line.substr(line.find("vn") + 2);
+            const bool broken = not_finite_words(text);
+            const Vec3 n = broken ? Vec3::Zero() : read_coordinates(text, shown, where, "normal");
+            if (!(n.norm() > 0.0)) {
+                if (zero_normals++ == 0) first_zero = first_line;
+                broken_normals += broken;
+            }
             normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
         } else if (tag == "vt") {
             ++texture_coordinates;
@@ -166,7 +189,11 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         }
     }
     if (any_normals) data.normals = std::move(corner_normals);
-    if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, "line " + std::to_string(first_zero)));
+    if (zero_normals > 0)
+        data.warnings.push_back(zero_normals_warning(shown, zero_normals, "line " + std::to_string(first_zero),
+                                                     broken_normals == 0              ? "of zero length"
+                                                     : broken_normals == zero_normals ? "not finite"
+                                                                                      : "of zero length or not finite"));
     return data;
 }
 

@@ -214,7 +214,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
             for (const auto& t : local)
                 data.normals.push_back({normals[corners[t[0]]], normals[corners[t[1]]], normals[corners[t[2]]]});
     }
-    if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, first_zero));
+    if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, first_zero, "of zero length"));
     return data;
 }
 

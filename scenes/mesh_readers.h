@@ -27,8 +27,9 @@ namespace raybundle::scenes::mesh_detail {
 Vec3 read_coordinates(const std::string& text, const std::string& shown, const std::string& where,
                       const std::string& what = "vertex");
 std::string vector_text(const Vec3& v);
-// The warning for `count` normals of zero length, the first at `first` ("line 4").
-std::string zero_normals_warning(const std::string& shown, long count, const std::string& first);
+// The warning for `count` normals without a direction (`kind`: "of zero length"), the
+// first at `first` ("line 4").
+std::string zero_normals_warning(const std::string& shown, long count, const std::string& first, const std::string& kind);
 std::string lower_extension(const std::string& path);
 // A count from a header: a whole number in [0, 2^31). "-3", "inf", "1e9" and
 // "2147483648" are refused here rather than trusted until an allocation fails.

@@ -345,6 +345,13 @@ TEST_CASE("OBJ: a backslash at a line's end goes on in the next", "[scenes][obj]
     const Scene scene = parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string());
     CHECK(scene.patch_count() == 2);  // the quad 1 3 4 2, its fourth vertex (1, 0, 1)
     CHECK(scene.total_area() == Approx(1.0));
+    // A comment that ends in a backslash (a folder) joins nothing; a statement's last
+    // backslash in the file joins nothing either.
+    dir.write("a.obj", "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1 # from C:\\models\\\nv 1 0 1\nusemtl x\nf 1 3 4 2 \\");
+    CHECK(parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string()).total_area() == Approx(1.0));
+    // A name's backslash is its own: "mtllib sub\" names a folder, not the next line.
+    dir.write("a.obj", "mtllib a.mtl\nusemtl x\\\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n");
+    CHECK(parse_scene(scene_with(R"({"mesh": "a.obj"})"), "s.json", dir.path.string()).total_area() == Approx(0.5));
 }
 
 TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its size", "[scenes][obj]") {
