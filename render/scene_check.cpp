@@ -149,7 +149,11 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
                     continue;
                 }
             }
-            if (seen[i] || scene.sky || in_view(i)) continue;  // open sky is something to see
+            // Open sky is something to see, and so is a point light in front.
+            const bool lit = std::any_of(scene.point_lights.begin(), scene.point_lights.end(), [&](const scenes::PointLight& l) {
+                return (l.intensity > 0.0).any() && p.normal.dot(l.position - p.centroid) > 0.0;
+            });
+            if (seen[i] || scene.sky || lit || in_view(i)) continue;
             scenes::Vec3 u, v;
             scenes::orthonormal_basis(p.normal, u, v);
             bool meets = false;

@@ -956,8 +956,14 @@ Scene load_model(const std::string& path, const Overrides& overrides, const Load
     if (limits.on_step) limits.on_step("reading");
     const MeshData data = read_mesh_file(path, path);
     if (data.vertices.empty()) throw SceneError(path, "", "has no vertices");
+    // The bounds of its faces: a loose vertex or a wire edge's (Blender writes them) is
+    // not in view.
     Vec3 lo = data.vertices.front(), hi = lo;
-    for (const auto& v : data.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    if (!data.triangles.empty()) lo = hi = data.vertices[static_cast<std::size_t>(data.triangles.front()[0])];
+    for (const auto& t : data.triangles)
+        for (const int k : t) lo = lo.cwiseMin(data.vertices[static_cast<std::size_t>(k)]), hi = hi.cwiseMax(data.vertices[static_cast<std::size_t>(k)]);
+    if (data.triangles.empty())
+        for (const auto& v : data.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
     const Vec3 centre = 0.5 * (lo + hi), extent = hi - lo;
     const double size = extent.maxCoeff(), fov = 40.0;
     const double distance = 0.5 * std::max({extent.x(), extent.y(), 1e-9 * size}) / std::tan(0.5 * fov * M_PI / 180.0);

@@ -18,6 +18,7 @@
 #include <functional>
 #include <map>
 #include <set>
+#include <sstream>
 #include <unordered_map>
 
 namespace raybundle::scenes::mesh_detail {
@@ -352,11 +353,19 @@ private:
         const std::string& version = model_.asset.version;
         if (version.rfind("2.", 0) != 0)
             fail("asset.version", "'" + version + "': raybundle reads glTF 2.0 (a 1.0 file would be misread)");
-        // A file that needs a later 2.x reader says so (the version is at least 2.0).
+        // A file that needs a later reader than 2.0 says so ("2.1"); "2.0" and earlier
+        // (a minimum of 1.0 is below ours) are read.
         const std::string& least = model_.asset.minVersion;
-        if (!least.empty() && least != "2.0")
-            fail("asset.minVersion", "'" + least + "': the file needs a reader of glTF " + least +
-                                         ", and raybundle reads glTF 2.0");
+        if (!least.empty()) {
+            int major = 0, minor = 0;
+            char dot = 0;
+            std::istringstream in(least);
+            if (!(in >> major >> dot >> minor) || dot != '.')
+                fail("asset.minVersion", "'" + least + "' is not a version (major.minor)");
+            if (major > 2 || (major == 2 && minor > 0))
+                fail("asset.minVersion", "'" + least + "': the file needs a reader of glTF " + least +
+                                             ", and raybundle reads glTF 2.0");
+        }
         static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
         for (const auto& e : model_.extensionsRequired)
             if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");

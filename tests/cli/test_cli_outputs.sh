@@ -125,6 +125,11 @@ scene "$quad, {\"quad\": [[0,0,5], [1,0,5], [1,1,5], [0,1,5]], \"material\": \"w
 "$bin" check away.json >chk.txt 2>&1
 grep -q "warning     panel: the front side of 100 % of its area faces nothing" chk.txt && ! grep -q "objects\[0\].*warning" chk.txt
 check $? "check of a panel facing nothing: $(cat chk.txt)"
+# A floor that faces only a point light (the camera sees it edge-on) faces something.
+printf '{"camera": {"eye": [0.5, 0, 3], "target": [0.5, 0, 0]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [{"quad": [[0,0,0], [0,0,1], [1,0,1], [1,0,0]], "material": "w", "name": "floor"}], "point_lights": [{"position": [0.5, 1, 0.5], "intensity": [1, 1, 1]}]}\n' > lamp-floor.json
+"$bin" check lamp-floor.json >chk.txt 2>&1
+! grep -q "faces nothing" chk.txt && grep -q "^unseen      0 patches" chk.txt
+check $? "check of a floor under a point light: $(cat chk.txt)"
 # Nothing lights a scene: the black image it gets is said in one warning, by check too.
 # A light whose emission is all zero is no light; a zero point light or a black sky
 # neither.

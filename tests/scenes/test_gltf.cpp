@@ -294,6 +294,12 @@ TEST_CASE("glTF: a malformed file ends in one line naming the file and the objec
     fails(doc, "asset.minVersion: '2.1': the file needs a reader of glTF 2.1, and raybundle reads glTF 2.0");
     doc["asset"]["minVersion"] = "2.0";
     CHECK(parse(doc).triangles.size() == 1);
+    doc["asset"]["minVersion"] = "1.0";
+    CHECK(parse(doc).triangles.size() == 1);
+    doc["asset"]["minVersion"] = "3.0";
+    fails(doc, "asset.minVersion: '3.0': the file needs a reader of glTF 3.0");
+    doc["asset"]["minVersion"] = "two";
+    fails(doc, "asset.minVersion: 'two' is not a version (major.minor)");
     doc = asset();
     doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
     doc["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", -5}}}};

@@ -361,6 +361,11 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     const std::string path = dir.path.string() + "/room.obj";
     const Scene scene = load_scene(path);
     CHECK(scene.camera.target.isApprox(Vec3(1, 0.5, 0.5)));
+    // A loose vertex and a wire edge (Blender writes them) are not framed.
+    dir.write("loose.obj", std::string(kObj) + "o Loose\nv 1000 1000 1000\nl 11 1\n");
+    const Scene loose = load_scene(dir.path.string() + "/loose.obj");
+    CHECK(loose.camera.target.isApprox(scene.camera.target));
+    CHECK(loose.camera.eye.isApprox(scene.camera.eye));
     CHECK(scene.camera.eye.x() == Approx(1.0));
     CHECK(scene.camera.eye.z() > 1.0);
     CHECK(scene.patch_count() > 6);  // refined to 2/25
