@@ -46,6 +46,16 @@ const CLI::Validator kDigits(
     },
     "UINT64");
 
+// --patch-size: a length, or the scene file's words for its sizes.
+const CLI::Validator kPatchSize(
+    [](std::string& text) {
+        if (text == "auto" || text == "none") return std::string();
+        std::string copy = text;
+        const std::string bad = kPositive(copy);
+        return bad.empty() ? bad : bad + " (a length > 0, auto or none)";
+    },
+    "L|auto|none");
+
 // An integer option's value: digits with an optional sign (CLI11's range check would
 // say that 100.5 is not in range 1 to 16384).
 const CLI::Validator kInteger(
@@ -126,7 +136,9 @@ void add_scene_options(CLI::App& cmd, Command& c) {
         if (integer) option->check(kInteger);
         f.row(key, Identity::yes, option->check(check));
     };
-    shortcut("--patch-size", "patch_size", "refine until no patch edge is longer (-D patch_size=L)", kPositive);
+    shortcut("--patch-size", "patch_size",
+             "refine until no patch edge is longer; auto: 1/25 of the scene's size; none: as modelled (-D patch_size=L)",
+             kPatchSize);
     shortcut("--width", "camera.width", "image width in pixels (-D camera.width=W)", CLI::Range(1, 16384), true);
     shortcut("--height", "camera.height", "image height in pixels (-D camera.height=H)", CLI::Range(1, 16384), true);
     shortcut("--fov", "camera.fov_y", "vertical field of view in degrees (-D camera.fov_y=F)", kPositive);

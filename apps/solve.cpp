@@ -60,6 +60,7 @@ void print_summary(const Command& c, const scenes::Scene& scene, const render::R
         if (!path->empty()) written.push_back(*path);
     std::string wrote;
     for (const auto& path : written) wrote += (wrote.empty() ? "; wrote " : ", ") + path;
+    if (written.empty()) wrote = "; wrote nothing (-o FILE.png writes the image)";
     std::printf("%s%s\n", render::summary(scene, r).c_str(), wrote.c_str());
 }
 

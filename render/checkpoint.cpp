@@ -209,9 +209,9 @@ Checkpoint read_checkpoint(const std::string& path, const scenes::MemoryShare& m
         const std::uintmax_t size = std::filesystem::file_size(path, ec);
         const std::uint64_t memory = memory_share.bytes;
         if (!ec && memory > 0 && size > memory / 2)
-            throw bad(path, std::to_string(size >> 20) + " MiB, more than half of the memory this process may hold (" +
-                                std::to_string(memory >> 20) + " MiB: " + memory_share.text() +
-                                "): not a checkpoint it could go on from");
+            throw bad(path, scenes::gigabytes(static_cast<double>(size)) + ", more than half of the " +
+                                scenes::gigabytes(static_cast<double>(memory)) + " this process may hold (" +
+                                memory_share.text() + "): not a checkpoint it could go on from");
     }
     std::string bytes;
     try {

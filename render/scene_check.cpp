@@ -39,7 +39,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         // behind the shell (an inverted ball on a wide floor is closed around the
         // centre too, but the floor lies outside it). Up to 256 patches, by area.
         if (closed) {
-            const std::size_t stride = std::max<std::size_t>(1, patches.size() / 256);
+            const std::size_t stride = std::max<std::size_t>(1, (patches.size() + 255) / 256);
             double beyond = 0.0, sampled = 0.0;
             for (std::size_t i = 0; i < patches.size(); i += stride) {
                 const scenes::Vec3 d = patches[i].centroid - centre;

@@ -449,6 +449,9 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
             // ["name"]: an object key of any characters but `"]` (a material "Material (b.obj)").
             const std::size_t close = o.key.find("\"]", end + 2);
             if (close == std::string::npos) throw SceneError(shown, o.key, "malformed key in -D " + o.key + " (no closing \"])");
+            if (close == end + 2) throw SceneError(shown, o.key, "malformed key in -D " + o.key + " (an empty name)");
+            if (close + 2 < o.key.size() && o.key[close + 2] != '.' && o.key[close + 2] != '[')
+                throw SceneError(shown, o.key, "malformed key in -D " + o.key + " (a '.' or '[' after \"])");
             if (node->is_null()) *node = json::object();
             if (!node->is_object())
                 throw SceneError(shown, o.key.substr(0, end), "cannot set: not an object (-D " + o.key + ")");

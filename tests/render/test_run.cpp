@@ -216,8 +216,8 @@ TEST_CASE("run: the memory guards count the process's share of its machine", "[r
     const std::string path = dir.write("big.ckpt", big);
     CHECK_THROWS_WITH(render::read_checkpoint(path, shared),
                       Catch::Contains("big.ckpt") &&
-                          Catch::Contains("5 MiB, more than half of the memory this process may hold (9 MiB: the "
-                                          "machine node1 has 30 MB for 3 ranks)"));
+                          Catch::Contains("6 MB, more than half of the 10 MB this process may hold (the machine node1 "
+                                          "has 30 MB for 3 ranks)"));
 }
 
 TEST_CASE("checkpoints: a header of the wrong types or out of range is refused, naming the file and the value",

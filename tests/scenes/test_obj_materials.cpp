@@ -180,6 +180,10 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
     CHECK(set.warnings.size() == 1);  // no renaming: the scene's own material is b's
     CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"Material (b.obj)", "1", ""}}),
                       Contains("malformed key in -D materials[\"Material (b.obj) (no closing \"])"));
+    CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"Material (b.obj)\"]albedo", "1", ""}}),
+                      Contains("(a '.' or '[' after \"])"));
+    CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"\"]", "{}", ""}}),
+                      Contains("(an empty name)"));
     // The same material twice is one, its warnings given once.
     const Scene same = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "c.obj", "translate": [2, 0, 0]})"), "s.json",
                                    dir.path.string());
