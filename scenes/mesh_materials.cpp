@@ -2,7 +2,10 @@
 #include "scenes/mesh_file.h"
 #include "scenes/mesh_readers.h"
 
+#include <jpeglib.h>
 #include <png.h>
+
+#include <csetjmp>
 
 #include <algorithm>
 #include <cmath>
@@ -159,14 +162,80 @@ std::optional<std::pair<double, int>> keep_energy(Material& m) {
     return std::pair{most, static_cast<int>(channel)};
 }
 
+namespace {
+
+// sRGB's 8-bit values, decoded to linear.
+struct SrgbTable {
+    double linear[256];
+    SrgbTable() {
+        for (int v = 0; v < 256; ++v) {
+            const double c = v / 255.0;
+            linear[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+        }
+    }
+};
+const SrgbTable kSrgb;
+
+// libjpeg's errors end its calls by longjmp (a C library: no exception may cross it).
+struct JpegErrors {
+    jpeg_error_mgr manager;
+    std::jmp_buf jump;
+    char message[JMSG_LENGTH_MAX];
+};
+
+std::optional<Rgb> jpeg_mean_colour(std::string_view bytes, std::string* why) {
+    // Everything the decoding touches is made before setjmp: a longjmp skips no destructor.
+    jpeg_decompress_struct jpeg{};
+    JpegErrors errors{};
+    std::vector<JSAMPLE> row;
+    std::string failure;
+    Rgb sum = Rgb::Zero();
+    jpeg.err = jpeg_std_error(&errors.manager);
+    errors.manager.error_exit = [](j_common_ptr common) {
+        auto* e = reinterpret_cast<JpegErrors*>(common->err);
+        (*common->err->format_message)(common, e->message);
+        std::longjmp(e->jump, 1);
+    };
+    errors.manager.output_message = [](j_common_ptr) {};  // its warnings: the mean is still read
+    if (setjmp(errors.jump)) {
+        jpeg_destroy_decompress(&jpeg);
+        if (why) *why = failure.empty() ? std::string("a JPEG libjpeg cannot read: ") + errors.message : failure;
+        return std::nullopt;
+    }
+    jpeg_create_decompress(&jpeg);
+    jpeg_mem_src(&jpeg, reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<unsigned long>(bytes.size()));
+    jpeg_read_header(&jpeg, TRUE);
+    // At most 8k x 8k texels, as a PNG.
+    if (jpeg.image_width == 0 || jpeg.image_height == 0 || jpeg.image_width > 8192 || jpeg.image_height > 8192) {
+        failure = "a JPEG of " + std::to_string(jpeg.image_width) + " x " + std::to_string(jpeg.image_height) +
+                  " texels, more than 8192 x 8192";
+        std::longjmp(errors.jump, 1);
+    }
+    jpeg.out_color_space = JCS_RGB;  // grey and YCbCr alike (CMYK is refused: its message)
+    jpeg_start_decompress(&jpeg);
+    row.resize(static_cast<std::size_t>(jpeg.output_width) * 3);
+    while (jpeg.output_scanline < jpeg.output_height) {
+        JSAMPROW rows[1] = {row.data()};
+        jpeg_read_scanlines(&jpeg, rows, 1);
+        for (std::size_t i = 0; i + 2 < row.size(); i += 3)
+            sum += Rgb(kSrgb.linear[row[i]], kSrgb.linear[row[i + 1]], kSrgb.linear[row[i + 2]]);
+    }
+    const double texels = static_cast<double>(jpeg.output_width) * jpeg.output_height;
+    jpeg_finish_decompress(&jpeg);
+    jpeg_destroy_decompress(&jpeg);
+    return Rgb(sum / texels);
+}
+
+}  // namespace
+
 std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
     auto fail = [why](std::string reason) {
         if (why) *why = std::move(reason);
         return std::nullopt;
     };
     auto starts = [bytes](std::string_view magic) { return bytes.substr(0, magic.size()) == magic; };
-    if (starts("\xFF\xD8\xFF")) return fail("a JPEG, not a PNG");
-    if (!starts("\x89PNG\r\n\x1A\n")) return fail("not a PNG");
+    if (starts("\xFF\xD8\xFF")) return jpeg_mean_colour(bytes, why);
+    if (!starts("\x89PNG\r\n\x1A\n")) return fail("not a PNG or JPEG");
     png_image image{};
     image.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
@@ -183,14 +252,9 @@ std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
     std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
     if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr))
         return fail(std::string("a PNG libpng cannot read: ") + image.message);
-    double decoded[256];
-    for (int v = 0; v < 256; ++v) {
-        const double c = v / 255.0;
-        decoded[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-    }
     Rgb sum = Rgb::Zero();
     for (std::size_t i = 0; i + 3 < texels.size(); i += 4)
-        sum += Rgb(decoded[texels[i]], decoded[texels[i + 1]], decoded[texels[i + 2]]);
+        sum += Rgb(kSrgb.linear[texels[i]], kSrgb.linear[texels[i + 1]], kSrgb.linear[texels[i + 2]]);
     return sum / (static_cast<double>(texels.size()) / 4.0);
 }
 

@@ -200,10 +200,10 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
 // (scenes/mesh_materials.cpp).
 std::optional<std::pair<double, int>> keep_energy(Material& m);
 
-// The mean linear colour of a PNG image's bytes (sRGB decoded, alpha ignored: the
-// colour as stored, not mixed onto black), or nothing for bytes that are not a PNG it
-// can read, with why in `why` where given ("a JPEG, not a PNG", "a PNG libpng cannot
-// read: ...") (scenes/mesh_materials.cpp).
+// The mean linear colour of a PNG or JPEG image's bytes (sRGB decoded, alpha ignored:
+// the colour as stored, not mixed onto black), or nothing for bytes that are not an
+// image it can read, with why in `why` where given ("not a PNG or JPEG", "a PNG libpng
+// cannot read: ...", "a JPEG libjpeg cannot read: ...") (scenes/mesh_materials.cpp).
 std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why = nullptr);
 
 }  // namespace raybundle::scenes::mesh_detail

@@ -18,7 +18,7 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config
   libopenmesh-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libeigen3-dev libglm-dev libosmesa6-dev
-  catch2 libembree-dev libopenexr-dev libpng-dev zlib1g-dev
+  catch2 libembree-dev libopenexr-dev libpng-dev libjpeg-dev zlib1g-dev
   nlohmann-json3-dev libcli11-dev libtbb-dev libtinygltf-dev
 )
 test_packages=(libopencv-dev libopencv-contrib-dev libgsl-dev libopenmpi-dev openmpi-bin python3)

@@ -10,10 +10,15 @@
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
+#include <jpeglib.h>
 #include <png.h>
 
 #include <algorithm>
+#include <cmath>
+#include <array>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -202,7 +207,7 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
                       Contains("hot.obj: material 'Material': emission 1e+300 is too large (at most 1e+15)"));
 }
 
-TEST_CASE("MTL: Blender's Ks is its Principled specular, a dielectric's, no lobe; Ns 0 is Lambertian", "[scenes][obj]") {
+TEST_CASE("MTL: Blender's Ks is its Principled specular, a dielectric's, no lobe, and Ns 0 is Lambertian", "[scenes][obj]") {
     // As Blender 3.6 writes every default material (Principled: specular 0.5, roughness 0.5).
     const std::string blender = "# Blender 3.6.0 MTL File: 'None'\n# www.blender.org\n\nnewmtl Material\nNs 250.000000\n"
                                 "Ka 1.000000 1.000000 1.000000\nKd 0.800000 0.800000 0.800000\nKs 0.500000 0.500000 0.500000\n"
@@ -441,6 +446,38 @@ TEST_CASE("MTL: a PNG map_Kd is the albedo by its mean linear colour", "[scenes]
     CHECK(std::find(scene.files.begin(), scene.files.end(), (dir.path / "wood.png").string()) != scene.files.end());
 }
 
+namespace {
+
+// A JPEG of one colour (quality 100), as a camera or a paint program writes one.
+void write_jpeg(const std::string& path, int width, int height, std::array<unsigned char, 3> rgb) {
+    jpeg_compress_struct jpeg{};
+    jpeg_error_mgr errors{};
+    jpeg.err = jpeg_std_error(&errors);
+    jpeg_create_compress(&jpeg);
+    unsigned char* bytes = nullptr;
+    unsigned long size = 0;
+    jpeg_mem_dest(&jpeg, &bytes, &size);
+    jpeg.image_width = static_cast<JDIMENSION>(width);
+    jpeg.image_height = static_cast<JDIMENSION>(height);
+    jpeg.input_components = 3;
+    jpeg.in_color_space = JCS_RGB;
+    jpeg_set_defaults(&jpeg);
+    jpeg_set_quality(&jpeg, 100, TRUE);
+    jpeg_start_compress(&jpeg, TRUE);
+    std::vector<unsigned char> row;
+    for (int x = 0; x < width; ++x) row.insert(row.end(), rgb.begin(), rgb.end());
+    while (jpeg.next_scanline < jpeg.image_height) {
+        JSAMPROW rows[1] = {row.data()};
+        jpeg_write_scanlines(&jpeg, rows, 1);
+    }
+    jpeg_finish_compress(&jpeg);
+    jpeg_destroy_compress(&jpeg);
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes), static_cast<std::streamsize>(size));
+    std::free(bytes);
+}
+
+}  // namespace
+
 TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", "[scenes][obj]") {
     TempDir dir;
     // 2 x 1 texels, RGBA: red of alpha 0 and green of alpha 128. Alpha is left out, not
@@ -482,7 +519,15 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
     CHECK(albedo_with("C:\\Users\\bob\\Desktop\\textures\\wood.png", warning)[0] == Approx(0.5).epsilon(0.01));
     CHECK_THAT(warning, Contains("its texture wood.png is read as its mean colour"));
     CHECK(albedo_with("photo.jpg", warning)[0] == Approx(0.2));
-    CHECK_THAT(warning, Contains("its texture photo.jpg is not read (a JPEG, not a PNG); its Kd 0.2 0.2 0.2 is the colour"));
+    CHECK_THAT(warning, Contains("its texture photo.jpg is not read (a JPEG libjpeg cannot read: "));
+    CHECK_THAT(warning, Contains("its Kd 0.2 0.2 0.2 is the colour"));
+    // A JPEG (the commonest texture): its mean, sRGB decoded, as a PNG's.
+    write_jpeg((dir.path / "wall.jpg").string(), 16, 8, {200, 100, 50});
+    const Rgb wall = albedo_with("wall.jpg", warning);
+    CHECK(wall[0] == Approx(std::pow((200 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(0.02));
+    CHECK(wall[1] == Approx(std::pow((100 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(0.02));
+    CHECK(wall[2] == Approx(std::pow((50 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(0.03));
+    CHECK_THAT(warning, Contains("its texture wall.jpg is read as its mean colour"));
     albedo_with("broken.png", warning);
     CHECK_THAT(warning, Contains("its texture broken.png is not read (a PNG libpng cannot read: "));
     albedo_with("gone.png", warning);
