@@ -151,7 +151,8 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             }
             // Open sky is something to see, and so is a point light in front.
             const bool lit = std::any_of(scene.point_lights.begin(), scene.point_lights.end(), [&](const scenes::PointLight& l) {
-                return (l.intensity > 0.0).any() && p.normal.dot(l.position - p.centroid) > 0.0;
+                return (l.intensity > 0.0).any() && p.normal.dot(l.position - p.centroid) > 0.0 &&
+                       l.falloff((p.centroid - l.position).normalized()) > 0.0;
             });
             if (seen[i] || scene.sky || lit || in_view(i)) continue;
             scenes::Vec3 u, v;

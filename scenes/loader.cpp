@@ -667,12 +667,11 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     // Materials: the scene's, then those its meshes bring (mesh_materials); a scene of
     // such meshes alone needs none of its own. Some values of a material the file does
     // not define, given by -D (-D materials.lamp.emission=[9, 9, 9], not the whole
-    // material), edit the material of that name a mesh brings: its own values with
-    // those laid over them. Where no mesh brings one, they are a new material, which
-    // needs its albedo.
+    // material), edit each material of that name a mesh brings: its own values with
+    // those laid over them, before it is shared or renamed. Where no mesh brings one,
+    // they are a new material, which needs its albedo.
     std::map<std::string, json> edits;  // name: the values -D gives it
-    std::map<std::string, int> edited;  // name: its index in the scene, once it has one
-    std::set<std::string> taken;        // the edits a mesh's material took
+    std::set<std::string> taken;        // the edits a mesh's material took, or made anew
     const auto given_whole = [&overrides](const std::string& name) {
         return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) {
             return o.key == "materials." + name || o.key == "materials[\"" + name + "\"]";
@@ -684,40 +683,36 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         for (auto it = doc["materials"].begin(); it != doc["materials"].end(); ++it) {
             const bool the_files = materials_before.is_object() && materials_before.contains(it.key());
             if (!the_files && !given_whole(it.key()) && it.value().is_object()) {
-                edits[it.key()] = it.value();  // made where a mesh brings it, an object names it, or at the end
+                edits[it.key()] = it.value();  // for the meshes' materials, an object's, or new at the end
                 continue;
             }
             scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
         }
     }
-    // An edit no mesh's material took: a new material, which needs its albedo.
-    const auto new_material = [&](const std::string& name) {
+    // An edit as a material of its own (an object names it before a mesh brings it, or
+    // none does), which needs its albedo.
+    const auto new_material = [&](const std::string& name, const std::string& why) {
         const json& values = edits.at(name);
         if (!values.contains("albedo"))
             throw SceneError(shown, material_setting(name),
-                             "no material '" + name + "' for -D to change a value of: the scene's own materials and "
-                             "its meshes' have none of that name (a new material needs its albedo)");
-        return edited[name] = scene.add_material(parse_material(Node(values, shown, material_setting(name)), name));
+                             "no material '" + name + "' for -D to change a value of: " + why +
+                                 " (a new material needs its albedo)");
+        taken.insert(name);
+        return scene.add_material(parse_material(Node(values, shown, material_setting(name)), name));
     };
     const std::size_t scene_materials = scene.materials.size();  // the file's own: they replace the meshes'
-    // A brought material with the values -D gives it: made where the first mesh brings it.
-    const MaterialEdits apply_edits = [&](const Material& brought) {
-        const auto e = edits.find(brought.name);
-        if (e == edits.end()) return -1;
-        const auto at = edited.find(brought.name);
-        if (taken.count(brought.name)) return at->second;
+    // A brought material with the values -D gives it (its lobe's exponent only where it
+    // has a lobe: a specular given to a diffuse one needs its exponent too).
+    const MaterialEdits apply_edits = [&](Material& m) {
+        const auto e = edits.find(m.name);
+        if (e == edits.end()) return false;
         const auto rgb = [](const Rgb& c) { return json::array({c[0], c[1], c[2]}); };
-        json merged = {{"albedo", rgb(brought.albedo)},     {"emission", rgb(brought.emission)},
-                       {"specular", rgb(brought.specular)}, {"exponent", brought.exponent},
-                       {"two_sided", brought.two_sided}};
+        json merged = {{"albedo", rgb(m.albedo)}, {"emission", rgb(m.emission)}, {"two_sided", m.two_sided}};
+        if (m.glossy()) merged["specular"] = rgb(m.specular), merged["exponent"] = m.exponent;
         merged.merge_patch(e->second);
-        Material made = parse_material(Node(merged, shown, material_setting(brought.name)), brought.name);
-        taken.insert(brought.name);
-        if (at != edited.end()) {
-            scene.materials[static_cast<std::size_t>(at->second)] = std::move(made);
-            return at->second;
-        }
-        return edited[brought.name] = scene.add_material(std::move(made));
+        m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
+        taken.insert(e->first);
+        return true;
     };
 
     const json& objects = root.raw("objects");
@@ -738,7 +733,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         if (!own_materials) {
             const std::string mat_name = obj.string("material");
             mat = scene.find_material(mat_name);
-            if (mat < 0 && edits.count(mat_name)) mat = new_material(mat_name);
+            if (mat < 0 && edits.count(mat_name))
+                mat = new_material(mat_name, obj.path() + " names it before any mesh brings one");
             if (mat < 0) {
                 std::string known;
                 for (const auto& m : scene.materials) known += (known.empty() ? "" : ", ") + m.name;
@@ -880,7 +876,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     }
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
     for (const auto& [name, values] : edits)
-        if (!edited.count(name)) new_material(name);
+        if (!taken.count(name)) new_material(name, "the scene's own materials and its meshes' have none of that name");
 
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     if (limits.on_step) limits.on_step("normals");

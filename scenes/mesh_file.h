@@ -76,11 +76,12 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
 // and textures join scene.files. What an asset lacks is 0.8 grey with a warning, as
 // Blender imports it: a missing MTL file, a name no MTL file defines, faces before the
 // first usemtl or an OBJ without any (the material "default"). `edits` (the scene's -D
-// settings of one value of a material, scenes/loader.cpp) gives the scene's index of a
-// brought material with those values laid over its own, or -1 where none applies. A
+// settings of some values of a material, scenes/loader.cpp) lays them over a brought
+// material of their name before it is shared or renamed, and again over one renamed
+// "NAME (shown)" where the settings name that; it returns whether it changed it. A
 // mesh's warnings are given once however often it is placed. Throws SceneError(shown,
 // where): an unreadable or malformed MTL file, emission past 1e15.
-using MaterialEdits = std::function<int(const Material& brought)>;
+using MaterialEdits = std::function<bool(Material& brought)>;
 std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const MeshData& data, const std::string& path,
                                 const std::string& shown, const std::string& where, const MaterialEdits& edits = {});
 // The -D key of a material of the scene: "materials.NAME", or materials["NAME"] where the

@@ -2,6 +2,8 @@
 #include "scenes/mesh_file.h"
 #include "scenes/mesh_readers.h"
 
+#include <cstdio>  // before jpeglib.h, which uses FILE and size_t
+
 #include <jpeglib.h>
 #include <png.h>
 
@@ -183,33 +185,38 @@ struct JpegErrors {
     char message[JMSG_LENGTH_MAX];
 };
 
-std::optional<Rgb> jpeg_mean_colour(std::string_view bytes, std::string* why) {
-    // Everything the decoding touches is made before setjmp: a longjmp skips no destructor.
+// Why a JPEG's header is refused, or "" (its size: at most 8k x 8k texels, as a PNG).
+std::string jpeg_size_refused(const jpeg_decompress_struct& jpeg) {
+    if (jpeg.image_width > 0 && jpeg.image_height > 0 && jpeg.image_width <= 8192 && jpeg.image_height <= 8192) return "";
+    return "a JPEG of " + std::to_string(jpeg.image_width) + " x " + std::to_string(jpeg.image_height) +
+           " texels, more than 8192 x 8192";
+}
+
+// Decodes a JPEG's texels into `sum` (linear, summed) and `texels`, or says why not in
+// `why`. The setjmp of libjpeg's errors is here, with locals of trivial types only (as
+// libjpeg's own example): what outlives a longjmp is the caller's.
+bool decode_jpeg(std::string_view bytes, std::vector<JSAMPLE>& row, Rgb& sum, double& texels, std::string& why) {
     jpeg_decompress_struct jpeg{};
     JpegErrors errors{};
-    std::vector<JSAMPLE> row;
-    std::string failure;
-    Rgb sum = Rgb::Zero();
     jpeg.err = jpeg_std_error(&errors.manager);
     errors.manager.error_exit = [](j_common_ptr common) {
         auto* e = reinterpret_cast<JpegErrors*>(common->err);
         (*common->err->format_message)(common, e->message);
         std::longjmp(e->jump, 1);
     };
-    errors.manager.output_message = [](j_common_ptr) {};  // its warnings: the mean is still read
+    errors.manager.output_message = [](j_common_ptr) {};  // its warnings: counted below
     if (setjmp(errors.jump)) {
         jpeg_destroy_decompress(&jpeg);
-        if (why) *why = failure.empty() ? std::string("a JPEG libjpeg cannot read: ") + errors.message : failure;
-        return std::nullopt;
+        why = std::string("a JPEG libjpeg cannot read: ") + errors.message;
+        return false;
     }
     jpeg_create_decompress(&jpeg);
     jpeg_mem_src(&jpeg, reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<unsigned long>(bytes.size()));
     jpeg_read_header(&jpeg, TRUE);
-    // At most 8k x 8k texels, as a PNG.
-    if (jpeg.image_width == 0 || jpeg.image_height == 0 || jpeg.image_width > 8192 || jpeg.image_height > 8192) {
-        failure = "a JPEG of " + std::to_string(jpeg.image_width) + " x " + std::to_string(jpeg.image_height) +
-                  " texels, more than 8192 x 8192";
-        std::longjmp(errors.jump, 1);
+    why = jpeg_size_refused(jpeg);
+    if (!why.empty()) {
+        jpeg_destroy_decompress(&jpeg);
+        return false;
     }
     jpeg.out_color_space = JCS_RGB;  // grey and YCbCr alike (CMYK is refused: its message)
     jpeg_start_decompress(&jpeg);
@@ -220,9 +227,25 @@ std::optional<Rgb> jpeg_mean_colour(std::string_view bytes, std::string* why) {
         for (std::size_t i = 0; i + 2 < row.size(); i += 3)
             sum += Rgb(kSrgb.linear[row[i]], kSrgb.linear[row[i + 1]], kSrgb.linear[row[i + 2]]);
     }
-    const double texels = static_cast<double>(jpeg.output_width) * jpeg.output_height;
+    texels = static_cast<double>(jpeg.output_width) * jpeg.output_height;
     jpeg_finish_decompress(&jpeg);
+    // A warning (a file cut short: libjpeg fills the rest with grey) leaves no mean of
+    // the texture's own colours.
+    const long warnings = jpeg.err->num_warnings;
     jpeg_destroy_decompress(&jpeg);
+    if (warnings > 0) why = "a JPEG libjpeg reads only in part (cut short?)";
+    return warnings == 0;
+}
+
+std::optional<Rgb> jpeg_mean_colour(std::string_view bytes, std::string* why) {
+    std::vector<JSAMPLE> row;
+    Rgb sum = Rgb::Zero();
+    double texels = 0.0;
+    std::string reason;
+    if (!decode_jpeg(bytes, row, sum, texels, reason)) {
+        if (why) *why = reason;
+        return std::nullopt;
+    }
     return Rgb(sum / texels);
 }
 
@@ -289,13 +312,18 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         int index;
         bool fresh;
     };
-    const auto bring = [&](const Material& m) -> Brought {
-        if (edits) {
-            if (const int edited = edits(m); edited >= 0) return {edited, true};
-        }
-        if (const int mine = own(m.name); mine >= 0) return {mine, false};
+    const auto bring = [&](const Material& brought) -> Brought {
+        if (const int mine = own(brought.name); mine >= 0) return {mine, false};
+        Material m = brought;
+        if (edits) edits(m);
         const int added = add_brought(scene, scene_materials, m, shown, where);
-        return {placed(added), added >= 0};
+        const int at = placed(added);
+        // Renamed "NAME (shown)" (another mesh's NAME differs): settings of that name.
+        if (added >= 0 && edits && scene.materials[static_cast<std::size_t>(at)].name != brought.name) {
+            Material& renamed = scene.materials[static_cast<std::size_t>(at)];
+            edits(renamed);
+        }
+        return {at, added >= 0};
     };
     // A glTF file defines its materials itself (one per name, mapped by its reader); what
     // its reader said of a material the scene's own replaces is moot.
@@ -402,7 +430,11 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         if (const int m = own("default"); m >= 0) {
             unnamed = m;
         } else {
-            const auto it = defined.find("default");
+            auto it = defined.find("default");
+            if (it != defined.end() && std::any_of(nowhere.begin(), nowhere.end(), [](const std::string& n) {
+                    return n.rfind("'default'", 0) == 0;
+                }))
+                it = defined.end();  // a usemtl default no MTL defines: grey, as the faces before it
             unnamed = from_file(it != defined.end() ? it->second : grey("default"));
             const std::string what = before == data.triangles.size()
                                          ? "its faces name no material (no usemtl)"

@@ -22,12 +22,16 @@ void strip_comment(std::string& line) {
         }
 }
 
-// Words a normal that is not finite is written as: "nan", "-nan(ind)", "inf", and
-// MSVC's "-1.#IND00", "1.#QNAN0", "1.#INF00".
-bool not_finite_words(std::string text) {
-    for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    for (const char* word : {"nan", "inf", "#ind", "#qnan"})
-        if (text.find(word) != std::string::npos) return true;
+// Words a normal that is not finite is written as: "nan", "-nan(ind)", "inf",
+// "infinity", and MSVC's "-1.#IND00", "1.#QNAN0", "1.#INF00" (whole words).
+bool not_finite_words(const std::string& text) {
+    std::istringstream words(text);
+    for (std::string w; words >> w;) {
+        for (char& c : w) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        if (!w.empty() && (w[0] == '-' || w[0] == '+')) w.erase(0, 1);
+        if (w == "nan" || w.rfind("nan(", 0) == 0 || w == "inf" || w == "infinity") return true;
+        if (w.rfind("1.#ind", 0) == 0 || w.rfind("1.#qnan", 0) == 0 || w.rfind("1.#inf", 0) == 0) return true;
+    }
     return false;
 }
 

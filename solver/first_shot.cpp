@@ -374,6 +374,8 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                 const double dist = std::max(to_centre.norm(), eps);
                 int N = std::clamp(static_cast<int>(std::ceil(8.0 * edge / dist)), 2, 64);
                 // A spot's cone edge across the patch: four times the samples along it.
+                // A cone that lands inside it (every corner outside): samples closer than
+                // the cone's radius there.
                 if (light.spot()) {
                     int full = 0, none = 0;
                     for (const Vec3& x : {a, b, c}) {
@@ -381,6 +383,18 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                         full += f == 1.0, none += f == 0.0;
                     }
                     if (full < 3 && none < 3) N = std::min(64, 4 * N);
+                    const double along = p.normal.dot(light.axis);
+                    if (none == 3 && along < 0.0 && light.cos_outer > 0.0) {
+                        const double reach = p.normal.dot(a - light.position) / along;  // to the plane on the axis
+                        const Vec3 q = light.position + reach * light.axis;
+                        const Vec3 across = (b - a).cross(c - a);
+                        const bool inside = across.dot((b - a).cross(q - a)) >= 0.0 &&
+                                            across.dot((c - b).cross(q - b)) >= 0.0 &&
+                                            across.dot((a - c).cross(q - c)) >= 0.0;
+                        const double radius = reach * std::sqrt(1.0 - light.cos_outer * light.cos_outer) / light.cos_outer;
+                        if (inside && reach > 0.0 && radius > 0.0)  // (a patch or two: up to 256² samples)
+                            N = static_cast<int>(std::clamp(std::ceil(4.0 * edge / radius), double(N), 256.0));
+                    }
                 }
                 double sum = 0.0;
                 auto sample = [&](double u, double v) {

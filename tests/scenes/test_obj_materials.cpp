@@ -10,6 +10,8 @@
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
+#include <cstdio>  // before jpeglib.h, which uses FILE and size_t
+
 #include <jpeglib.h>
 #include <png.h>
 
@@ -189,6 +191,32 @@ TEST_CASE("OBJ + MTL: two assets' materials of one name are one where they agree
                       Contains("(a '.' or '[' after \"])"));
     CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"\"]", "{}", ""}}),
                       Contains("(an empty name)"));
+    // Some values of "Material" edit each asset's own: both glow, each keeps its colour.
+    const auto named = [](const Scene& s, const std::string& name) -> const Material& {
+        REQUIRE(s.find_material(name) >= 0);
+        return s.materials[static_cast<std::size_t>(s.find_material(name))];
+    };
+    const Scene glow = parse_scene(both, "s.json", dir.path.string(), {{"materials.Material.emission", "[1, 1, 1]", ""}});
+    REQUIRE(glow.materials.size() == 2);
+    CHECK(named(glow, "Material").albedo[0] > 0.5);
+    CHECK(named(glow, "Material").emission.isApprox(Rgb::Ones()));
+    CHECK(named(glow, "Material (b.obj)").albedo.isApprox(Rgb(0.1, 0.1, 0.8)));
+    CHECK(named(glow, "Material (b.obj)").emission.isApprox(Rgb::Ones()));
+    // The renamed one by its name: b's alone.
+    const Scene one = parse_scene(both, "s.json", dir.path.string(), {{"materials[\"Material (b.obj)\"].emission", "[2, 2, 2]", ""}});
+    REQUIRE(one.materials.size() == 2);
+    CHECK(named(one, "Material").emission.isApprox(Rgb::Zero()));
+    CHECK(named(one, "Material (b.obj)").emission.isApprox(Rgb::Constant(2)));
+    CHECK(named(one, "Material (b.obj)").albedo.isApprox(Rgb(0.1, 0.1, 0.8)));
+    // A lobe given to a diffuse material needs its exponent.
+    CHECK_THROWS_WITH(parse_scene(both, "s.json", dir.path.string(), {{"materials[\"Material (b.obj)\"].specular", "[0.1, 0.1, 0.1]", ""}}),
+                      Contains("exponent: missing (a material with specular needs it)"));
+    // An object that names an edited material before any mesh brings it: a material of
+    // its own, which needs its albedo.
+    const std::string first = scene_with(R"({"quad": [[0,0,3], [1,0,3], [1,1,3], [0,1,3]], "material": "Material"}, {"mesh": "a.obj"})");
+    CHECK_THROWS_WITH(parse_scene(first, "s.json", dir.path.string(), {{"materials.Material.emission", "[1, 1, 1]", ""}}),
+                      Contains("materials.Material: no material 'Material' for -D to change a value of: objects[0] names "
+                               "it before any mesh brings one (a new material needs its albedo)"));
     // The same material twice is one, its warnings given once.
     const Scene same = parse_scene(scene_with(R"({"mesh": "a.obj"}, {"mesh": "c.obj", "translate": [2, 0, 0]})"), "s.json",
                                    dir.path.string());
@@ -528,6 +556,12 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
     CHECK(wall[1] == Approx(std::pow((100 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(0.02));
     CHECK(wall[2] == Approx(std::pow((50 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(0.03));
     CHECK_THAT(warning, Contains("its texture wall.jpg is read as its mean colour"));
+    // Cut short, libjpeg fills the rest with grey: no mean of its own colours.
+    write_jpeg((dir.path / "big.jpg").string(), 256, 256, {20, 200, 20});
+    const auto whole = std::filesystem::file_size(dir.path / "big.jpg");
+    std::filesystem::resize_file(dir.path / "big.jpg", whole * 9 / 10);  // inside its scan
+    CHECK(albedo_with("big.jpg", warning)[0] == Approx(0.2));
+    CHECK_THAT(warning, Contains("its texture big.jpg is not read (a JPEG libjpeg reads only in part (cut short?))"));
     albedo_with("broken.png", warning);
     CHECK_THAT(warning, Contains("its texture broken.png is not read (a PNG libpng cannot read: "));
     albedo_with("gone.png", warning);

@@ -127,6 +127,38 @@ TEST_CASE("spot light over a plane: its cone and fall-off, patch-averaged, withi
     CHECK(dark == 0.0);  // outside the cone: nothing
 }
 
+TEST_CASE("a narrow spot whose cone lands inside one patch: its light, within 3 %", "[solver][first-shot]") {
+    // A 5-degree spot 0.5 above a plane of two triangles (as modelled): every corner is
+    // outside the cone, which lights a disc of radius 0.044 inside one of them.
+    const double rho = 0.5;
+    auto scene = plane(rho, 10.0);
+    REQUIRE(scene.patch_count() == 2);
+    scenes::PointLight spot;
+    spot.position = Vec3(0.3, 0.2, 0.5);
+    spot.intensity = Rgb::Constant(1.0);
+    spot.axis = Vec3(0, 0, -1);
+    spot.cos_inner = std::cos(3.0 * M_PI / 180.0);
+    spot.cos_outer = std::cos(5.0 * M_PI / 180.0);
+    scene.point_lights.push_back(spot);
+    solver::FirstShot shot;
+    {
+        const scenes::RayCaster caster(scene);
+        shot = solver::first_shot(scene, caster);
+    }
+    const auto& pos = scene.vertex_positions();
+    double got = 0.0, exact = 0.0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+        const auto& p = scene.patch_list()[i];
+        got += shot.irradiance[i][0] * p.area;
+        exact += p.area * triangle_mean({pos[p.v[0]], pos[p.v[1]], pos[p.v[2]]}, 9, [&](const Vec3& x) {
+                     const Vec3 d = spot.position - x;
+                     return spot.falloff(-d.normalized()) * d.z() / d.norm() / d.squaredNorm();
+                 });
+    }
+    INFO("irradiance integral " << got << ", exact " << exact);
+    CHECK(got == Approx(exact).epsilon(0.03));
+}
+
 TEST_CASE("point light: shadows are exact, and a light behind a patch gives nothing", "[solver][first-shot]") {
     auto scene = plane(0.5, 0.06);
     // An occluder 0.25 x 0.25 at z = 0.25 under a light at z = 1 (facing up, so it
