@@ -45,6 +45,11 @@ scenes::Scene plane(double rho, double patch_size) {
     return s;
 }
 
+solver::FirstShot shoot(const scenes::Scene& scene) {
+    const scenes::RayCaster caster(scene);
+    return solver::first_shot(scene, caster);
+}
+
 solver::RadianceField iterate(const scenes::Scene& scene, const std::string& backend_name, long steps,
                               std::uint64_t seed = 1) {
     visibility::BackendOptions bo;
@@ -140,11 +145,7 @@ TEST_CASE("a narrow spot whose cone lands inside one patch: its light, within 3 
     spot.cos_inner = std::cos(3.0 * M_PI / 180.0);
     spot.cos_outer = std::cos(5.0 * M_PI / 180.0);
     scene.point_lights.push_back(spot);
-    solver::FirstShot shot;
-    {
-        const scenes::RayCaster caster(scene);
-        shot = solver::first_shot(scene, caster);
-    }
+    const solver::FirstShot shot = shoot(scene);
     const auto& pos = scene.vertex_positions();
     double got = 0.0, exact = 0.0;
     for (std::size_t i = 0; i < scene.patch_count(); ++i) {
@@ -172,11 +173,7 @@ TEST_CASE("point light: shadows are exact, and a light behind a patch gives noth
     scene.finalize();
     scene.point_lights.push_back({Vec3(0, 0, 1), Rgb::Constant(1.0)});
     scene.point_lights.push_back({Vec3(0, 0, -1), Rgb::Constant(1.0)});  // below the plane: no effect
-    solver::FirstShot shot;
-    {
-        const scenes::RayCaster caster(scene);
-        shot = solver::first_shot(scene, caster);
-    }
+    const solver::FirstShot shot = shoot(scene);
     const auto& pos = scene.vertex_positions();
     int in_umbra = 0, lit = 0;
     for (std::size_t i = 0; i < scene.patch_count(); ++i) {
