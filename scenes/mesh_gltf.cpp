@@ -418,7 +418,8 @@ private:
         if (pbr.baseColorTexture.index >= 0) {
             if (const auto mean = texture_mean(pbr.baseColorTexture.index, where)) {
                 base = base * *mean;
-                warn("material '" + name + "': its base colour texture is read as its mean colour");
+                warn("material '" + name + "': its base colour texture is read as its mean colour " + number((*mean)[0]) +
+                     " " + number((*mean)[1]) + " " + number((*mean)[2]));
             } else {
                 warn("material '" + name + "': its base colour texture is not read (" +
                      texture_why_[pbr.baseColorTexture.index] + "); its factor is the colour");
@@ -459,7 +460,8 @@ private:
         if (m.emissiveTexture.index >= 0 && (emission > 0.0).any()) {
             if (const auto mean = texture_mean(m.emissiveTexture.index, where)) {
                 emission = emission * *mean;
-                warn("material '" + name + "': its emissive texture is read as its mean colour");
+                warn("material '" + name + "': its emissive texture is read as its mean colour " + number((*mean)[0]) +
+                     " " + number((*mean)[1]) + " " + number((*mean)[2]));
             } else {
                 warn("material '" + name + "': its emissive texture is not read (" +
                      texture_why_[m.emissiveTexture.index] + "); its factor is the emission");

@@ -10,6 +10,7 @@
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
+#include <png.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -469,6 +470,27 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     CHECK(e.triangles.size() == 1);
     REQUIRE(e.warnings.size() == 1);
     CHECK_THAT(e.warnings[0], Contains("meshes[1] (placed by nodes[2]) has no primitives"));
+    // A base colour texture: its mean linear colour times the factor, the mean in the
+    // warning.
+    const unsigned char rgba[8] = {255, 0, 0, 255, 0, 0, 255, 255};
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    image.width = 2;
+    image.height = 1;
+    image.format = PNG_FORMAT_RGBA;
+    png_alloc_size_t png_size = 0;
+    REQUIRE(png_image_write_to_memory(&image, nullptr, &png_size, 0, rgba, 0, nullptr));
+    std::string png(png_size, '\0');
+    REQUIRE(png_image_write_to_memory(&image, png.data(), &png_size, 0, rgba, 0, nullptr));
+    json textured = asset();
+    textured["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
+    textured["textures"] = {{{"source", 0}}};
+    textured["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {1, 1, 0.5, 1};
+    textured["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    const MeshData tex = parse(textured);
+    CHECK(tex.material_defs[0].albedo.isApprox(Rgb(0.5, 0, 0.25)));
+    REQUIRE(tex.warnings.size() == 1);
+    CHECK(tex.warnings[0] == "a.gltf: material 'paint': its base colour texture is read as its mean colour 0.5 0 0.5");
     // A rotation that is not of unit length: its direction, with a warning past the
     // rounding of floats (glTF asks for unit quaternions).
     json twice = asset();
