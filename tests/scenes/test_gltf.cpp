@@ -7,10 +7,10 @@
 #include "scenes/mesh_file.h"
 #include "solver/radiance_field.h"
 
+#include "png_bytes.h"
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
-#include <png.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -473,15 +473,7 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     // A base colour texture: its mean linear colour times the factor, the mean in the
     // warning.
     const unsigned char rgba[8] = {255, 0, 0, 255, 0, 0, 255, 255};
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    image.width = 2;
-    image.height = 1;
-    image.format = PNG_FORMAT_RGBA;
-    png_alloc_size_t png_size = 0;
-    REQUIRE(png_image_write_to_memory(&image, nullptr, &png_size, 0, rgba, 0, nullptr));
-    std::string png(png_size, '\0');
-    REQUIRE(png_image_write_to_memory(&image, png.data(), &png_size, 0, rgba, 0, nullptr));
+    const std::string png = raybundle::test::png_bytes(2, 1, rgba);
     json textured = asset();
     textured["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
     textured["textures"] = {{{"source", 0}}};

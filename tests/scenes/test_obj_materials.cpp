@@ -7,13 +7,13 @@
 #include "scenes/loader.h"
 #include "scenes/mesh_file.h"
 
+#include "png_bytes.h"
 #include "temp_dir.h"
 
 #include <catch2/catch.hpp>
 #include <cstdio>  // before jpeglib.h, which uses FILE and size_t
 
 #include <jpeglib.h>
-#include <png.h>
 
 #include <algorithm>
 #include <cmath>
@@ -511,13 +511,8 @@ TEST_CASE("MTL: map_Kd as exporters write it, and a texture not read says why", 
     // 2 x 1 texels, RGBA: red of alpha 0 and green of alpha 128. Alpha is left out, not
     // mixed onto black: the mean is (0.5, 0.5, 0).
     const unsigned char rgba[8] = {255, 0, 0, 0, 0, 255, 0, 128};
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    image.width = 2;
-    image.height = 1;
-    image.format = PNG_FORMAT_RGBA;
     std::filesystem::create_directories(dir.path / "my maps");
-    REQUIRE(png_image_write_to_file(&image, (dir.path / "my maps" / "cut out.png").string().c_str(), 0, rgba, 0, nullptr));
+    dir.write("my maps/cut out.png", raybundle::test::png_bytes(2, 1, rgba));
     dir.write("photo.jpg", std::string("\xFF\xD8\xFF\xE0\x00\x10JFIF", 10));
     dir.write("broken.png", std::string("\x89PNG\r\n\x1A\n\x00\x00", 10));
     dir.write("t.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl m\nf 1 3 2\n");
