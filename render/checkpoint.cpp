@@ -98,6 +98,11 @@ std::string scene_hash(const scenes::Scene& scene) {
             f.value(l.cos_outer);
         }
     }
+    if (!scene.directional_lights.empty()) f.value(scene.directional_lights.size());  // (none: as before they were read)
+    for (const auto& l : scene.directional_lights) {
+        f.vec(l.direction);
+        f.rgb(l.irradiance);
+    }
     if (scene.sky) {
         f.rgb(scene.sky->radiance);
         f.vec(scene.sky->up);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace raybundle::render {
 
@@ -73,7 +74,7 @@ void DirectLighting::add_lobe_direction(const Surface& at, const Vec3& w, double
            (cos_x / both);
 }
 
-void DirectLighting::add_point_lights(const Surface& at, const Rgb& weight, Rgb& sum, long& rays) const {
+void DirectLighting::add_punctual_lights(const Surface& at, const Rgb& weight, Rgb& sum, long& rays) const {
     for (const auto& light : scene_.point_lights) {
         const Vec3 d = light.position - at.from;
         const double r = d.norm();
@@ -85,6 +86,14 @@ void DirectLighting::add_point_lights(const Surface& at, const Rgb& weight, Rgb&
         ++rays;
         if (!visible(at.from, w, r)) continue;
         sum += weight * scenes::brdf(at.material, at.normal, -w, at.to_eye) * light.intensity * (sent * cos_x / (r * r));
+    }
+    for (const auto& light : scene_.directional_lights) {
+        const Vec3 w = -light.direction;
+        const double cos_x = at.normal.dot(w);
+        if (cos_x <= 0.0) continue;
+        ++rays;
+        if (caster_.occluded(at.from, w, 0.0, std::numeric_limits<double>::infinity())) continue;
+        sum += weight * scenes::brdf(at.material, at.normal, light.direction, at.to_eye) * light.irradiance * cos_x;
     }
 }
 

@@ -9,7 +9,7 @@
 //     f Le cos_x / (p_light + p_lobe) (add_lobe_direction), or, where the caller
 //     carries the throughput f cos_x / p_lobe on (a path), Le p_lobe / (p_lobe + p_light)
 //     (emitter_weight).
-// Point lights are exact, one shadow ray each (add_point_lights). The terms are added
+// Point and directional lights are exact, one shadow ray each (add_punctual_lights). The terms are added
 // into the caller's running sum, each led by the caller's weight (a path's throughput),
 // so that where they are used the arithmetic is the same, term for term.
 //
@@ -69,8 +69,9 @@ public:
     double emitter_weight(std::size_t patch, double t, double cos_y, double pdf) const {
         return pdf / (pdf + lights_.pdf_solid_angle(patch, t, cos_y));
     }
-    // Every point light: adds weight f I cos_x / r^2 where it is seen.
-    void add_point_lights(const Surface& at, const scenes::Rgb& weight, scenes::Rgb& sum, long& rays) const;
+    // Every point light: adds weight f I cos_x / r^2 where it is seen; every
+    // directional light: weight f E cos_x where its shadow ray leaves the scene.
+    void add_punctual_lights(const Surface& at, const scenes::Rgb& weight, scenes::Rgb& sum, long& rays) const;
 
     // The gather's direct light from the area lights, `samples` of them (DirectLight).
     scenes::Rgb sampled(const Surface& at, int samples, sampling::Rng& rng, long& rays) const;

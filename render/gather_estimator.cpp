@@ -90,7 +90,7 @@ Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const V
     Rgb sum = Rgb::Zero();
     if (!lighting_.lights().empty() && samples > 0)
         sum = analytic_ ? lighting_.analytic(at, samples, rng, rays) : lighting_.sampled(at, samples, rng, rays);
-    lighting_.add_point_lights(at, Rgb::Ones(), sum, rays);
+    lighting_.add_punctual_lights(at, Rgb::Ones(), sum, rays);
     return sum;
 }
 
@@ -166,7 +166,7 @@ Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const V
     Rgb L = Rgb::Zero();
     if (!lighting_.lights().empty())
         lighting_.add_light_point(at, lighting_.draw_light(rng), Lobe::full, Rgb::Ones(), L, rays);
-    lighting_.add_point_lights(at, Rgb::Ones(), L, rays);
+    lighting_.add_punctual_lights(at, Rgb::Ones(), L, rays);
     // u3 first: the order GCC gave the one-line call this replaces (sampling/rng.h).
     const double u3 = rng.uniform(), u2 = rng.uniform(), u1 = rng.uniform();
     const auto s = scenes::sample_brdf(m, n, w_out, u1, u2, u3);
@@ -196,7 +196,7 @@ Rgb GatherEstimator::direct_at_hit(const scenes::RayHit& hit, const Vec3& y, con
     const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
     const DirectLighting::Surface at{m, n, lighting_.origin(y, patches_[q].normal, w_out), w_out};
     Rgb L = Rgb::Zero();
-    lighting_.add_point_lights(at, Rgb::Ones(), L, rays);
+    lighting_.add_punctual_lights(at, Rgb::Ones(), L, rays);
     const AreaLights& lights = lighting_.lights();
     if (lights.empty()) return L;
     const bool all_seen = direct_at_[q] == 1;

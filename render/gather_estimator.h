@@ -22,7 +22,7 @@
 // Direct light at the hits (GatherOptions::direct_at_hits): on the patches across which
 // the shots' direct light varies, a reading is the field less its direct part
 // (RadianceField::direct, both smoothed to the hit point as the field is) plus the
-// direct light at the hit point: every point light, and of the area lights an unbiased
+// direct light at the hit point: every point and directional light, and of the area lights an unbiased
 // one-ray estimate. Where most of a patch sees the lights, that estimate is the exact
 // unoccluded irradiance E0 (render/lights.h) less what a light point drawn by power
 // finds blocked, E0 - (1 - V) g / p; elsewhere V g / p. Each is exact where its
@@ -71,7 +71,7 @@ public:
         return lighting_.shading_normal(p, b1, b2, to_eye);
     }
     // Direct light leaving x (on patch p, front side, shading normal n) towards
-    // `to_eye`, from `samples` light samples and every point light; its emission not
+    // `to_eye`, from `samples` light samples and every point and directional light; its emission not
     // included.
     scenes::Rgb direct(std::size_t p, const scenes::Vec3& x, const scenes::Vec3& n, const scenes::Vec3& to_eye,
                        int samples, sampling::Rng& rng, long& rays) const;
@@ -100,7 +100,7 @@ private:
                          sampling::Rng& rng, long& rays, int bounce, double go_on, bool corrected) const;
     // The radiance a surface met by a secondary ray sends back towards it, its
     // emission excluded: one light point and one BRDF direction (balance heuristic for
-    // the light they meet) plus every point light; what the direction meets reflects
+    // the light they meet) plus every point and directional light; what the direction meets reflects
     // the field (field_along).
     scenes::Rgb bounce_at(const scenes::RayHit& hit, const scenes::Vec3& y, const scenes::Vec3& w_out,
                           sampling::Rng& rng, long& rays, int bounce, bool corrected) const;

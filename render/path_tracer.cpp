@@ -54,11 +54,11 @@ public:
                 L += throughput * m.emission * w;
             }
             const Vec3 origin = lighting_.origin(x, patch.normal, to_eye);
-            // Next-event estimation: one point of an area light, every point light.
+            // Next-event estimation: one point of an area light, every point and directional light.
             const DirectLighting::Surface at{m, n, origin, to_eye};
             if (!lighting_.lights().empty())
                 lighting_.add_light_point(at, lighting_.draw_light(rng), Lobe::full, throughput, L, rays);
-            lighting_.add_point_lights(at, throughput, L, rays);
+            lighting_.add_punctual_lights(at, throughput, L, rays);
             // Continue along a direction drawn from the BRDF.
             const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
             const auto s = scenes::sample_brdf(m, n, to_eye, u1, u2, u3);

@@ -1,11 +1,11 @@
 #pragma once
 // A brute-force reference: unidirectional path tracing with the project's BRDFs
-// (scenes/brdf.h), area lights, point lights and the sky, unbiased, so that any image
+// (scenes/brdf.h), area lights, point and directional lights and the sky, unbiased, so that any image
 // of the final gather can be checked against it on any scene.
 //
 // Per camera sample (on a jittered grid over the pixel, sampling/strata.h):
 // at every vertex next-event estimation towards a power-chosen point of an area light
-// and towards every point light, and a direction drawn from the BRDF (scenes/brdf.h
+// and towards every point and directional light, and a direction drawn from the BRDF (scenes/brdf.h
 // sample_brdf) that continues the path; an emitter met by that direction counts with
 // the balance heuristic against light sampling, the sky with weight 1 (it is never
 // sampled directly). Russian roulette from the fourth vertex on (survival probability

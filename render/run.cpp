@@ -77,6 +77,7 @@ void warn_about(const scenes::Scene& scene, const SceneSummary& summary, const R
                       file = scene.name.substr(scene.name.find_last_of('/') == std::string::npos ? 0 : scene.name.find_last_of('/') + 1) + ": ";
     for (const auto& line : winding_warnings(summary))
         hooks.warn(line.rfind(prefix, 0) == 0 || line.rfind(file, 0) == 0 ? line : prefix + line);
+    for (const auto& line : light_warnings(scene, summary)) hooks.warn(prefix + line);
     if (!has_light(scene)) hooks.warn(scene.name + ": " + kNoLight);
 }
 
@@ -547,7 +548,7 @@ RunResult run_scene(const scenes::Scene& scene, const RunConfig& c, const RunHoo
         return traced;
     }
 
-    // The first shot (point lights) and the diffuse shot, once, before any direction.
+    // The first shot (point and directional lights) and the diffuse shot, once, before any direction.
     solver::ShotOptions shots = c.shots;
     std::string shot_choice;
     std::tie(shots.diffuse_shot, shot_choice) = decide_diffuse_shot(scene, c.diffuse_shot);

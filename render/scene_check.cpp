@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 namespace raybundle::render {
@@ -149,11 +150,17 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
                     continue;
                 }
             }
-            // Open sky is something to see, and so is a point light in front.
-            const bool lit = std::any_of(scene.point_lights.begin(), scene.point_lights.end(), [&](const scenes::PointLight& l) {
-                return (l.intensity > 0.0).any() && p.normal.dot(l.position - p.centroid) > 0.0 &&
-                       l.falloff((p.centroid - l.position).normalized()) > 0.0;
-            });
+            // Open sky is something to see, and so is a point or directional light in front.
+            const bool lit =
+                std::any_of(scene.point_lights.begin(), scene.point_lights.end(),
+                            [&](const scenes::PointLight& l) {
+                                return (l.intensity > 0.0).any() && p.normal.dot(l.position - p.centroid) > 0.0 &&
+                                       l.falloff((p.centroid - l.position).normalized()) > 0.0;
+                            }) ||
+                std::any_of(scene.directional_lights.begin(), scene.directional_lights.end(),
+                            [&](const scenes::DirectionalLight& l) {
+                                return (l.irradiance > 0.0).any() && p.normal.dot(l.direction) < 0.0;
+                            });
             if (seen[i] || scene.sky || lit || in_view(i)) continue;
             scenes::Vec3 u, v;
             scenes::orthonormal_basis(p.normal, u, v);
@@ -193,18 +200,47 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             object.unseen_area += p.area;
         }
     }
+    // Each directional light's shadow ray from every patch centroid that faces it.
+    for (const auto& light : scene.directional_lights) {
+        std::vector<char> reached(patches.size(), 0);
+        parallel_chunks(static_cast<int>(patches.size()), threads, [&](int i0, int i1, int) {
+            for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
+                const auto& p = patches[i];
+                reached[i] = p.normal.dot(light.direction) < 0.0 &&
+                             !caster.occluded(p.centroid + offset * p.normal, -light.direction, 0.0,
+                                              std::numeric_limits<double>::infinity());
+            }
+        });
+        s.sunlit.push_back(static_cast<std::size_t>(std::count(reached.begin(), reached.end(), 1)));
+    }
     s.overlaps = scenes::coplanar_overlaps(scene, threads);
     return s;
 }
 
 bool has_light(const scenes::Scene& scene) {
     const bool point = std::any_of(scene.point_lights.begin(), scene.point_lights.end(),
-                                   [](const scenes::PointLight& l) { return (l.intensity > 0.0).any(); });
+                                   [](const scenes::PointLight& l) { return (l.intensity > 0.0).any(); }) ||
+                       std::any_of(scene.directional_lights.begin(), scene.directional_lights.end(),
+                                   [](const scenes::DirectionalLight& l) { return (l.irradiance > 0.0).any(); });
     const auto& patches = scene.patch_list();
     const bool emission = std::any_of(patches.begin(), patches.end(), [&scene](const scenes::Patch& p) {
         return scene.materials[static_cast<std::size_t>(p.material)].emissive();
     });
     return point || emission || (scene.sky && (scene.sky->radiance > 0.0).any());
+}
+
+std::vector<std::string> light_warnings(const scenes::Scene& scene, const SceneSummary& summary) {
+    std::vector<std::string> lines;
+    for (std::size_t k = 0; k < summary.sunlit.size() && k < scene.directional_lights.size(); ++k) {
+        const auto& light = scene.directional_lights[k];
+        if (summary.sunlit[k] > 0 || !(light.irradiance > 0.0).any()) continue;
+        const auto& d = light.direction;
+        lines.push_back(strprintf("directional light %zu (along (%.4g, %.4g, %.4g)) reaches no patch: every patch facing "
+                                  "it is in shadow (walls all round keep a sun out; open the room towards it, or light "
+                                  "it otherwise)",
+                                  k, d.x(), d.y(), d.z()));
+    }
+    return lines;
 }
 
 std::string overlap_example(const scenes::Scene& scene, const scenes::CoplanarOverlaps& overlaps) {
@@ -306,8 +342,15 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
     const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
                                      [](const scenes::PointLight& l) { return l.spot(); });
-    print("lights      %zu emissive patches (area %.6g), %zu point lights%s\n", s.emissive_patches, s.emissive_area,
+    print("lights      %zu emissive patches (area %.6g), %zu point lights%s", s.emissive_patches, s.emissive_area,
           scene.point_lights.size(), spots > 0 ? (" (" + std::to_string(spots) + (spots == 1 ? " spot)" : " spots)")).c_str() : "");
+    if (!scene.directional_lights.empty()) print(", %zu directional", scene.directional_lights.size());
+    out += "\n";
+    for (std::size_t k = 0; k < scene.directional_lights.size() && k < s.sunlit.size(); ++k) {
+        const auto& l = scene.directional_lights[k];
+        print("            directional %zu: along %s, irradiance %s, reaches %zu of %zu patches\n", k,
+              vec3(l.direction).c_str(), vec3(l.irradiance.matrix()).c_str(), s.sunlit[k], s.patches);
+    }
     print("sky         %s\n", !scene.sky                                            ? "none"
                                     : scene.sky->model == scenes::Sky::Model::constant ? "constant"
                                                                                           : "CIE overcast");
@@ -346,6 +389,7 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     for (const auto& [w, times] : distinct)
         print("warning     %s%s\n", w.c_str(), times > 1 ? (" (" + std::to_string(times) + " times)").c_str() : "");
     for (const auto& w : winding_warnings(s)) print("warning     %s\n", w.c_str());
+    for (const auto& w : light_warnings(scene, s)) print("warning     %s\n", w.c_str());
     if (!has_light(scene)) print("warning     %s\n", kNoLight);
     return out;
 }

@@ -56,6 +56,8 @@ struct SceneSummary {
     // The object the eye is inside: of 26 rays from it, 18 or more meet a back side of
     // that object's one-sided patches first and none its front (-1: none).
     int camera_inside = -1;
+    // Per directional light: the patches whose centroid it reaches (faced, unshadowed).
+    std::vector<std::size_t> sunlit;
 };
 
 // `max_pixels` > 0 casts the camera rays on a coarser grid of about that many pixels
@@ -63,10 +65,15 @@ struct SceneSummary {
 SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1,
                        long max_pixels = 0);
 
-// Whether anything lights the scene: an emissive patch, a point light or a sky of
-// positive radiance; kNoLight says why the image is black otherwise.
+// Whether anything lights the scene: an emissive patch, a point or directional light
+// or a sky of positive radiance; kNoLight says why the image is black otherwise.
 bool has_light(const scenes::Scene& scene);
-inline constexpr const char* kNoLight = "no light (no emissive patch, point light or sky above zero): the image is black";
+inline constexpr const char* kNoLight =
+    "no light (no emissive patch, point or directional light or sky above zero): the image is black";
+
+// One line per directional light that reaches no patch's centroid (walls all round
+// keep a sun out).
+std::vector<std::string> light_warnings(const scenes::Scene& scene, const SceneSummary& summary);
 
 // The coplanar overlaps' example by the objects' names: "'floor' (patch 18) and 'rug'
 // (patch 452)", or "patches 3 and 9 of 'floor'".

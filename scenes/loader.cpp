@@ -198,7 +198,7 @@ std::vector<std::array<int, 3>> reversed(std::vector<std::array<int, 3>> tris) {
 
 // A mesh object's placement: "scale" (a number or [sx, sy, sz], none 0: negative
 // mirrors), "rotate" ([x, y, z] degrees about the axes, x first), "translate" ([x, y,
-// z]), applied in that order to its vertices, normals and point lights. A mirror
+// z]), applied in that order to its vertices, normals and lights. A mirror
 // turns its triangles round, so that their fronts stay their fronts.
 void place_mesh(const Node& obj, MeshData& data) {
     Vec3 scale = Vec3::Ones();
@@ -225,6 +225,7 @@ void place_mesh(const Node& obj, MeshData& data) {
         light.position = linear * light.position + offset;
         if (light.spot()) light.axis = (linear * light.axis).normalized();  // (its cone as it was)
     }
+    for (auto& light : data.directional_lights) light.direction = (linear * light.direction).normalized();
     if (data.camera) {
         data.camera->eye = linear * data.camera->eye + offset;
         data.camera->target = linear * data.camera->target + offset;
@@ -349,6 +350,20 @@ PointLight parse_point_light(const Node& n) {
         n.fail("inner_angle", "must be in [0, outer_angle = " + format_number(outer) + "] degrees, got " + format_number(inner));
     l.cos_outer = std::cos(outer * M_PI / 180.0);
     l.cos_inner = std::cos(inner * M_PI / 180.0);
+    return l;
+}
+
+// A directional light: parallel light travelling along "direction", of "irradiance"
+// on a surface facing it.
+DirectionalLight parse_directional_light(const Node& n) {
+    n.require_object();
+    n.check_keys({"direction", "irradiance"});
+    DirectionalLight l;
+    const Vec3 direction = n.vec3("direction");
+    if (!(direction.norm() > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(direction.array()));
+    l.direction = direction.normalized();
+    l.irradiance = n.vec3("irradiance").array();
+    if ((l.irradiance < 0).any()) n.fail("irradiance", "negative irradiance " + rgb_text(l.irradiance));
     return l;
 }
 
@@ -650,7 +665,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     Node root(doc, shown, "");
     root.require_object();
     root.check_keys(
-        {"camera", "crease_angle", "cut_contacts", "materials", "objects", "patch_size", "point_lights", "sky"});
+        {"camera", "crease_angle", "cut_contacts", "directional_lights", "materials", "objects", "patch_size",
+         "point_lights", "sky"});
     const double crease = root.has("crease_angle") ? crease_angle(root) : Scene::default_crease_angle;
 
     Scene scene;
@@ -764,6 +780,15 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                                          " is too large (at most " + format_number(kMaxMagnitude) + ")");
             }
             scene.point_lights.insert(scene.point_lights.end(), data.point_lights.begin(), data.point_lights.end());
+            for (std::size_t k = 0; k < data.directional_lights.size(); ++k) {
+                const double most = data.directional_lights[k].irradiance.maxCoeff();
+                if (!(most <= kMaxMagnitude))
+                    obj.fail("mesh", rel + ": directional light " + std::to_string(k) + ": intensity " +
+                                         format_number(most) + " is too large (at most " + format_number(kMaxMagnitude) +
+                                         ")");
+            }
+            scene.directional_lights.insert(scene.directional_lights.end(), data.directional_lights.begin(),
+                                            data.directional_lights.end());
             for (std::size_t v = 0; v < data.vertices.size(); ++v) {
                 if (!data.vertices[v].allFinite())  // a placement's inf - inf
                     obj.fail("mesh", rel + ": vertex " + std::to_string(v) + ": (" + format_number(data.vertices[v].x()) + ", " +
@@ -873,6 +898,14 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         for (std::size_t i = 0; i < lights.size(); ++i)
             scene.point_lights.push_back(
                 parse_point_light(Node(lights[i], shown, "point_lights[" + std::to_string(i) + "]")));
+    }
+    if (root.has("directional_lights")) {
+        const json& lights = root.raw("directional_lights");
+        if (!lights.is_array())
+            root.fail("directional_lights", std::string("expected an array, got ") + type_name(lights));
+        for (std::size_t i = 0; i < lights.size(); ++i)
+            scene.directional_lights.push_back(
+                parse_directional_light(Node(lights[i], shown, "directional_lights[" + std::to_string(i) + "]")));
     }
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
     for (const auto& [name, values] : edits)

@@ -31,11 +31,12 @@ struct MeshData {
     std::vector<std::string> materials, groups, material_libraries;
     std::vector<long> material_lines;  // OBJ: the line of each material's first `usemtl`
     // glTF only: the file's own materials (mapped: docs/scene-format.md), one per name
-    // of `materials`; its KHR_lights_punctual point lights and its first camera (in
+    // of `materials`; its KHR_lights_punctual point, spot and directional lights and its first camera (in
     // world space); what was read otherwise or not at all, one line each (naming the
     // file); and the files it read besides itself (buffers, textures).
     std::vector<Material> material_defs;
     std::vector<PointLight> point_lights;
+    std::vector<DirectionalLight> directional_lights;
     std::optional<Camera> camera;
     std::vector<std::string> warnings, resources;
 };
@@ -106,8 +107,8 @@ inline constexpr std::size_t kMaxMeshTriangles = 100'000'000;
 // on in the next line.
 MeshData read_mesh_file(const std::string& path, const std::string& shown);
 // glTF 2.0 (.gltf, .glb; scenes/mesh_gltf.cpp): the triangles of the default scene's
-// nodes in world space, its materials, point lights and first camera. Throws
-// SceneError naming the file and the object: malformed JSON or GLB, a missing buffer,
+// nodes in world space, its materials, point, spot and directional lights and first
+// camera. Throws SceneError naming the file and the object: malformed JSON or GLB, a missing buffer,
 // an accessor out of its buffer's range, an index out of range, a node that is its own
 // ancestor or has two parents, a required extension it cannot read, more than
 // `max_triangles` triangles.

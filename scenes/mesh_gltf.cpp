@@ -1,6 +1,7 @@
 // glTF 2.0 (.gltf and .glb) through tinygltf (scenes/tiny_gltf.cpp): the triangles of
 // the default scene's nodes in world space, with their materials mapped to ours, the
-// KHR_lights_punctual point lights and the first camera (docs/scene-format.md, "glTF").
+// KHR_lights_punctual point, spot and directional lights and the first camera
+// (docs/scene-format.md, "glTF").
 // tinygltf parses the JSON and the GLB container and decodes data URIs; everything it
 // leaves unchecked (accessor ranges, indices, the node tree) is checked here, before
 // anything is allocated for it.
@@ -889,8 +890,10 @@ private:
             fail(where, "KHR_lights_punctual: light index missing or out of range");
         const auto& light = model_.lights[static_cast<std::size_t>(index.Get<int>())];
         const std::string named = "light '" + (light.name.empty() ? std::to_string(index.Get<int>()) : light.name) + "'";
-        if (light.type != "point" && light.type != "spot") {
-            warn(where + ": " + named + ": a " + light.type + " light is not read (point and spot lights are)");
+        if (light.type != "point" && light.type != "spot" && light.type != "directional") {
+            const bool vowel = !light.type.empty() && std::string("aeiou").find(light.type[0]) != std::string::npos;
+            warn(where + ": " + named + (vowel ? ": an " : ": a ") + light.type +
+                 " light is not read (point, spot and directional lights are)");
             return;
         }
         Rgb colour = Rgb::Ones();
@@ -898,6 +901,14 @@ private:
         const Rgb intensity = colour * light.intensity;
         if (!intensity.allFinite() || (intensity < 0.0).any())
             fail(where, named + ": intensity " + number(light.intensity) + " or colour is negative or not finite");
+        if (light.type == "directional") {
+            // Along the node's -z; intensity in lux: the irradiance of a surface facing it.
+            const Vec3 direction = -world.block<3, 1>(0, 2);
+            if (!(direction.norm() > 0.0))
+                fail(where, named + ": its node's transform has no -z direction (a scale of 0)");
+            out_.directional_lights.push_back({direction.normalized(), intensity});
+            return;
+        }
         if (light.range > 0.0) warn(where + ": " + named + ": its range is not read (the light reaches everywhere)");
         PointLight p;
         p.position = world.block<3, 1>(0, 3);

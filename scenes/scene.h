@@ -75,6 +75,14 @@ struct PointLight {
     }
 };
 
+// A directional light (a sun): parallel light travelling along `direction` (unit),
+// `irradiance` on a surface that faces it (W/m^2 per channel; glTF's lux). Handled
+// by the first shot, as a point light is.
+struct DirectionalLight {
+    Vec3 direction{0, -1, 0};
+    Rgb irradiance = Rgb::Zero();
+};
+
 // Light from directions no patch covers. "constant": the same radiance from every
 // direction above the horizon (up . w > 0). "overcast": the CIE standard overcast
 // sky, L(theta) = radiance (1 + 2 cos theta) / 3 with theta the angle from the
@@ -112,6 +120,7 @@ public:
     std::vector<Material> materials;
     Camera camera;
     std::vector<PointLight> point_lights;
+    std::vector<DirectionalLight> directional_lights;
     std::optional<Sky> sky;
     std::optional<double> exact_radiance;  // known analytic answer (every patch, every channel)
     // For a closed scene with one albedo a everywhere (and exact_radiance set): the
@@ -209,6 +218,8 @@ public:
     double total_area() const { return area_sum; }
     bool has_glossy() const;
     bool has_emission() const;
+    // Point, spot or directional lights: lights without area, which the first shot takes.
+    bool has_punctual_lights() const { return !point_lights.empty() || !directional_lights.empty(); }
 
 private:
     Buffer<Patch> patches;  // filled on the threads (scenes/buffer.h)

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <utility>
@@ -353,6 +354,25 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
     const auto& patches = scene.patch_list();
     const auto& pos = scene.vertex_positions();
     const double eps = 1e-9 * scene.bounds_radius();
+    // The unshadowed share of triangle abc (normal n) under parallel light travelling
+    // along d: the share of shadow rays towards -d, from points of its N^2 sub-triangles
+    // just off its front, that leave the scene. N = 4 tells whether a shadow's edge
+    // crosses it; where those 16 disagree, N = 32 measures the share (a straight edge's
+    // quadrature error is then below about 1 % of the patch).
+    const double offset = 1e-6 * scene.bounds_radius();
+    auto sun_share = [&](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& normal, const Vec3& d, long& cast) {
+        auto share = [&](int N) {
+            int seen = 0;
+            subtriangle_centroids(N, [&](double u, double v) {
+                const Vec3 x = a + u * (b - a) + v * (c - a) + offset * normal;
+                seen += !caster.occluded(x, -d, 0.0, std::numeric_limits<double>::infinity());
+            });
+            cast += static_cast<long>(N) * N;
+            return static_cast<double>(seen) / (static_cast<double>(N) * N);
+        };
+        const double coarse = share(4);
+        return coarse == 0.0 || coarse == 1.0 ? coarse : share(32);
+    };
     // Receivers are independent: bands of them on the threads, each receiver's lights
     // in the scene's order; the bands' glossy hits joined in band order (patch order,
     // each patch's in light order) and their rays summed.
@@ -416,6 +436,17 @@ FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster
                 shot.irradiance[i] += e;
                 if (scene.material_of(i).glossy())
                     hits[static_cast<std::size_t>(t)].push_back({static_cast<std::uint32_t>(i), to_centre / dist, e});
+            }
+            for (const auto& light : scene.directional_lights) {
+                // Parallel light: E cos(theta) over the whole patch, times its unshadowed share.
+                const double cos_theta = -p.normal.dot(light.direction);
+                if (cos_theta <= 0.0) continue;
+                const double share = sun_share(a, b, c, p.normal, light.direction, rays[static_cast<std::size_t>(t)]);
+                if (share == 0.0) continue;
+                const Rgb e = light.irradiance * (cos_theta * share);
+                shot.irradiance[i] += e;
+                if (scene.material_of(i).glossy())
+                    hits[static_cast<std::size_t>(t)].push_back({static_cast<std::uint32_t>(i), light.direction, e});
             }
         }
     });

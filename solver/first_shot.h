@@ -1,5 +1,5 @@
 #pragma once
-// The first shot (004 section 9): the direct effect of point lights, computed once
+// The first shot (004 section 9): the direct effect of point and directional lights, computed once
 // and exactly (up to quadrature over each patch) with shadow rays; afterwards the
 // lights leave the iteration, and what the patches reflect of them is an emission.
 //
@@ -8,6 +8,10 @@
 // split of the patch into N^2 similar triangles, N chosen so that a sub-triangle is
 // small against its distance to the light (N = ceil(8 edge / r), 2..64): the
 // quadrature error is then well below 1 %.
+//
+// A directional light (a sun) gives a patch E cos(theta) times its unshadowed share:
+// the share of shadow rays towards the light, from 16 points of it, that leave the
+// scene, or from 1,024 where those 16 disagree (a shadow's edge crosses it).
 #include "sampling/run.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
@@ -18,7 +22,8 @@
 namespace raybundle::solver {
 
 struct FirstShot {
-    // Per patch: irradiance from all point lights (W/m^2 per channel, patch average).
+    // Per patch: irradiance from all point and directional lights (W/m^2 per channel,
+    // patch average).
     std::vector<scenes::Rgb> irradiance;
     // Per (glossy patch, light) with light on it: the light's direction of travel to
     // the patch centroid and that light's irradiance, for the view-dependent part.
@@ -31,9 +36,9 @@ struct FirstShot {
     long shadow_rays = 0;
 };
 
-// Computes the first shot of every point light of the scene, receivers split over
-// `threads` (the same result for any count); glossy hits in patch order, each patch's
-// in the lights' order.
+// Computes the first shot of every point and directional light of the scene,
+// receivers split over `threads` (the same result for any count); glossy hits in
+// patch order, each patch's in the lights' order (point lights, then directional).
 FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1);
 
 // The diffuse shot (004 section 9.1): the direct irradiance of every patch from every

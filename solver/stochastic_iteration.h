@@ -84,7 +84,7 @@ public:
     StochasticIteration(const Transport& transport, std::unique_ptr<visibility::BackendSet> backends,
                         const SolverOptions& options, const sampling::RunOptions& run);
     // One backend; and the same with a transport of its own (the first shot computed if
-    // the scene has point lights).
+    // the scene has point or directional lights).
     StochasticIteration(const Transport& transport, visibility::Backend& backend, const SolverOptions& options,
                         const sampling::RunOptions& run);
     StochasticIteration(const scenes::Scene& scene, visibility::Backend& backend, const SolverOptions& options,

@@ -37,7 +37,7 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
     // The field's direct part (RadianceField::direct) must be all the lights' direct
     // light: with area lights that takes the diffuse shot (without it their light moves
     // through the iteration, and a reader that put its own estimate in the place of the
-    // point lights' part would count theirs twice).
+    // point and directional lights' part would count theirs twice).
     bool area_lights = false;
     for (std::size_t i = 0; i < n_ && !area_lights; ++i) area_lights = (emission_[i] > 0.0).any();
     if (direct || (shot && !area_lights)) {
@@ -60,7 +60,7 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
     : scene_(scene), n_(scene.patch_count()), glossy_(scene.has_glossy()), diffuse_shot_(options.diffuse_shot) {
     if (diffuse_shot_ && glossy_)
         throw scenes::OptionError("diffuse_shot", "supports diffuse scenes only (this scene has glossy materials)");
-    if (scene.point_lights.empty() && !diffuse_shot_) {
+    if (!scene.has_punctual_lights() && !diffuse_shot_) {
         init(nullptr, nullptr);
         return;
     }
@@ -68,10 +68,11 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
     if (!given) own.emplace(scene, run.threads);
     const scenes::RayCaster& caster = given ? *given : *own;
     FirstShot shot;
-    if (!scene.point_lights.empty()) {
+    if (scene.has_punctual_lights()) {
         const auto t0 = std::chrono::steady_clock::now();
         shot = first_shot(scene, caster, run.threads);
         shot_stats_.lights = scene.point_lights.size();
+        shot_stats_.directional = scene.directional_lights.size();
         shot_stats_.shadow_rays = shot.shadow_rays;
         shot_stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -82,14 +83,17 @@ Transport::Transport(const scenes::Scene& scene, ShotOptions options, const samp
         for (std::size_t j = 0; j < n_; ++j) shot_stats_.emitters += scene.material_of(j).emissive();
         shot_stats_.diffuse_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
-    init(scene.point_lights.empty() ? nullptr : &shot, diffuse_shot_ ? &direct : nullptr);
+    init(scene.has_punctual_lights() ? &shot : nullptr, diffuse_shot_ ? &direct : nullptr);
 }
 
 nlohmann::json Transport::decisions() const {
     const auto& s = shot_stats_;
-    return {{"first_shot", s.lights == 0 ? std::string("skipped: no point lights")
-                                         : std::to_string(s.lights) + " point light(s), " + std::to_string(s.shadow_rays) +
-                                               " shadow rays, then they leave the iteration"},
+    std::string lights;
+    if (s.lights > 0) lights = std::to_string(s.lights) + " point light(s), ";
+    if (s.directional > 0) lights += std::to_string(s.directional) + " directional light(s), ";
+    return {{"first_shot", lights.empty() ? std::string("skipped: no point or directional lights")
+                                          : lights + std::to_string(s.shadow_rays) +
+                                                " shadow rays, then they leave the iteration"},
             {"diffuse_shot", diffuse_shot_ ? std::to_string(s.emitters) + " emissive patches" +
                                                  (s.emitter_groups < s.emitters
                                                       ? " in " + std::to_string(s.emitter_groups) +

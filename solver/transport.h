@@ -9,7 +9,7 @@
 // so what arrives there is dropped. Backends emit sky entries only when asked
 // (BackendOptions::sky); a scene without sky never has them.
 //
-// Emission is the patches' own plus, with point lights, the first shot: what they
+// Emission is the patches' own plus, with point or directional lights, the first shot: what they
 // reflect of the lights' direct light (FirstShot). The lights then leave the
 // iteration (004 section 9). With the diffuse shot (section 9.1) the direct light of
 // the emissive patches is computed once, too: the patches' own emission is then only
@@ -35,7 +35,7 @@ struct ShotOptions {
 
 class Transport {
 public:
-    // Computes the first shot when the scene has point lights (building a ray caster),
+    // Computes the first shot when the scene has point or directional lights (building a ray caster),
     // and skips it when it has none; the diffuse shot when asked (throws
     // OptionError("diffuse_shot") for a scene with glossy materials), on run.threads
     // with progress through `run`. The shots cast their rays with `caster` where one is
@@ -43,10 +43,10 @@ public:
     explicit Transport(const scenes::Scene& scene, ShotOptions options = {}, const sampling::RunOptions& run = {},
                        const scenes::RayCaster* caster = nullptr);
 
-    // What the first shot did: point lights, shadow rays, seconds (zeros: skipped),
-    // and the same for the diffuse shot.
+    // What the first shot did: point and directional lights, shadow rays, seconds
+    // (zeros: skipped), and the same for the diffuse shot.
     struct ShotStats {
-        std::size_t lights = 0;
+        std::size_t lights = 0, directional = 0;
         long shadow_rays = 0;
         double seconds = 0.0;
         std::size_t emitters = 0;  // diffuse shot
@@ -156,7 +156,7 @@ private:
     // empty without a shot.
     std::vector<Rgb> direct_reflected_;
     std::vector<char> patch_glossy_;
-    // Glossy patches lit by point lights: per patch, a range into hits_.
+    // Glossy patches lit by point or directional lights: per patch, a range into hits_.
     std::vector<std::uint32_t> hit_begin_;
     std::vector<FirstShot::Hit> hits_;
     ShotStats shot_stats_;

@@ -5,15 +5,18 @@
 #include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "scenes/builtin.h"
+#include "scenes/subdivide.h"
 #include "solver/solver.h"
 
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 using namespace raybundle;
 using scenes::Rgb;
+using scenes::Vec3;
 
 namespace {
 
@@ -151,4 +154,61 @@ TEST_CASE("final gather against the path tracer: the diffuse Cornell box", "[ren
 
 TEST_CASE("final gather against the path tracer: the glossy Cornell box", "[render][pathtrace][gather]") {
     gather_against_path_tracer(true);
+}
+
+TEST_CASE("a sun over a plane, a square casting a shadow: rho E cos / pi in each lit pixel, 0 in the shadow, "
+          "path traced and gathered",
+          "[render][pathtrace][gather]") {
+    // The plane faces up, the square above it faces up too (its back, below, is black):
+    // a lit point of the plane sees only the sun and the square's back, so its radiance
+    // is the sun's direct light exactly, and a shadowed one's is 0.
+    scenes::Scene scene;
+    scenes::Material ground, board;
+    ground.name = "ground";
+    ground.albedo = Rgb(0.6, 0.5, 0.4);
+    board.name = "board";
+    board.albedo = Rgb::Constant(0.5);
+    const int g = scene.add_material(ground), b = scene.add_material(board);
+    scene.add_object({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, g);
+    scene.add_object({{-0.25, -0.25, 0.5}, {0.25, -0.25, 0.5}, {0.25, 0.25, 0.5}, {-0.25, 0.25, 0.5}},
+                     {{{0, 1, 2}}, {{0, 2, 3}}}, b);
+    scene.finalize();
+    scenes::subdivide(scene, 0.2);
+    const Vec3 along = Vec3(1.0, 0.0, -1.0).normalized();  // the shadow: x in [0.25, 0.75], |y| < 0.25
+    scene.directional_lights.push_back({along, Rgb(2.0, 3.0, 4.0)});
+    scene.camera.eye = Vec3(0, 0, 3);
+    scene.camera.target = Vec3(0, 0, 0);
+    scene.camera.fov_y = 50;
+    scene.camera.width = scene.camera.height = 24;
+    const scenes::RayCaster caster(scene);
+    const render::PinholeCamera camera(scene.camera);
+    render::PathTraceOptions po;
+    po.spp = 16;
+    const auto traced = render::path_trace(scene, caster, camera, po, {}).image;
+    const auto gathered = gather(scene, caster, 0);
+    // Pixels whose corners and centre all see the plane, all lit or all in shadow.
+    int lit = 0, dark = 0;
+    for (int y = 0; y < 24; ++y)
+        for (int x = 0; x < 24; ++x) {
+            int ground_hits = 0, sunlit = 0;
+            for (const auto& [dx, dy] : {std::pair{0.0, 0.0}, {1.0, 0.0}, {0.0, 1.0}, {1.0, 1.0}, {0.5, 0.5}}) {
+                const auto hit = caster.intersect(camera.eye(), camera.direction(x + dx, y + dy));
+                if (!hit.valid() || scene.patch_list()[static_cast<std::size_t>(hit.patch)].material != g) continue;
+                ++ground_hits;
+                const Vec3 at = camera.eye() + hit.t * camera.direction(x + dx, y + dy);
+                sunlit += !caster.occluded(at + Vec3(0, 0, 1e-6), -along, 0.0, 1e9);
+            }
+            if (ground_hits < 5 || (sunlit > 0 && sunlit < 5)) continue;
+            for (int k = 0; k < 3; ++k) {
+                const double exact = sunlit == 5 ? ground.albedo[k] * scene.directional_lights[0].irradiance[k] *
+                                                       -along.z() / M_PI
+                                                 : 0.0;
+                CHECK(traced.at(x, y)[k] == Approx(exact).epsilon(1e-6));  // (a float image)
+                CHECK(gathered.at(x, y)[k] == Approx(exact).epsilon(1e-6));
+            }
+            (sunlit == 5 ? lit : dark) += 1;
+        }
+    INFO(lit << " lit pixels, " << dark << " in shadow");
+    CHECK(lit > 100);
+    CHECK(dark > 10);
 }

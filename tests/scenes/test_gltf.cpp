@@ -187,22 +187,28 @@ TEST_CASE("glTF: metallic-roughness, emission and sides map to our materials", "
     CHECK_THROWS_WITH(parse(doc), Contains("a.gltf") && Contains("KHR_draco_mesh_compression"));
 }
 
-TEST_CASE("glTF: point lights and the first camera, placed by their nodes", "[scenes][gltf]") {
+TEST_CASE("glTF: point, spot and directional lights and the first camera, placed by their nodes", "[scenes][gltf]") {
     json doc = asset();
     doc["extensionsUsed"] = {"KHR_lights_punctual"};
     doc["extensions"] = json::parse(R"({"KHR_lights_punctual": {"lights": [
         {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 40.0},
         {"type": "spot", "name": "torch", "intensity": 7.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
-        {"type": "directional", "name": "sun", "intensity": 3.0}]}})");
+        {"type": "directional", "name": "sun", "color": [1.0, 0.9, 0.8], "intensity": 3.0},
+        {"type": "area", "name": "panel", "intensity": 1.0}]}})");
     doc["nodes"].push_back({{"translation", {1, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
     // The spot at a node turned a quarter about +x, which takes its -z to +y.
     doc["nodes"].push_back({{"translation", {0, 1, 0}},
                             {"rotation", {std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}},
                             {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
-    doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}});
+    // The sun at a node turned a quarter about +x: it shines along +y, wherever the node is.
+    doc["nodes"].push_back({{"translation", {5, 5, 5}},
+                            {"rotation", {std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}},
+                            {"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}},
+                            {"children", {6}}});
     // A camera 10 above the origin looking down (-z turned to -y), 4:3.
     doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", M_PI / 4}, {"aspectRatio", 4.0 / 3.0}, {"znear", 0.1}}}}};
     doc["nodes"].push_back({{"camera", 0}, {"translation", {0, 10, 0}}, {"rotation", {-std::sin(M_PI / 4), 0, 0, std::cos(M_PI / 4)}}});
+    doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 3}}}}}});  // 6: a type glTF lacks
     doc["scenes"][0]["nodes"] = {0, 2, 3, 4, 5};
     const MeshData d = parse(doc);
     REQUIRE(d.point_lights.size() == 2);
@@ -220,8 +226,11 @@ TEST_CASE("glTF: point lights and the first camera, placed by their nodes", "[sc
     CHECK(torch.falloff(Vec3(0, 0, -1)) == 0.0);
     CHECK(torch.falloff(Vec3(0, std::cos(0.35), std::sin(0.35))) ==
           Approx(std::pow((std::cos(0.35) - std::cos(0.5)) / (std::cos(0.2) - std::cos(0.5)), 2)));
+    REQUIRE(d.directional_lights.size() == 1);
+    CHECK(d.directional_lights[0].direction.isApprox(Vec3(0, 1, 0)));
+    CHECK(d.directional_lights[0].irradiance.isApprox(Rgb(3.0, 2.7, 2.4)));
     REQUIRE(d.warnings.size() == 1);
-    CHECK_THAT(d.warnings[0], Contains("sun") && Contains("a directional light is not read (point and spot lights are)"));
+    CHECK_THAT(d.warnings[0], Contains("panel") && Contains("an area light is not read (point, spot and directional lights are)"));
     // Cones out of glTF's range are refused.
     doc["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.6;
     CHECK_THROWS_WITH(parse(doc), Contains("nodes[3]: light 'torch': innerConeAngle 0.6 is not in [0, outerConeAngle = 0.5)"));

@@ -179,6 +179,30 @@ TEST_CASE("point lights and the sky load", "[scenes]") {
                       Contains("point_lights[0].inner_angle: must be in [0, outer_angle = 20] degrees, got 25"));
 }
 
+TEST_CASE("directional lights load: a direction of travel, made unit, and an irradiance", "[scenes]") {
+    const Scene s = parse(scene_text(kCamera, kMaterials, kQuad,
+                                     R"(, "directional_lights": [{"direction": [0, 0, -2], "irradiance": [3, 2, 1]},
+                                                                 {"direction": [1, 1, -1], "irradiance": [0, 0, 0]}])"));
+    REQUIRE(s.directional_lights.size() == 2);
+    CHECK(s.directional_lights[0].direction.isApprox(Vec3(0, 0, -1)));
+    CHECK(s.directional_lights[0].irradiance.isApprox(Rgb(3, 2, 1)));
+    CHECK(s.directional_lights[1].direction.norm() == Approx(1.0));
+    CHECK(s.has_punctual_lights());
+    CHECK_FALSE(parse(scene_text(kCamera, kMaterials, kQuad)).has_punctual_lights());
+    const auto light = [&](const std::string& keys) {
+        return parse(scene_text(kCamera, kMaterials, kQuad, R"(, "directional_lights": [{)" + keys + "}]"));
+    };
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, 0], "irradiance": [1, 1, 1])"),
+                      Contains("directional_lights[0].direction: must be a direction, not [0, 0, 0]"));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, -1], "irradiance": [1, -1, 1])"),
+                      Contains("directional_lights[0].irradiance: negative irradiance [1, -1, 1]"));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, -1])"), Contains("directional_lights[0].irradiance: missing"));
+    CHECK_THROWS_WITH(light(R"("direction": [0, 0, -1], "irradiance": [1, 1, 1], "angle": 0.5)"),
+                      Contains("directional_lights[0]: unknown key 'angle' (known: direction, irradiance)"));
+    CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, kQuad, R"(, "directional_lights": {"direction": [0, 0, -1]})")),
+                      Contains("directional_lights: expected an array, got object"));
+}
+
 TEST_CASE("meshes load with polygons triangulated", "[scenes]") {
     TempDir dir;
     dir.write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
