@@ -5,7 +5,8 @@
 //
 // The document holds the camera (eye, target, up, fov_y in degrees, vertical; width,
 // height), the sky (model, radiance, up) or null, the materials (albedo, emission,
-// specular, exponent, two_sided) and the triangles after loading and refinement
+// specular, exponent, two_sided), the directional lights (direction of travel,
+// irradiance) and the triangles after loading and refinement
 // (positions; index triples; a material per triangle). Front sides are counter-
 // clockwise, as in raybundle. A two-sided material's triangles are loaded as twins
 // facing both ways; only one of each twin pair is written, and the material says
@@ -67,6 +68,11 @@ json export_scene(const scenes::Scene& s) {
                       {"up", vec(s.sky->up)}};
     else
         out["sky"] = nullptr;
+    // A directional light is a Cycles sun of angle 0 whose strength (W/m^2) is the
+    // irradiance of a surface facing it: the same quantity, no unit to convert.
+    out["directional_lights"] = json::array();
+    for (const auto& l : s.directional_lights)
+        out["directional_lights"].push_back({{"direction", vec(l.direction)}, {"irradiance", rgb(l.irradiance)}});
     json mats = json::array();
     for (const auto& m : s.materials)
         mats.push_back({{"name", m.name},

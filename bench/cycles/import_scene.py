@@ -15,6 +15,9 @@ Blender Cycles"):
   as lights.
 - the world: the sky (constant radiance above the horizon, or the CIE overcast
   L = radiance (1 + 2 cos theta) / 3, black below the horizon), or black.
+- directional lights: a sun of angle 0 (a parallel light) along the same direction,
+  of strength the largest channel of the irradiance and colour the irradiance over it
+  (Cycles' sun strength is the irradiance in W/m^2 of a surface facing it).
 - the camera: raybundle's pinhole (eye, target, up, vertical field of view, sensor fit
   VERTICAL, the same resolution; rows top to bottom as raybundle writes them).
 - the scale: scene and camera scaled uniformly to a bounding diagonal of 1, which
@@ -148,6 +151,19 @@ def make_world(sky):
     return world
 
 
+def make_sun(scene, k, light):
+    """A directional light: a sun of angle 0, its -z along the light's direction of travel."""
+    strength = max(light["irradiance"])
+    sun = bpy.data.lights.new("sun %d" % k, type="SUN")
+    sun.angle = 0.0
+    sun.energy = strength
+    sun.color = [c / strength for c in light["irradiance"]] if strength > 0.0 else [0.0, 0.0, 0.0]
+    obj = bpy.data.objects.new("sun %d" % k, sun)
+    obj.rotation_mode = "QUATERNION"
+    obj.rotation_quaternion = Vector(light["direction"]).to_track_quat("-Z", "Y")
+    scene.collection.objects.link(obj)
+
+
 def make_camera(scene, cam, extent):
     eye, target, up = Vector(cam["eye"]), Vector(cam["target"]), Vector(cam["up"])
     # raybundle's frame (render/camera.cpp): right = forward x up, up' = right x forward.
@@ -264,6 +280,8 @@ def build(doc, args):
     camera["target"] = [scale * x for x in camera["target"]]
     cam = make_camera(scene, camera, scale * math.dist(lo, hi))
     scene.world = make_world(doc.get("sky"))
+    for k, light in enumerate(doc.get("directional_lights", [])):
+        make_sun(scene, k, light)
 
     settings(scene, args, doc["camera"]["width"], doc["camera"]["height"])
     return scene, cam, scale
