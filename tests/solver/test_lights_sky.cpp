@@ -4,6 +4,7 @@
 #include "render/lights.h"
 #include "sampling/run.h"
 #include "scenes/builtin.h"
+#include "scenes/loader.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
 #include "scenes/subdivide.h"
@@ -250,6 +251,38 @@ TEST_CASE("directional light: a square's shadow, patch by patch and in all, with
     CHECK(crossed > 20);
     CHECK(worst < 0.015);  // measured 0.0065 (1,024 rays on a crossed patch)
     CHECK(got == Approx(full * (4.0 - 0.25)).epsilon(0.001));
+}
+
+TEST_CASE("directional light through a window: the power the room's patches receive is E cos A, within 0.5 %",
+          "[solver][first-shot]") {
+    // A closed room 5 x 3 x 4 (as scenes/examples/window.json models it: whole walls,
+    // the window wall in four parts around a 2 x 1.4 opening) and a bench on its floor;
+    // the sun travels along (0.3, -0.6, -1): everything that enters through the window
+    // lands on a front inside. The patch edges cross the beam's edges at slants.
+    const std::string room = R"({
+      "camera": {"eye": [4.6, 1.6, 0.3], "target": [2.0, 1.0, 3.2]},
+      "materials": {"plaster": {"albedo": [0.75, 0.74, 0.72]}},
+      "objects": [
+        {"quad": [[0, 0, 0], [0, 0, 4], [5, 0, 4], [5, 0, 0]], "material": "plaster"},
+        {"quad": [[0, 3, 0], [5, 3, 0], [5, 3, 4], [0, 3, 4]], "material": "plaster"},
+        {"quad": [[0, 0, 0], [5, 0, 0], [5, 3, 0], [0, 3, 0]], "material": "plaster"},
+        {"quad": [[0, 0, 0], [0, 3, 0], [0, 3, 4], [0, 0, 4]], "material": "plaster"},
+        {"quad": [[5, 0, 0], [5, 0, 4], [5, 3, 4], [5, 3, 0]], "material": "plaster"},
+        {"quad": [[0, 0, 4], [0, 3, 4], [1.5, 3, 4], [1.5, 0, 4]], "material": "plaster"},
+        {"quad": [[3.5, 0, 4], [3.5, 3, 4], [5, 3, 4], [5, 0, 4]], "material": "plaster"},
+        {"quad": [[1.5, 0, 4], [1.5, 1, 4], [3.5, 1, 4], [3.5, 0, 4]], "material": "plaster"},
+        {"quad": [[1.5, 2.4, 4], [1.5, 3, 4], [3.5, 3, 4], [3.5, 2.4, 4]], "material": "plaster"},
+        {"quad": [[1.8, 0.45, 1.6], [1.8, 0.45, 2.4], [3.2, 0.45, 2.4], [3.2, 0.45, 1.6]], "material": "plaster"},
+        {"quad": [[1.8, 0, 2.4], [3.2, 0, 2.4], [3.2, 0.45, 2.4], [1.8, 0.45, 2.4]], "material": "plaster"}],
+      "patch_size": 0.25,
+      "directional_lights": [{"direction": [0.3, -0.6, -1], "irradiance": [1, 1, 1]}]})";
+    const scenes::Scene scene = scenes::parse_scene(room, "room.json", ".");
+    const solver::FirstShot shot = shoot(scene);
+    double power = 0.0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) power += shot.irradiance[i][0] * scene.patch_list()[i].area;
+    const double exact = 2.0 * 1.4 * Vec3(0.3, -0.6, -1).normalized().cwiseAbs().z();
+    INFO("received " << power << ", through the window " << exact);
+    CHECK(power == Approx(exact).epsilon(0.005));
 }
 
 TEST_CASE("open plane under a uniform sky: radiance = albedo x sky radiance", "[solver][sky]") {
