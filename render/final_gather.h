@@ -15,7 +15,7 @@
 //    with as many directions from the Phong lobe by multiple importance sampling
 //    (balance heuristic). DirectLight::sampled estimates all of it by sampling: per
 //    sample a light point and a direction from the BRDF, balance heuristic. Every point
-//    light exactly, with one shadow ray. The full BRDF.
+//    and directional light exactly, with one shadow ray. The full BRDF.
 //  - Glossy reflection per camera sample (004 section 10, "per-pixel Phong"): at a
 //    glossy surface `glossy_rays` directions drawn from the Phong lobe read the solved
 //    field at their hits (its emission excluded, the sky included), weighted by the

@@ -6,6 +6,7 @@
 #include "sampling/directions.h"
 #include "scenes/frame.h"
 #include "scenes/threads.h"
+#include "solver/first_shot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -200,18 +201,31 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
             object.unseen_area += p.area;
         }
     }
-    // Each directional light's shadow ray from every patch centroid that faces it.
+    // Each directional light's shadow ray from every patch centroid that faces it; where
+    // none arrives, the first shot's points (a pool of sunlight on a large patch may
+    // miss every centroid).
     for (const auto& light : scene.directional_lights) {
-        std::vector<char> reached(patches.size(), 0);
+        std::vector<char> facing(patches.size(), 0), reached(patches.size(), 0);
         parallel_chunks(static_cast<int>(patches.size()), threads, [&](int i0, int i1, int) {
             for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
                 const auto& p = patches[i];
-                reached[i] = p.normal.dot(light.direction) < 0.0 &&
-                             !caster.occluded(p.centroid + offset * p.normal, -light.direction, 0.0,
-                                              std::numeric_limits<double>::infinity());
+                facing[i] = p.normal.dot(light.direction) < 0.0;
+                reached[i] = facing[i] && !caster.occluded(p.centroid + offset * p.normal, -light.direction, 0.0,
+                                                           std::numeric_limits<double>::infinity());
             }
         });
-        s.sunlit.push_back(static_cast<std::size_t>(std::count(reached.begin(), reached.end(), 1)));
+        SceneSummary::Sun sun;
+        sun.facing = static_cast<std::size_t>(std::count(facing.begin(), facing.end(), 1));
+        sun.reached = static_cast<std::size_t>(std::count(reached.begin(), reached.end(), 1));
+        if (sun.reached == 0 && sun.facing > 0) {
+            parallel_chunks(static_cast<int>(patches.size()), threads, [&](int i0, int i1, int) {
+                long rays = 0;
+                for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i)
+                    reached[i] = facing[i] && solver::sunlit_share(scene, caster, i, light, rays) > 0.0;
+            });
+            sun.reached = static_cast<std::size_t>(std::count(reached.begin(), reached.end(), 1));
+        }
+        s.suns.push_back(sun);
     }
     s.overlaps = scenes::coplanar_overlaps(scene, threads);
     return s;
@@ -231,14 +245,19 @@ bool has_light(const scenes::Scene& scene) {
 
 std::vector<std::string> light_warnings(const scenes::Scene& scene, const SceneSummary& summary) {
     std::vector<std::string> lines;
-    for (std::size_t k = 0; k < summary.sunlit.size() && k < scene.directional_lights.size(); ++k) {
+    for (std::size_t k = 0; k < summary.suns.size() && k < scene.directional_lights.size(); ++k) {
         const auto& light = scene.directional_lights[k];
-        if (summary.sunlit[k] > 0 || !(light.irradiance > 0.0).any()) continue;
+        const auto& sun = summary.suns[k];
+        if (sun.reached > 0 || !(light.irradiance > 0.0).any()) continue;
         const auto& d = light.direction;
-        lines.push_back(strprintf("directional light %zu (along (%.4g, %.4g, %.4g)) reaches no patch: every patch facing "
-                                  "it is in shadow (walls all round keep a sun out; open the room towards it, or light "
-                                  "it otherwise)",
-                                  k, d.x(), d.y(), d.z()));
+        const std::string which = strprintf("%s (travelling along (%.4g, %.4g, %.4g))", light.name.c_str(),
+                                            d.x() + 0.0, d.y() + 0.0, d.z() + 0.0);  // (+ 0.0: no "-0")
+        if (sun.facing == 0)
+            lines.push_back(which + " faces no patch's front: its light goes where no surface faces it (from "
+                                    "below the ground? \"direction\" is where the light travels, down for a sun)");
+        else
+            lines.push_back(which + " reaches no patch: every patch facing it is in shadow (walls all round keep a "
+                                    "sun out; open the room towards it, or light it otherwise)");
     }
     return lines;
 }
@@ -314,7 +333,7 @@ namespace {
 
 std::string vec3(const scenes::Vec3& v) {
     char buf[96];
-    std::snprintf(buf, sizeof buf, "(%.4g, %.4g, %.4g)", v.x(), v.y(), v.z());
+    std::snprintf(buf, sizeof buf, "(%.4g, %.4g, %.4g)", v.x() + 0.0, v.y() + 0.0, v.z() + 0.0);  // (no "-0")
     return buf;
 }
 
@@ -346,10 +365,10 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
           scene.point_lights.size(), spots > 0 ? (" (" + std::to_string(spots) + (spots == 1 ? " spot)" : " spots)")).c_str() : "");
     if (!scene.directional_lights.empty()) print(", %zu directional", scene.directional_lights.size());
     out += "\n";
-    for (std::size_t k = 0; k < scene.directional_lights.size() && k < s.sunlit.size(); ++k) {
+    for (std::size_t k = 0; k < scene.directional_lights.size() && k < s.suns.size(); ++k) {
         const auto& l = scene.directional_lights[k];
-        print("            directional %zu: along %s, irradiance %s, reaches %zu of %zu patches\n", k,
-              vec3(l.direction).c_str(), vec3(l.irradiance.matrix()).c_str(), s.sunlit[k], s.patches);
+        print("            %s: along %s, irradiance %s, reaches %zu of %zu patches\n", l.name.c_str(),
+              vec3(l.direction).c_str(), vec3(l.irradiance.matrix()).c_str(), s.suns[k].reached, s.patches);
     }
     print("sky         %s\n", !scene.sky                                            ? "none"
                                     : scene.sky->model == scenes::Sky::Model::constant ? "constant"

@@ -56,8 +56,13 @@ struct SceneSummary {
     // The object the eye is inside: of 26 rays from it, 18 or more meet a back side of
     // that object's one-sided patches first and none its front (-1: none).
     int camera_inside = -1;
-    // Per directional light: the patches whose centroid it reaches (faced, unshadowed).
-    std::vector<std::size_t> sunlit;
+    // Per directional light: the patches whose front faces it, and those it reaches
+    // (their centroid unshadowed; where none is, the patches some point of which the
+    // first shot finds lit: solver::sunlit_share).
+    struct Sun {
+        std::size_t facing = 0, reached = 0;
+    };
+    std::vector<Sun> suns;
 };
 
 // `max_pixels` > 0 casts the camera rays on a coarser grid of about that many pixels
@@ -71,8 +76,8 @@ bool has_light(const scenes::Scene& scene);
 inline constexpr const char* kNoLight =
     "no light (no emissive patch, point or directional light or sky above zero): the image is black";
 
-// One line per directional light that reaches no patch's centroid (walls all round
-// keep a sun out).
+// One line per directional light that no patch faces (it travels up, from below the
+// ground?) or that reaches no patch (walls all round keep a sun out).
 std::vector<std::string> light_warnings(const scenes::Scene& scene, const SceneSummary& summary);
 
 // The coplanar overlaps' example by the objects' names: "'floor' (patch 18) and 'rug'

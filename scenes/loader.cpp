@@ -341,8 +341,9 @@ PointLight parse_point_light(const Node& n) {
         return l;
     }
     const Vec3 axis = n.vec3("direction");
-    if (!(axis.norm() > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(axis.array()));
-    l.axis = axis.normalized();
+    const double longest = axis.cwiseAbs().maxCoeff();
+    if (!(longest > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(axis.array()));
+    l.axis = (axis / longest).normalized();
     const double outer = n.has("outer_angle") ? n.number("outer_angle") : 45.0;
     const double inner = n.has("inner_angle") ? n.number("inner_angle") : 0.0;
     if (!(outer > 0.0 && outer <= 180.0)) n.fail("outer_angle", "must be in (0, 180] degrees, got " + format_number(outer));
@@ -355,15 +356,17 @@ PointLight parse_point_light(const Node& n) {
 
 // A directional light: parallel light travelling along "direction", of "irradiance"
 // on a surface facing it.
-DirectionalLight parse_directional_light(const Node& n) {
+DirectionalLight parse_directional_light(const Node& n, const std::string& name) {
     n.require_object();
     n.check_keys({"direction", "irradiance"});
     DirectionalLight l;
     const Vec3 direction = n.vec3("direction");
-    if (!(direction.norm() > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(direction.array()));
-    l.direction = direction.normalized();
+    const double longest = direction.cwiseAbs().maxCoeff();  // (scaled first: [1e-200, 0, 0] is a direction)
+    if (!(longest > 0.0)) n.fail("direction", "must be a direction, not " + rgb_text(direction.array()));
+    l.direction = (direction / longest).normalized();
     l.irradiance = n.vec3("irradiance").array();
     if ((l.irradiance < 0).any()) n.fail("irradiance", "negative irradiance " + rgb_text(l.irradiance));
+    l.name = name;
     return l;
 }
 
@@ -783,7 +786,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             for (std::size_t k = 0; k < data.directional_lights.size(); ++k) {
                 const double most = data.directional_lights[k].irradiance.maxCoeff();
                 if (!(most <= kMaxMagnitude))
-                    obj.fail("mesh", rel + ": directional light " + std::to_string(k) + ": intensity " +
+                    obj.fail("mesh", rel + ": directional light " + std::to_string(k) + ": irradiance " +
                                          format_number(most) + " is too large (at most " + format_number(kMaxMagnitude) +
                                          ")");
             }
@@ -905,7 +908,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             root.fail("directional_lights", std::string("expected an array, got ") + type_name(lights));
         for (std::size_t i = 0; i < lights.size(); ++i)
             scene.directional_lights.push_back(
-                parse_directional_light(Node(lights[i], shown, "directional_lights[" + std::to_string(i) + "]")));
+                parse_directional_light(Node(lights[i], shown, "directional_lights[" + std::to_string(i) + "]"),
+                                        "directional_lights[" + std::to_string(i) + "]"));
     }
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
     for (const auto& [name, values] : edits)

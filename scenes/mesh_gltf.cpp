@@ -906,7 +906,7 @@ private:
             const Vec3 direction = -world.block<3, 1>(0, 2);
             if (!(direction.norm() > 0.0))
                 fail(where, named + ": its node's transform has no -z direction (a scale of 0)");
-            out_.directional_lights.push_back({direction.normalized(), intensity});
+            out_.directional_lights.push_back({direction.normalized(), intensity, shown_ + ": " + named});
             return;
         }
         if (light.range > 0.0) warn(where + ": " + named + ": its range is not read (the light reaches everywhere)");

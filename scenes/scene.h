@@ -81,6 +81,9 @@ struct PointLight {
 struct DirectionalLight {
     Vec3 direction{0, -1, 0};
     Rgb irradiance = Rgb::Zero();
+    // Where it was given, for messages: "directional_lights[0]" (the scene file's key),
+    // or "model.gltf: light 'Sun'".
+    std::string name;
 };
 
 // Light from directions no patch covers. "constant": the same radiance from every

@@ -9,9 +9,8 @@
 // small against its distance to the light (N = ceil(8 edge / r), 2..64): the
 // quadrature error is then well below 1 %.
 //
-// A directional light (a sun) gives a patch E cos(theta) times its unshadowed share:
-// the share of shadow rays towards the light, from 16 points of it, that leave the
-// scene, or from 1,024 where those 16 disagree (a shadow's edge crosses it).
+// A directional light (a sun) gives a patch E cos(theta) times its unshadowed share
+// (sunlit_share, below).
 #include "sampling/run.h"
 #include "scenes/ray_caster.h"
 #include "scenes/scene.h"
@@ -40,6 +39,15 @@ struct FirstShot {
 // receivers split over `threads` (the same result for any count); glossy hits in
 // patch order, each patch's in the lights' order (point lights, then directional).
 FirstShot first_shot(const scenes::Scene& scene, const scenes::RayCaster& caster, int threads = 1);
+
+// The share of `patch` that the directional light reaches: the share of shadow rays
+// towards the light, from the centroids of N^2 sub-triangles just off its front, that
+// leave the scene, N = ceil(32 edge / R) in 4..64 (R: the scene's bounding radius; 4 at
+// the automatic patch size), or, where those disagree (a shadow's edge crosses it), of
+// (8 N)^2 (at most 65,536) points of a low-discrepancy sequence over it. 0 where the
+// patch does not face the light. Adds the rays it casts to `rays`.
+double sunlit_share(const scenes::Scene& scene, const scenes::RayCaster& caster, std::size_t patch,
+                    const scenes::DirectionalLight& light, long& rays);
 
 // The diffuse shot (004 section 9.1): the direct irradiance of every patch from every
 // emissive patch (W/m^2 per channel, patch average), for scenes with medium-sized

@@ -14,7 +14,7 @@
 //
 // Diffuse scenes only (a glossy BRDF would need the arrival direction per node); the
 // painter's map only (the basis lives in the rasteriser). With `bidirectional` the
-// map is painted for w and for -w (two passes, weight 1/2 each). Point lights enter
+// map is painted for w and for -w (two passes, weight 1/2 each). Point and directional lights enter
 // through the first shot (patch-averaged, then averaged per node); the sky through
 // the map's initial value.
 //

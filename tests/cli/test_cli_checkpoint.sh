@@ -92,6 +92,13 @@ scene "$quad" > edited.json
 "$bin" solve edited.json --gather 0 --iterations 100 --checkpoint edited.bin --checkpoint-every 20 -q
 sed -i 's/0.5, 0.5, 0.5/0.5, 0.5, 0.6/' edited.json
 expect_bad "--resume of an edited scene" "the scene differs" solve edited.json --gather 0 --iterations 100 --resume edited.bin
+# A sun is part of the scene: added, or turned, the checkpoint's scene differs.
+sun='directional_lights=[{"direction": [0.3, -1, 0.2], "irradiance": [2, 2, 2]}]'
+"$bin" solve edited.json -D "$sun" --gather 0 --iterations 100 --checkpoint sun.bin --checkpoint-every 20 -q
+check $? "a run with a sun and a checkpoint failed"
+expect_bad "--resume without the sun" "the scene differs" solve edited.json --gather 0 --iterations 100 --resume sun.bin
+expect_bad "--resume with the sun turned" "the scene differs" solve edited.json -D "$sun" \
+  -D 'directional_lights[0].direction=[0.3, -1, 0.3]' --gather 0 --iterations 100 --resume sun.bin
 expect_bad "--checkpoint with a target" "--checkpoint works for runs of one round: not with --target-error" \
   "${ck[@]}" --checkpoint c.bin --target-error 0.01
 "$bin" solve --builtin homogeneous-box --method pathtrace --resume ck-kill.bin -o pt.exr 2>err.txt

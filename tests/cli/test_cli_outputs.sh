@@ -134,7 +134,7 @@ check $? "check of a floor under a point light: $(cat chk.txt)"
 # took it; under a roof that keeps it out it reaches nothing, which both warn about.
 printf '{"camera": {"eye": [0.5, 2, 3], "target": [0.5, 0, 0.5]}, "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [{"quad": [[0,0,0], [0,0,1], [1,0,1], [1,0,0]], "material": "w", "name": "floor"}], "directional_lights": [{"direction": [0.2, -1, 0.1], "irradiance": [2, 2, 2]}]}\n' > sun-floor.json
 "$bin" check sun-floor.json >chk.txt 2>&1 &&
-  grep -q "^lights .*0 point lights, 1 directional" chk.txt && grep -q "directional 0: along .*reaches [1-9][0-9]* of" chk.txt &&
+  grep -q "^lights .*0 point lights, 1 directional" chk.txt && grep -q "directional_lights\[0\]: along .*reaches [1-9][0-9]* of" chk.txt &&
   ! grep -q "faces nothing\|reaches no patch\|no light" chk.txt
 check $? "check of a floor under a sun: $(cat chk.txt)"
 "$bin" solve sun-floor.json --iterations 20 --width 16 --height 16 --stats sun.json -o sun.pfm >/dev/null 2>err.txt &&
@@ -144,11 +144,15 @@ sed -e 's/"name": "floor"}/&, {"quad": [[-1,1,-1], [2,1,-1], [2,1,2], [-1,1,2]],
   -e 's/"eye": \[0.5, 2, 3\]/"eye": [0.5, 0.6, 3]/' sun-floor.json > roof.json
 sun='directional_lights=[{"direction": [0, -1, 0], "irradiance": [5, 5, 5]}]'
 "$bin" check roof.json -D "$sun" >chk.txt 2>&1 &&
-  grep -q "^warning     directional light 0 (along (0, -1, 0)) reaches no patch: every patch facing it is in shadow" chk.txt
+  grep -q "^warning     directional_lights\[0\] (travelling along (0, -1, 0)) reaches no patch: every patch facing it is in shadow" chk.txt
 check $? "check of a sun over a roof: $(cat chk.txt)"
 "$bin" solve roof.json -D "$sun" --iterations 20 --gather 0 -o roof.pfm >/dev/null 2>err.txt &&
-  [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "warning: roof.json: directional light 0 .* reaches no patch" err.txt
+  [ "$(wc -l <err.txt)" -eq 1 ] && grep -q "warning: roof.json: directional_lights\[0\] .* reaches no patch" err.txt
 check $? "solve of a sun over a roof: $(cat err.txt)"
+# A sun travelling up faces no surface's front: said so, not blamed on walls.
+"$bin" check sun-floor.json -D 'directional_lights[0].direction=[0, 1, 0]' >chk.txt 2>&1 &&
+  grep -q "^warning     directional_lights\[0\] (travelling along (0, 1, 0)) faces no patch's front" chk.txt
+check $? "check of a sun from below: $(cat chk.txt)"
 # Nothing lights a scene: the black image it gets is said in one warning, by check too.
 # A light whose emission is all zero is no light; a zero point light or a black sky
 # neither.

@@ -175,7 +175,7 @@ TEST_CASE("a sun over a plane, a square casting a shadow: rho E cos / pi in each
     scene.finalize();
     scenes::subdivide(scene, 0.2);
     const Vec3 along = Vec3(1.0, 0.0, -1.0).normalized();  // the shadow: x in [0.25, 0.75], |y| < 0.25
-    scene.directional_lights.push_back({along, Rgb(2.0, 3.0, 4.0)});
+    scene.directional_lights.push_back({along, Rgb(2.0, 3.0, 4.0), "sun"});
     scene.camera.eye = Vec3(0, 0, 3);
     scene.camera.target = Vec3(0, 0, 0);
     scene.camera.fov_y = 50;

@@ -561,6 +561,19 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     bright["scenes"][0]["nodes"] = {0, 2, 3};
     CHECK_THROWS_WITH(load_scene(dir.write("bright.gltf", bright.dump())),
                       Contains("point light 0: intensity 1e+300 is too large (at most 1e+15)"));
+    // A sun: too strong is refused the same way; placed, it turns with its object (and is
+    // named by its file and name in messages).
+    bright["extensions"]["KHR_lights_punctual"]["lights"][0] = {{"type", "directional"}, {"intensity", 1e300}};
+    CHECK_THROWS_WITH(load_scene(dir.write("bright-sun.gltf", bright.dump())),
+                      Contains("directional light 0: irradiance 1e+300 is too large (at most 1e+15)"));
+    bright["extensions"]["KHR_lights_punctual"]["lights"][0] = {{"type", "directional"}, {"intensity", 2.0}, {"name", "Sun"}};
+    dir.write("sun.gltf", bright.dump());
+    const Scene turned = load_scene(dir.write("turned.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]},
+        "objects": [{"mesh": "sun.gltf", "rotate": [90, 0, 0], "translate": [5, 0, 0]}]})"));
+    REQUIRE(turned.directional_lights.size() == 1);
+    CHECK(turned.directional_lights[0].direction.isApprox(Vec3(0, 1, 0)));  // -z turned a quarter about x
+    CHECK(turned.directional_lights[0].irradiance.isApprox(Rgb::Constant(2.0)));
+    CHECK(turned.directional_lights[0].name == "sun.gltf: light 'Sun'");
     // Without a camera of its own, the scene takes the glTF's, placed with its mesh.
     const Scene taken = load_scene(dir.write("c.json", R"({"objects": [{"mesh": "tri.gltf", "translate": [1, 0, 0]}]})"));
     CHECK(taken.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));

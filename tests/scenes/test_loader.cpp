@@ -201,6 +201,10 @@ TEST_CASE("directional lights load: a direction of travel, made unit, and an irr
                       Contains("directional_lights[0]: unknown key 'angle' (known: direction, irradiance)"));
     CHECK_THROWS_WITH(parse(scene_text(kCamera, kMaterials, kQuad, R"(, "directional_lights": {"direction": [0, 0, -1]})")),
                       Contains("directional_lights: expected an array, got object"));
+    // Named by its key for messages; a direction too short for its norm is one all the same.
+    CHECK(s.directional_lights[1].name == "directional_lights[1]");
+    CHECK(light(R"("direction": [1e-200, 0, -1e-200], "irradiance": [1, 1, 1])").directional_lights[0].direction.isApprox(
+        Vec3(1, 0, -1).normalized()));
 }
 
 TEST_CASE("meshes load with polygons triangulated", "[scenes]") {
