@@ -740,7 +740,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         const Node obj(objects[i], shown, "objects[" + std::to_string(i) + "]");
         obj.require_object();
         obj.check_keys({"mesh", "quad", "triangle", "material", "name", "crease_angle", "normals", "scale", "rotate",
-                        "translate"});
+                        "translate", "light_scale"});
         const double obj_crease = obj.has("crease_angle") ? crease_angle(obj) : crease;
         // The object's name in warnings and `raybundle check`: its own, or where it is.
         const std::string given = obj.has("name") ? obj.string("name") : "";
@@ -776,6 +776,17 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             // What a glTF file brings besides its triangles.
             scene.files.insert(scene.files.end(), data.resources.begin(), data.resources.end());
             scene.warnings.insert(scene.warnings.end(), data.warnings.begin(), data.warnings.end());
+            if (obj.has("light_scale")) {
+                const double factor = obj.number("light_scale");
+                if (!(factor >= 0.0)) obj.fail("light_scale", "must be 0 or more, got " + format_number(factor));
+                for (auto& light : data.point_lights) light.intensity *= factor;
+                for (auto& light : data.directional_lights) light.irradiance *= factor;
+            } else if (data.blender_lights) {
+                scene.warnings.push_back(
+                    rel + ": written by Blender, whose default lighting export (\"Standard\") writes its lights 683 "
+                          "times the scale of its emission (as lux and candela); read as written. -D " +
+                    obj.path() + ".light_scale=0.001464 (1/683) reads them as Blender's importer does");
+            }
             for (std::size_t k = 0; k < data.point_lights.size(); ++k) {
                 const double most = data.point_lights[k].intensity.maxCoeff();
                 if (!(most <= kMaxMagnitude))  // as a scene file's point light
@@ -837,6 +848,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             scene.crease_angles[id] = obj_crease;
         } else {
             if (obj.has("normals")) obj.fail("normals", "only a mesh object has a choice of normals");
+            if (obj.has("light_scale")) obj.fail("light_scale", "scales the lights a mesh file brings (a glTF's) only");
             for (const char* placement : {"scale", "rotate", "translate"})
                 if (obj.has(placement))
                     obj.fail(placement, "places a mesh object only (a quad's or triangle's corners are its place)");

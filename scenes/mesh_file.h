@@ -37,6 +37,9 @@ struct MeshData {
     std::vector<Material> material_defs;
     std::vector<PointLight> point_lights;
     std::vector<DirectionalLight> directional_lights;
+    // The file's asset.generator names Blender, and it places lights: Blender's default
+    // ("Standard") lighting export writes them 683 times the scale of its emission.
+    bool blender_lights = false;
     std::optional<Camera> camera;
     std::vector<std::string> warnings, resources;
 };

@@ -324,6 +324,8 @@ public:
         read_materials();
         place_tree(roots());
         if (out_.triangles.empty()) throw SceneError(shown_, "", "the glTF scene places no triangles");
+        out_.blender_lights = model_.asset.generator.find("Blender") != std::string::npos &&
+                              (!out_.point_lights.empty() || !out_.directional_lights.empty());
         // Only the materials the placed triangles use, in order of first use.
         std::vector<int> used(out_.materials.size(), -1);
         std::vector<std::string> names;
@@ -929,6 +931,7 @@ private:
         }
         out_.point_lights.push_back(p);
     }
+
 
     const tinygltf::Model& model_;
     const std::string& shown_;

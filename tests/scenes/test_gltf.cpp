@@ -574,6 +574,30 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     CHECK(turned.directional_lights[0].direction.isApprox(Vec3(0, 1, 0)));  // -z turned a quarter about x
     CHECK(turned.directional_lights[0].irradiance.isApprox(Rgb::Constant(2.0)));
     CHECK(turned.directional_lights[0].name == "sun.gltf: light 'Sun'");
+    // Written by Blender: its lights are 683 times its emission's scale, said once with
+    // the -D that undoes it; light_scale scales them (and says nothing more).
+    json blender = bright;
+    blender["asset"]["generator"] = "Khronos glTF Blender I/O v3.4.50";
+    dir.write("blender.gltf", blender.dump());
+    const std::string two_suns = dir.write("suns.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]},
+        "objects": [{"mesh": "sun.gltf"}, {"mesh": "blender.gltf"}]})");
+    const Scene warned = load_scene(two_suns);
+    CHECK(std::count_if(warned.warnings.begin(), warned.warnings.end(), [](const std::string& w) {
+              return w.find("blender.gltf: written by Blender") != std::string::npos &&
+                     w.find("-D objects[1].light_scale=0.001464") != std::string::npos;
+          }) == 1);
+    const Scene scaled = load_scene(two_suns, {{"objects[1].light_scale", "0.5"}});
+    REQUIRE(scaled.directional_lights.size() == 2);
+    CHECK(scaled.directional_lights[0].irradiance.isApprox(Rgb::Constant(2.0)));  // sun.gltf's: as written
+    CHECK(scaled.directional_lights[1].irradiance.isApprox(Rgb::Constant(1.0)));
+    CHECK(std::none_of(scaled.warnings.begin(), scaled.warnings.end(),
+                       [](const std::string& w) { return w.find("written by Blender") != std::string::npos; }));
+    CHECK_THROWS_WITH(load_scene(two_suns, {{"objects[1].light_scale", "-1"}}),
+                      Contains("objects[1].light_scale: must be 0 or more, got -1"));
+    CHECK_THROWS_WITH(load_scene(dir.write("quad-scale.json", R"({"camera": {"eye": [0, 0, 20], "target": [0, 0, 0]},
+        "materials": {"w": {"albedo": [0.5, 0.5, 0.5]}},
+        "objects": [{"quad": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]], "material": "w", "light_scale": 2}]})")),
+                      Contains("objects[0].light_scale: scales the lights a mesh file brings (a glTF's) only"));
     // Without a camera of its own, the scene takes the glTF's, placed with its mesh.
     const Scene taken = load_scene(dir.write("c.json", R"({"objects": [{"mesh": "tri.gltf", "translate": [1, 0, 0]}]})"));
     CHECK(taken.camera.eye.isApprox(Vec3(1.5, 0.5, 9)));
