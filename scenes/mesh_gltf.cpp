@@ -195,8 +195,58 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
                   {"baseColorFactor", "baseColorTexture", "metallicFactor", "roughnessFactor",
                    "metallicRoughnessTexture", "extensions", "extras"});
     });
+    if (const auto ext = doc.find("extensions"); ext != doc.end() && ext->is_object())
+        if (const auto punctual = ext->find("KHR_lights_punctual"); punctual != ext->end() && punctual->is_object())
+            if (const auto lights = punctual->find("lights"); lights != punctual->end() && lights->is_array())
+                for (std::size_t i = 0; i < lights->size(); ++i) {
+                    const std::string at = "KHR_lights_punctual.lights[" + std::to_string(i) + "]";
+                    const auto& light = (*lights)[i];
+                    check(light, at, {"type", "color", "intensity", "range", "spot", "name", "extensions", "extras"});
+                    if (const auto spot = light.find("spot"); light.is_object() && spot != light.end())
+                        check(*spot, at + ".spot", {"innerConeAngle", "outerConeAngle", "extensions", "extras"});
+                }
     if (unknown > 20) out.push_back(shown + ": " + std::to_string(unknown - 20) + " more unknown keys are not read");
     return out;
+}
+
+// KHR_lights_punctual's lights as glTF defines them: tinygltf takes a value of the wrong
+// type for its default (an intensity "2" as 1, a colour "red" as white), silently.
+void check_lights(std::string_view json_text, const std::string& shown) {
+    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+    if (!doc.is_object()) return;  // tinygltf says what is wrong with it
+    const auto ext = doc.find("extensions");
+    if (ext == doc.end() || !ext->is_object()) return;
+    const auto punctual = ext->find("KHR_lights_punctual");
+    if (punctual == ext->end()) return;
+    const std::string base = "extensions.KHR_lights_punctual";
+    if (!punctual->is_object()) throw SceneError(shown, base, "expected an object, got " + std::string(punctual->type_name()));
+    const auto lights = punctual->find("lights");
+    if (lights == punctual->end()) return;
+    if (!lights->is_array()) throw SceneError(shown, base + ".lights", "expected an array, got " + std::string(lights->type_name()));
+    for (std::size_t i = 0; i < lights->size(); ++i) {
+        const auto& light = (*lights)[i];
+        const std::string at = base + ".lights[" + std::to_string(i) + "]";
+        if (!light.is_object()) throw SceneError(shown, at, "expected an object, got " + std::string(light.type_name()));
+        const auto number = [&](const nlohmann::json& object, const char* key, const std::string& where) {
+            if (const auto v = object.find(key); v != object.end() && !v->is_number())
+                throw SceneError(shown, where + "." + key, "expected a number, got " + v->dump());
+        };
+        if (const auto type = light.find("type"); type == light.end() || !type->is_string())
+            throw SceneError(shown, at + ".type", type == light.end() ? "missing (point, spot or directional)"
+                                                                       : "expected a string, got " + type->dump());
+        number(light, "intensity", at);
+        number(light, "range", at);
+        if (const auto colour = light.find("color"); colour != light.end()) {
+            const bool rgb = colour->is_array() && colour->size() == 3 &&
+                             std::all_of(colour->begin(), colour->end(), [](const nlohmann::json& c) { return c.is_number(); });
+            if (!rgb) throw SceneError(shown, at + ".color", "expected [r, g, b], got " + colour->dump());
+        }
+        if (const auto spot = light.find("spot"); spot != light.end()) {
+            if (!spot->is_object()) throw SceneError(shown, at + ".spot", "expected an object, got " + spot->dump());
+            number(*spot, "innerConeAngle", at + ".spot");
+            number(*spot, "outerConeAngle", at + ".spot");
+        }
+    }
 }
 
 // What tinygltf reads past, checked on the file's JSON first. An index of -1 (glTF's
@@ -900,9 +950,13 @@ private:
         }
         Rgb colour = Rgb::Ones();
         if (light.color.size() == 3) colour = Rgb(light.color[0], light.color[1], light.color[2]);
+        if (!std::isfinite(light.intensity) || light.intensity < 0.0)
+            fail(where, named + ": intensity " + number(light.intensity) + " is negative or not finite");
+        if (!colour.allFinite() || (colour < 0.0).any())
+            fail(where, named + ": color [" + number(colour[0]) + ", " + number(colour[1]) + ", " + number(colour[2]) +
+                            "] is negative or not finite");
         const Rgb intensity = colour * light.intensity;
-        if (!intensity.allFinite() || (intensity < 0.0).any())
-            fail(where, named + ": intensity " + number(light.intensity) + " or colour is negative or not finite");
+        if (!intensity.allFinite()) fail(where, named + ": intensity times color is not finite");
         if (light.type == "directional") {
             // Along the node's -z; intensity in lux: the irradiance of a surface facing it.
             const Vec3 direction = -world.block<3, 1>(0, 2);
@@ -955,6 +1009,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     Files files{folder, {}, 0};
     check_resources(json_text, shown, files);
     check_ids(json_text, shown);
+    check_lights(json_text, shown);
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
     loader.SetImageLoader(&keep_image, nullptr);

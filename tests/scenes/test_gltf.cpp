@@ -231,6 +231,27 @@ TEST_CASE("glTF: point, spot and directional lights and the first camera, placed
     CHECK(d.directional_lights[0].irradiance.isApprox(Rgb(3.0, 2.7, 2.4)));
     REQUIRE(d.warnings.size() == 1);
     CHECK_THAT(d.warnings[0], Contains("panel") && Contains("an area light is not read (point, spot and directional lights are)"));
+    // A light's values of the wrong type are refused (tinygltf would take its defaults),
+    // a negative colour is named, an unknown key is a warning.
+    auto with_light = [&](const json& light) {
+        json bad = doc;
+        bad["extensions"]["KHR_lights_punctual"]["lights"][0] = light;
+        return bad;
+    };
+    CHECK_THROWS_WITH(parse(with_light({{"type", "directional"}, {"intensity", "2"}})),
+                      Contains("extensions.KHR_lights_punctual.lights[0].intensity: expected a number, got \"2\""));
+    CHECK_THROWS_WITH(parse(with_light({{"type", "point"}, {"color", {1, 0.5}}})),
+                      Contains("extensions.KHR_lights_punctual.lights[0].color: expected [r, g, b], got [1,0.5]"));
+    CHECK_THROWS_WITH(parse(with_light({{"intensity", 1}})),
+                      Contains("extensions.KHR_lights_punctual.lights[0].type: missing (point, spot or directional)"));
+    CHECK_THROWS_WITH(parse(with_light({{"type", "spot"}, {"spot", {{"outerConeAngle", "wide"}}}})),
+                      Contains("lights[0].spot.outerConeAngle: expected a number, got \"wide\""));
+    CHECK_THROWS_WITH(parse(with_light({{"type", "point"}, {"color", {1, -0.5, 1}}})),
+                      Contains("light '0': color [1, -0.5, 1] is negative or not finite"));
+    const MeshData extra = parse(with_light({{"type", "point"}, {"irradiance", 5}}));
+    CHECK(std::any_of(extra.warnings.begin(), extra.warnings.end(), [](const std::string& w) {
+        return w.find("KHR_lights_punctual.lights[0]: unknown key 'irradiance' is not read") != std::string::npos;
+    }));
     // Cones out of glTF's range are refused.
     doc["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.6;
     CHECK_THROWS_WITH(parse(doc), Contains("nodes[3]: light 'torch': innerConeAngle 0.6 is not in [0, outerConeAngle = 0.5)"));
