@@ -443,6 +443,10 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     json value;
     try {
         value = parse_json(o.value, shown);
+    } catch (const SceneError& e) {  // a key given twice, or nested too deep: where, below the key
+        const std::string& below = e.where();
+        throw SceneError(shown, below.empty() ? o.key : o.key + (below[0] == '[' ? "" : ".") + below,
+                         e.problem() + " (from -D " + o.key + "=" + cut(o.value, 200) + ")");
     } catch (const json::out_of_range& e) {  // a number a double cannot hold: 1e400
         std::string msg = e.what();
         const auto bracket = msg.find("] ");

@@ -32,6 +32,9 @@ expect_bad "JSON nested 60,000 deep" "deep.json: objects[0][0]" solve deep.json
 scene "$quad" ', "patch_size": 1, "patch_size": 2' > twice.json
 expect_bad "a key given twice" "twice.json: patch_size: key given twice" solve twice.json
 expect_bad "missing scene file" "no-such.json: cannot open scene file" solve no-such.json
+expect_bad "a key given twice in a -D value" \
+  'good.json: directional_lights[0].direction: key given twice (from -D directional_lights=[{"direction": [0, -1, 0], "direction"' \
+  solve good.json -D 'directional_lights=[{"direction": [0, -1, 0], "direction": [0, 1, 0], "irradiance": [1, 1, 1]}]' 
 expect_bad "--ambient with walks" "--ambient: applies to stochastic iteration with the constant basis" \
   solve good.json --method walk --ambient
 expect_bad "--ambient with pathtrace" "ambient does not apply to --method pathtrace" \
