@@ -1,7 +1,8 @@
 #pragma once
-// The first shot (004 section 9): the direct effect of point and directional lights, computed once
-// and exactly (up to quadrature over each patch) with shadow rays; afterwards the
-// lights leave the iteration, and what the patches reflect of them is an emission.
+// The first shot (004 section 9): the direct effect of point and directional lights,
+// computed once and exactly (up to quadrature over each patch) with shadow rays;
+// afterwards the lights leave the iteration, and what the patches reflect of them is
+// an emission.
 //
 // The irradiance of patch i from a light of intensity I at p is the patch average of
 // I cos(theta) / r^2 times visibility, integrated by the centroid rule on a regular
