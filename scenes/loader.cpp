@@ -1023,6 +1023,19 @@ Scene load_model(const std::string& path, const Overrides& overrides, const Load
     json camera = {{"eye", {centre.x(), centre.y(), hi.z() + distance}},
                    {"target", {centre.x(), centre.y(), centre.z()}},
                    {"fov_y", fov}};
+    // A flat horizontal model (a ground alone; Blender's plane, glTF's +y up) would be
+    // seen edge-on from +z: from 45 degrees above the side its faces mostly face.
+    if (!data.triangles.empty() && extent.y() <= 1e-6 * size) {
+        double facing_up = 0.0;  // the area-weighted y of its faces' normals (sign)
+        for (const auto& t : data.triangles) {
+            const Vec3& a = data.vertices[static_cast<std::size_t>(t[0])];
+            facing_up += (data.vertices[static_cast<std::size_t>(t[1])] - a)
+                             .cross(data.vertices[static_cast<std::size_t>(t[2])] - a)
+                             .y();
+        }
+        const double side = facing_up < 0.0 ? -1.0 : 1.0, away = 0.6 * size / std::tan(0.5 * fov * M_PI / 180.0);
+        camera["eye"] = {centre.x(), centre.y() + side * away * M_SQRT1_2, centre.z() + away * M_SQRT1_2};
+    }
     if (data.camera) camera = camera_json(*data.camera);
     // Its parts named "room.obj: Floor", as in a scene file's object named "room.obj".
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}, {"name", name}}})}};

@@ -407,6 +407,16 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     CHECK(scene.camera.eye.z() > 1.0);
     CHECK(scene.patch_count() > 6);  // refined to 2/25
     CHECK(scene.files.front() == path);
+    // A flat horizontal model, seen edge-on from +z: from 45 degrees above the side it
+    // faces instead (below it where it faces down).
+    dir.write("ground.obj", "v -1 0 -1\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nf 1 2 3 4\n");  // faces +y
+    const Scene ground = load_scene(dir.path.string() + "/ground.obj");
+    const Vec3 view = (ground.camera.target - ground.camera.eye).normalized();
+    CHECK(view.isApprox(Vec3(0, -1, -1).normalized()));
+    CHECK(ground.patch_list()[0].normal.dot(ground.camera.eye - ground.patch_list()[0].centroid) > 0.0);
+    dir.write("ceiling.obj", "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3 4\n");  // faces -y
+    const Scene ceiling = load_scene(dir.path.string() + "/ceiling.obj");
+    CHECK((ceiling.camera.target - ceiling.camera.eye).normalized().isApprox(Vec3(0, 1, -1).normalized()));
     // Overrides apply to its document: the camera, a material replaced.
     const Scene moved = load_scene(path, {{"camera.eye", "[1, 5, 5]"}, {"materials.lamp", R"({"albedo": [0, 0, 0], "emission": [1, 1, 1]})"}});
     CHECK(moved.camera.eye.isApprox(Vec3(1, 5, 5)));
