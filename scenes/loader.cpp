@@ -356,7 +356,7 @@ PointLight parse_point_light(const Node& n) {
 
 // A directional light: parallel light travelling along "direction", of "irradiance"
 // on a surface facing it.
-DirectionalLight parse_directional_light(const Node& n, const std::string& name) {
+DirectionalLight parse_directional_light(const Node& n) {
     n.require_object();
     n.check_keys({"direction", "irradiance"});
     DirectionalLight l;
@@ -366,7 +366,7 @@ DirectionalLight parse_directional_light(const Node& n, const std::string& name)
     l.direction = (direction / longest).normalized();
     l.irradiance = n.vec3("irradiance").array();
     if ((l.irradiance < 0).any()) n.fail("irradiance", "negative irradiance " + rgb_text(l.irradiance));
-    l.name = name;
+    l.name = n.path();  // "directional_lights[i]"
     return l;
 }
 
@@ -910,23 +910,17 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         scene.camera = parse_camera(Node(merged, shown, "camera"));
     }
 
-    if (root.has("point_lights")) {
-        const json& lights = root.raw("point_lights");
-        if (!lights.is_array())
-            root.fail("point_lights", std::string("expected an array, got ") + type_name(lights));
-        for (std::size_t i = 0; i < lights.size(); ++i)
-            scene.point_lights.push_back(
-                parse_point_light(Node(lights[i], shown, "point_lights[" + std::to_string(i) + "]")));
-    }
-    if (root.has("directional_lights")) {
-        const json& lights = root.raw("directional_lights");
-        if (!lights.is_array())
-            root.fail("directional_lights", std::string("expected an array, got ") + type_name(lights));
-        for (std::size_t i = 0; i < lights.size(); ++i)
-            scene.directional_lights.push_back(
-                parse_directional_light(Node(lights[i], shown, "directional_lights[" + std::to_string(i) + "]"),
-                                        "directional_lights[" + std::to_string(i) + "]"));
-    }
+    // Each element of the array at `key` (if given), as a node named "key[i]".
+    const auto each_element = [&](const char* key, auto&& take) {
+        if (!root.has(key)) return;
+        const json& list = root.raw(key);
+        if (!list.is_array()) root.fail(key, std::string("expected an array, got ") + type_name(list));
+        for (std::size_t i = 0; i < list.size(); ++i)
+            take(Node(list[i], shown, std::string(key) + "[" + std::to_string(i) + "]"));
+    };
+    each_element("point_lights", [&](const Node& n) { scene.point_lights.push_back(parse_point_light(n)); });
+    each_element("directional_lights",
+                 [&](const Node& n) { scene.directional_lights.push_back(parse_directional_light(n)); });
     if (root.has("sky")) scene.sky = parse_sky(root.child("sky"));
     for (const auto& [name, values] : edits)
         if (!taken.count(name)) new_material(name, "the scene's own materials and its meshes' have none of that name");

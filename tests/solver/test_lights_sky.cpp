@@ -47,6 +47,17 @@ scenes::Scene plane(double rho, double patch_size) {
     return s;
 }
 
+// Adds a square of half side h at height z over the plane, facing up (its back, below,
+// black), and finalizes the scene.
+void add_square(scenes::Scene& scene, double h, double z) {
+    scenes::Material occ;
+    occ.name = "occluder";
+    occ.albedo = Rgb::Constant(0.5);
+    const int m = scene.add_material(occ);
+    scene.add_object({{-h, -h, z}, {h, -h, z}, {h, h, z}, {-h, h, z}}, {{{0, 1, 2}}, {{0, 2, 3}}}, m);
+    scene.finalize();
+}
+
 solver::FirstShot shoot(const scenes::Scene& scene) {
     const scenes::RayCaster caster(scene);
     return solver::first_shot(scene, caster);
@@ -166,13 +177,7 @@ TEST_CASE("point light: shadows are exact, and a light behind a patch gives noth
     auto scene = plane(0.5, 0.06);
     // An occluder 0.25 x 0.25 at z = 0.25 under a light at z = 1 (facing up, so it
     // sends nothing down): its umbra on the plane is the square |x|, |y| < 1/6.
-    scenes::Material occ;
-    occ.name = "occluder";
-    occ.albedo = Rgb::Constant(0.5);
-    const int m = scene.add_material(occ);
-    scene.add_object({{-0.125, -0.125, 0.25}, {0.125, -0.125, 0.25}, {0.125, 0.125, 0.25}, {-0.125, 0.125, 0.25}},
-                     {{{0, 1, 2}}, {{0, 2, 3}}}, m);
-    scene.finalize();
+    add_square(scene, 0.125, 0.25);
     scene.point_lights.push_back({Vec3(0, 0, 1), Rgb::Constant(1.0)});
     scene.point_lights.push_back({Vec3(0, 0, -1), Rgb::Constant(1.0)});  // below the plane: no effect
     const solver::FirstShot shot = shoot(scene);
@@ -221,13 +226,7 @@ TEST_CASE("directional light: a square's shadow, patch by patch and in all, with
     // (0.3, 0.2, -1): its shadow is the square moved by (0.075, 0.05), whose edges cross
     // patches of 0.1 at slants.
     auto scene = plane(0.5, 0.1);
-    scenes::Material occ;
-    occ.name = "occluder";
-    occ.albedo = Rgb::Constant(0.5);
-    const int m = scene.add_material(occ);
-    scene.add_object({{-0.25, -0.25, 0.25}, {0.25, -0.25, 0.25}, {0.25, 0.25, 0.25}, {-0.25, 0.25, 0.25}},
-                     {{{0, 1, 2}}, {{0, 2, 3}}}, m);
-    scene.finalize();
+    add_square(scene, 0.25, 0.25);
     const Vec3 along = Vec3(0.3, 0.2, -1.0).normalized();
     scene.directional_lights.push_back({along, Rgb::Constant(2.0), "sun"});
     const solver::FirstShot shot = shoot(scene);
@@ -260,13 +259,7 @@ TEST_CASE("directional light: glossy patches keep its direction, and any thread 
     auto scene = plane(0.3, 0.1);
     scene.materials[0].specular = Rgb::Constant(0.5);
     scene.materials[0].exponent = 20.0;
-    scenes::Material occ;
-    occ.name = "occluder";
-    occ.albedo = Rgb::Constant(0.5);
-    const int m = scene.add_material(occ);
-    scene.add_object({{-0.25, -0.25, 0.25}, {0.25, -0.25, 0.25}, {0.25, 0.25, 0.25}, {-0.25, 0.25, 0.25}},
-                     {{{0, 1, 2}}, {{0, 2, 3}}}, m);
-    scene.finalize();
+    add_square(scene, 0.25, 0.25);
     const Vec3 along = Vec3(0.3, 0.2, -1.0).normalized();
     scene.directional_lights.push_back({along, Rgb(1.0, 2.0, 3.0), "sun"});
     const scenes::RayCaster caster(scene);
