@@ -146,10 +146,9 @@ bool keep_image(tinygltf::Image* image, int, std::string*, std::string*, int, in
 // how it looks (nodes, meshes, primitives, materials): glTF lets a file carry them, and
 // tinygltf reads past them, so a typo ("translaton") would move nothing, silently. One
 // warning each, with the nearest known key.
-std::vector<std::string> unknown_keys(std::string_view json_text, const std::string& shown) {
+std::vector<std::string> unknown_keys(const nlohmann::json& doc, const std::string& shown) {
     std::vector<std::string> out;
     std::size_t unknown = 0;  // the first 20 named, the others counted
-    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
     if (!doc.is_object()) return out;  // tinygltf says what is wrong with it
     const auto check = [&](const nlohmann::json& object, const std::string& where,
                            std::initializer_list<const char*> known) {
@@ -211,8 +210,7 @@ std::vector<std::string> unknown_keys(std::string_view json_text, const std::str
 
 // KHR_lights_punctual's lights as glTF defines them: tinygltf takes a value of the wrong
 // type for its default (an intensity "2" as 1, a colour "red" as white), silently.
-void check_lights(std::string_view json_text, const std::string& shown) {
-    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+void check_lights(const nlohmann::json& doc, const std::string& shown) {
     if (!doc.is_object()) return;  // tinygltf says what is wrong with it
     const auto ext = doc.find("extensions");
     if (ext == doc.end() || !ext->is_object()) return;
@@ -227,15 +225,15 @@ void check_lights(std::string_view json_text, const std::string& shown) {
         const auto& light = (*lights)[i];
         const std::string at = base + ".lights[" + std::to_string(i) + "]";
         if (!light.is_object()) throw SceneError(shown, at, "expected an object, got " + std::string(light.type_name()));
-        const auto number = [&](const nlohmann::json& object, const char* key, const std::string& where) {
+        const auto numeric = [&](const nlohmann::json& object, const char* key, const std::string& where) {
             if (const auto v = object.find(key); v != object.end() && !v->is_number())
                 throw SceneError(shown, where + "." + key, "expected a number, got " + v->dump());
         };
         if (const auto type = light.find("type"); type == light.end() || !type->is_string())
             throw SceneError(shown, at + ".type", type == light.end() ? "missing (point, spot or directional)"
                                                                        : "expected a string, got " + type->dump());
-        number(light, "intensity", at);
-        number(light, "range", at);
+        numeric(light, "intensity", at);
+        numeric(light, "range", at);
         if (const auto colour = light.find("color"); colour != light.end()) {
             const bool rgb = colour->is_array() && colour->size() == 3 &&
                              std::all_of(colour->begin(), colour->end(), [](const nlohmann::json& c) { return c.is_number(); });
@@ -243,8 +241,8 @@ void check_lights(std::string_view json_text, const std::string& shown) {
         }
         if (const auto spot = light.find("spot"); spot != light.end()) {
             if (!spot->is_object()) throw SceneError(shown, at + ".spot", "expected an object, got " + spot->dump());
-            number(*spot, "innerConeAngle", at + ".spot");
-            number(*spot, "outerConeAngle", at + ".spot");
+            numeric(*spot, "innerConeAngle", at + ".spot");
+            numeric(*spot, "outerConeAngle", at + ".spot");
         }
     }
 }
@@ -253,8 +251,7 @@ void check_lights(std::string_view json_text, const std::string& shown) {
 // ids start at 0) reads there as "none": a node's mesh would vanish, a primitive lose
 // its material or indices. A node with a matrix and any of translation, rotation, scale
 // (glTF forbids it) would lose the latter.
-void check_ids(std::string_view json_text, const std::string& shown) {
-    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+void check_ids(const nlohmann::json& doc, const std::string& shown) {
     if (!doc.is_object()) return;  // tinygltf says what is wrong with it
     // The keys whose values are ids, or arrays or objects of ids.
     static const std::set<std::string> ids = {"scene", "camera", "skin", "mesh", "indices", "material", "bufferView",
@@ -308,9 +305,8 @@ void check_ids(std::string_view json_text, const std::string& shown) {
 // tinygltf reads them: one missing or outside the asset's folder is named with its
 // object (tinygltf says "File not found" of both, and of no object). Images are left to
 // tinygltf: one it cannot read is a warning there, and its material keeps its factor.
-void check_resources(std::string_view json_text, const std::string& shown, const Files& files) {
+void check_resources(const nlohmann::json& doc, const std::string& shown, const Files& files) {
     if (!files.folder) return;
-    const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
     if (!doc.is_object()) return;  // tinygltf says what is wrong with it
     const auto decoded = [](const std::string& uri) {  // as tinygltf's urldecode: '+' and %XX
         const auto digit = [](char c) {
@@ -986,7 +982,6 @@ private:
         out_.point_lights.push_back(p);
     }
 
-
     const tinygltf::Model& model_;
     const std::string& shown_;
     std::size_t max_triangles_;
@@ -1007,9 +1002,15 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     const std::string_view json_text = binary ? glb_json(content, shown) : content;
     check_nesting(json_text, shown);
     Files files{folder, {}, 0};
-    check_resources(json_text, shown, files);
-    check_ids(json_text, shown);
-    check_lights(json_text, shown);
+    std::vector<std::string> unknown;
+    {  // The document once, for the checks tinygltf leaves out (not JSON: tinygltf says
+       // why), and gone before tinygltf reads it.
+        const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+        check_resources(doc, shown, files);
+        check_ids(doc, shown);
+        check_lights(doc, shown);
+        unknown = unknown_keys(doc, shown);
+    }
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&file_exists, &expand_path, &read_file, &write_file, &files});
     loader.SetImageLoader(&keep_image, nullptr);
@@ -1032,7 +1033,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
         throw SceneError(shown, "", std::string("not a valid glTF 2.0 file: ") + first_line(e.what()));
     }
     if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
-    out.warnings = unknown_keys(json_text, shown);
+    out.warnings = std::move(unknown);
     Reader(model, shown, max_triangles, out).read();
     out.resources = std::move(files.read);
     // No file gives normals at every corner: the computed ones serve.
