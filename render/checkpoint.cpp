@@ -82,6 +82,23 @@ std::string scene_hash(const scenes::Scene& scene) {
         f.value(m.exponent);
         f.value(m.two_sided);
     }
+    // A textured scene's albedos per patch and its textures' texels (the same hash as
+    // before for scenes without).
+    if (scene.textured()) {
+        for (std::size_t i = 0; i < scene.patch_count(); ++i) f.rgb(scene.albedo_of(i));
+        for (const auto& m : scene.materials)
+            if (m.texture) {
+                f.bytes(m.texture->image->srgb.data(), m.texture->image->srgb.size());
+                f.value(static_cast<int>(m.texture->wrap_s));
+                f.value(static_cast<int>(m.texture->wrap_t));
+                f.rgb(m.tint);
+            }
+        for (const auto& map : scene.texture_maps) {
+            f.bytes(map.linear.data(), sizeof(double) * 6);
+            f.vec(map.origin);
+            f.bytes(map.at_origin.data(), sizeof(double) * 2);
+        }
+    }
     const auto& c = scene.camera;
     f.vec(c.eye);
     f.vec(c.target);

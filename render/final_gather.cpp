@@ -129,6 +129,13 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     const bool probe = o.bias_probe > 0.0 && o.correction == 0.0;
     Image field_error(W, H);
     std::vector<int> guide_patch(static_cast<std::size_t>(W) * H, -1);
+    // A textured scene's albedo at each guide point (the texture's there); else the
+    // guide patch's material's.
+    const bool textured = scene.textured();
+    Image guide_albedo = textured ? Image(W, H) : Image();
+    auto albedo_at_guide = [&](int x, int y, int patch) -> Rgb {
+        return textured ? get(guide_albedo, x, y) : Rgb(scene.material_of(static_cast<std::size_t>(patch)).albedo);
+    };
     std::vector<long> camera_rays(H, 0), shadow_rays(H, 0), gather_rays(H, 0), bias_rays(H, 0), lookups(H, 0),
         across(H, 0);
     // Spread over a team, this process computes its rows in passes 1 and 3, and they
@@ -160,6 +167,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             if (s.patch < 0 || !s.front) continue;                        // a back side: black
             sampling::Rng rng(run.seed, sampling::streams::kGuidePixels(o.pass, p, 32));
             guide_patch[p] = s.patch;
+            if (textured) put(guide_albedo, x, y, scene.albedo_at(static_cast<std::size_t>(s.patch), s.point));
             const Vec3 n = g.shading_normal(s.patch, s.b1, s.b2, -d);
             put(r.normal, x, y, n);
             put(r.depth, x, y, Rgb::Constant(s.depth));
@@ -189,6 +197,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
     });
     for (Image* image : {&r.direct, &r.indirect, &field_error, &r.normal, &r.depth, &r.position}) block.share(*image);
     block.share(guide_patch);
+    if (textured) block.share(guide_albedo);
     const auto t1 = Clock::now();
 
     // Pass 2: filter the incident indirect light.
@@ -219,7 +228,7 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             for (int x = 0; x < W; ++x) {
                 const int patch = guide_patch[static_cast<std::size_t>(y) * W + x];
                 if (patch < 0) continue;
-                const Rgb albedo = scene.material_of(patch).albedo;
+                const Rgb albedo = albedo_at_guide(x, y, patch);
                 put(r.bias, x, y,
                     albedo * (get(r.indirect_filtered, x, y) - get(r.indirect, x, y) - get(field_error, x, y)));
                 if (corrected)
@@ -255,8 +264,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
             if (o.spp == 1) {
                 sum = get(r.direct, x, y);  // the background's sky, if any, on a guide that met nothing
                 if (guide_patch[p] >= 0) {
-                    sum += scene.material_of(guide_patch[p]).albedo * get(r.indirect_filtered, x, y);
-                    more = scene.material_of(guide_patch[p]).albedo * added(x, y);
+                    const Rgb albedo = albedo_at_guide(x, y, guide_patch[p]);
+                    sum += albedo * get(r.indirect_filtered, x, y);
+                    more = albedo * added(x, y);
                 }
             } else {
                 // A stream of its own, so that the guide pass is the same with any spp.
@@ -343,8 +353,9 @@ GatherResult final_gather(const scenes::Scene& scene, const scenes::RayCaster& c
                     }
                     if (best >= 0) {
                         const auto [bx, by] = cand_xy[static_cast<std::size_t>(best)];
-                        L += scene.material_of(hit.patch).albedo * get(r.indirect_filtered, bx, by);
-                        more += scene.material_of(hit.patch).albedo * added(bx, by);
+                        const Rgb albedo = scene.albedo_at(hit.patch, point);
+                        L += albedo * get(r.indirect_filtered, bx, by);
+                        more += albedo * added(bx, by);
                         ++looked;
                         if (across_depth(best)) ++crossed;
                     }

@@ -69,7 +69,8 @@ GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCa
     parallel_chunks(static_cast<int>(n), threads, [&](int i0, int i1) {
         for (auto i = static_cast<std::size_t>(i0); i < static_cast<std::size_t>(i1); ++i) {
             const auto& m = scene.material_of(i);
-            if (m.glossy() || m.emissive() || !(m.albedo > 0.0).any()) continue;
+            const Rgb& albedo = scene.albedo_of(i);
+            if (m.glossy() || m.emissive() || !(albedo > 0.0).any()) continue;
             double spread = 0.0;
             for (const Rgb& c : direct_corners[i]) spread = std::max(spread, (c - field.direct[i]).abs().maxCoeff());
             if (!(spread > kDirectVaries * field.radiance[i].maxCoeff())) continue;
@@ -77,7 +78,7 @@ GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCa
             // Which estimate of the area lights: the one exact where all is seen if the
             // patch's direct light is at least half the unoccluded light at its centroid.
             const Vec3& c = patches_[i].centroid;
-            const double open = lights.empty() ? 0.0 : (m.albedo / M_PI * lights.irradiance(c, patches_[i].normal)).mean();
+            const double open = lights.empty() ? 0.0 : (albedo / M_PI * lights.irradiance(c, patches_[i].normal)).mean();
             direct_at_[i] = open > 0.0 && field.direct[i].mean() >= 0.5 * open ? 1 : 2;
         }
     });
@@ -86,7 +87,9 @@ GatherEstimator::GatherEstimator(const scenes::Scene& scene, const scenes::RayCa
 
 Rgb GatherEstimator::direct(std::size_t p, const Vec3& x, const Vec3& n, const Vec3& to_eye, int samples,
                             sampling::Rng& rng, long& rays) const {
-    const DirectLighting::Surface at{scene_.material_of(p), n, lighting_.origin(x, patches_[p].normal, to_eye), to_eye};
+    scenes::Material scratch;
+    const DirectLighting::Surface at{scene_.material_at(p, x, scratch), n, lighting_.origin(x, patches_[p].normal, to_eye),
+                                     to_eye};
     Rgb sum = Rgb::Zero();
     if (!lighting_.lights().empty() && samples > 0)
         sum = analytic_ ? lighting_.analytic(at, samples, rng, rays) : lighting_.sampled(at, samples, rng, rays);
@@ -160,7 +163,8 @@ Rgb GatherEstimator::arriving(const scenes::RayHit& hit, const Vec3& from, const
 Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
                                long& rays, int bounce, bool corrected) const {
     const std::size_t q = static_cast<std::size_t>(hit.patch);
-    const auto& m = scene_.material_of(q);
+    scenes::Material scratch;
+    const auto& m = scene_.material_at(q, y, scratch);
     const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
     const DirectLighting::Surface at{m, n, lighting_.origin(y, patches_[q].normal, w_out), w_out};
     Rgb L = Rgb::Zero();
@@ -192,7 +196,8 @@ Rgb GatherEstimator::bounce_at(const scenes::RayHit& hit, const Vec3& y, const V
 Rgb GatherEstimator::direct_at_hit(const scenes::RayHit& hit, const Vec3& y, const Vec3& w_out, sampling::Rng& rng,
                                    long& rays) const {
     const std::size_t q = static_cast<std::size_t>(hit.patch);
-    const auto& m = scene_.material_of(q);
+    scenes::Material scratch;
+    const auto& m = scene_.material_at(q, y, scratch);
     const Vec3 n = lighting_.shading_normal(q, hit.b1, hit.b2, w_out);
     const DirectLighting::Surface at{m, n, lighting_.origin(y, patches_[q].normal, w_out), w_out};
     Rgb L = Rgb::Zero();

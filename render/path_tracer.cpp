@@ -45,8 +45,9 @@ public:
             if (cos_y <= 0.0) break;  // the back of a one-sided patch: black
             // Shading with the interpolated normal, unless the eye is below its horizon.
             const Vec3 to_eye = -d, n = lighting_.shading_normal(hit.patch, hit.b1, hit.b2, to_eye);
-            const auto& m = scene_.material_of(hit.patch);
             const Vec3 x = from + hit.t * d;
+            scenes::Material scratch;
+            const auto& m = scene_.material_at(hit.patch, x, scratch);
             // Light met by the BRDF's direction, weighed against the light point drawn
             // at the previous vertex (balance heuristic).
             if (m.emissive()) {

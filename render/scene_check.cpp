@@ -356,8 +356,8 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     print("bounds      %s .. %s\n", vec3(s.lo).c_str(), vec3(s.hi).c_str());
     print("materials   %zu:", scene.materials.size());
     for (const auto& m : scene.materials)
-        print(" %s%s%s%s", m.name.c_str(), m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "",
-                    m.two_sided ? " (two-sided)" : "");
+        print(" %s%s%s%s%s", m.name.c_str(), m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "",
+              m.two_sided ? " (two-sided)" : "", m.texture ? (" (texture " + m.texture->shown + ")").c_str() : "");
     print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
     const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
                                      [](const scenes::PointLight& l) { return l.spot(); });

@@ -234,6 +234,7 @@ void place_mesh(const Node& obj, MeshData& data) {
     if (linear.determinant() < 0.0) {
         for (auto& t : data.triangles) std::swap(t[1], t[2]);
         for (auto& corners : data.normals) std::swap(corners[1], corners[2]);
+        for (auto& corners : data.uvs) std::swap(corners[1], corners[2]);
     }
 }
 
@@ -524,6 +525,7 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
         const auto [mat, group] = parts[p];
         std::vector<std::array<int, 3>> tris, twins;
         std::vector<std::array<Vec3, 3>> normals, twin_normals;
+        std::vector<std::array<Uv, 3>> uvs, twin_uvs;
         std::vector<Vec3> vertices;
         for (const std::size_t t : members[p]) {
             std::array<int, 3> tri{};
@@ -538,17 +540,34 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
             }
             tris.push_back(tri);
             if (!data.normals.empty()) normals.push_back(data.normals[t]);
+            if (!data.uvs.empty()) uvs.push_back(data.uvs[t]);
             if (scene.materials[static_cast<std::size_t>(mat)].two_sided) {
                 twins.push_back({tri[0], tri[2], tri[1]});
                 if (!data.normals.empty())
                     twin_normals.push_back({-data.normals[t][0], -data.normals[t][2], -data.normals[t][1]});
+                if (!data.uvs.empty()) twin_uvs.push_back({data.uvs[t][0], data.uvs[t][2], data.uvs[t][1]});
             }
         }
         const auto groups_of_mat = std::count_if(parts.begin(), parts.end(), [m = mat](const auto& other) { return other.first == m; });
         std::string part = scene.materials[static_cast<std::size_t>(mat)].name;
         if (groups_of_mat > 1) part = (group < 0 ? std::string("(no group)") : data.groups[static_cast<std::size_t>(group)]) + "/" + part;
-        const int id = scene.add_object(vertices, tris, mat, given ? name + ": " + part : name + ": " + part + ")", -1, normals);
-        if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals);
+        const std::string object_name = given ? name + ": " + part : name + ": " + part + ")";
+        // A texture on faces without texture coordinates: its mean colour there.
+        const Material& m = scene.materials[static_cast<std::size_t>(mat)];
+        if (m.texture) {
+            const auto bare = uvs.empty() ? tris.size() : static_cast<std::size_t>(std::count_if(uvs.begin(), uvs.end(), [](const auto& c) {
+                return !(c[0].allFinite() && c[1].allFinite() && c[2].allFinite());
+            }));
+            if (bare > 0) {
+                const Rgb mean = m.texture->mean();
+                scene.warnings.push_back(object_name + ": " + std::to_string(bare) + " of " + std::to_string(tris.size()) +
+                                         " triangles give no texture coordinates: there its texture " + m.texture->shown +
+                                         " is read as its mean colour " + format_number(mean[0]) + " " +
+                                         format_number(mean[1]) + " " + format_number(mean[2]));
+            }
+        }
+        const int id = scene.add_object(vertices, tris, mat, object_name, -1, normals, uvs);
+        if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals, twin_uvs);
         scene.crease_angles[static_cast<std::size_t>(id)] = crease;
     }
 }
@@ -733,7 +752,11 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         json merged = {{"albedo", rgb(m.albedo)}, {"emission", rgb(m.emission)}, {"two_sided", m.two_sided}};
         if (m.glossy()) merged["specular"] = rgb(m.specular), merged["exponent"] = m.exponent;
         merged.merge_patch(e->second);
+        auto texture = m.texture;
+        const Rgb tint = m.tint;
         m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
+        // A texture stays unless the settings give the albedo (a colour in its place).
+        if (texture && !(e->second.is_object() && e->second.contains("albedo"))) m.texture = std::move(texture), m.tint = tint;
         taken.insert(e->first);
         return true;
     };

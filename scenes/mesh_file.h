@@ -22,6 +22,10 @@ struct MeshData {
     // The file's normals at every triangle's corners (unit), or empty when it has none.
     // A zero vector: no normal at that corner (an OBJ face without them).
     std::vector<std::array<Vec3, 3>> normals;
+    // The file's texture coordinates at every triangle's corners, as (s, t) with t down
+    // from the image's top (an OBJ's vt v is 1 - t), or empty when it has none (a
+    // triangle without them in a file with some: NaN).
+    std::vector<std::array<Uv, 3>> uvs;
     // OBJ only (empty for PLY and OFF, and for an OBJ without `usemtl`, `o` or `g`):
     // each triangle's material, an index into `materials` (the names `usemtl` gives, in
     // order of first use; -1 before the first), and its group, an index into `groups`

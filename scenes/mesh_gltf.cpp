@@ -13,11 +13,14 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <unordered_map>
@@ -423,29 +426,55 @@ private:
     }
 
     // ------------------------------------------------------------------ materials
-    // The mean colour of a texture (PNG; embedded, a data URI, or a file beside the asset).
-    std::optional<Rgb> texture_mean(int texture, const std::string& where) {
-        if (texture < 0) return std::nullopt;
-        if (const auto it = texture_means_.find(texture); it != texture_means_.end()) return it->second;
-        return texture_means_[texture] = decode_texture(texture, where, texture_why_[texture]);
-    }
-    std::optional<Rgb> decode_texture(int texture, const std::string& where, std::string& why) {
-        if (static_cast<std::size_t>(texture) >= model_.textures.size()) fail(where, "texture index out of range");
-        const int source = model_.textures[static_cast<std::size_t>(texture)].source;
+    // A texture (its image a PNG or JPEG: embedded, a data URI, or a file beside the
+    // asset; each image decoded once), wrapped as its sampler says, or nothing with why
+    // in texture_why_.
+    std::shared_ptr<const Texture> texture(int index, const std::string& where) {
+        if (index < 0) return nullptr;
+        if (const auto it = textures_.find(index); it != textures_.end()) return it->second;
+        if (static_cast<std::size_t>(index) >= model_.textures.size()) fail(where, "texture index out of range");
+        const auto& t = model_.textures[static_cast<std::size_t>(index)];
+        const int source = t.source;
         if (source < 0 || static_cast<std::size_t>(source) >= model_.images.size())
-            fail(where, "texture " + std::to_string(texture) + ": image index out of range");
-        const auto& image = model_.images[static_cast<std::size_t>(source)];
-        std::optional<Rgb> mean;
-        if (!image.image.empty()) {
-            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(image.image.data()), image.image.size()),
-                                   &why);
-        } else if (image.bufferView >= 0) {
-            const auto view = buffer_view(image.bufferView, where + ": image");
-            mean = png_mean_colour(std::string_view(reinterpret_cast<const char*>(view.first), view.second), &why);
-        } else {
-            why = image.uri.empty() ? "its image has no data" : "'" + image.uri + "' is missing or empty";
+            fail(where, "texture " + std::to_string(index) + ": image index out of range");
+        auto& image = images_[source];
+        if (!image) {
+            const auto& im = model_.images[static_cast<std::size_t>(source)];
+            std::optional<TexelImage> decoded;
+            std::string& why = image_why_[source];
+            if (!im.image.empty()) {
+                decoded = decode_image(std::string_view(reinterpret_cast<const char*>(im.image.data()), im.image.size()), &why);
+            } else if (im.bufferView >= 0) {
+                const auto view = buffer_view(im.bufferView, where + ": image");
+                decoded = decode_image(std::string_view(reinterpret_cast<const char*>(view.first), view.second), &why);
+            } else {
+                why = im.uri.empty() ? "its image has no data" : "'" + im.uri + "' is missing or empty";
+            }
+            if (decoded) image = std::make_shared<const TexelImage>(std::move(*decoded));
         }
-        return mean;
+        texture_why_[index] = image_why_[source];
+        if (!image) return textures_[index] = nullptr;
+        auto out = std::make_shared<Texture>();
+        const auto& im = model_.images[static_cast<std::size_t>(source)];
+        const bool uri = !im.uri.empty() && im.uri.rfind("data:", 0) != 0;
+        out->name = shown_ + ": images[" + std::to_string(source) + "]";
+        out->shown = out->name + (uri ? " (" + im.uri + ")" : !im.name.empty() ? " '" + im.name + "'" : std::string());
+        out->image = image;
+        if (t.sampler >= 0) {
+            if (static_cast<std::size_t>(t.sampler) >= model_.samplers.size())
+                fail(where, "texture " + std::to_string(index) + ": sampler " + std::to_string(t.sampler) + " out of range");
+            const auto& sampler = model_.samplers[static_cast<std::size_t>(t.sampler)];
+            const auto wrap = [&](int mode, const char* key) {
+                if (mode == TINYGLTF_TEXTURE_WRAP_REPEAT) return Texture::Wrap::repeat;
+                if (mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE) return Texture::Wrap::clamp;
+                if (mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT) return Texture::Wrap::mirror;
+                fail("samplers[" + std::to_string(t.sampler) + "]", std::string(key) + " " + std::to_string(mode) +
+                                                                        " is not 10497, 33071 or 33648");
+            };
+            out->wrap_s = wrap(sampler.wrapS, "wrapS");
+            out->wrap_t = wrap(sampler.wrapT, "wrapT");
+        }
+        return textures_[index] = out;
     }
 
     // glTF's metallic-roughness model as ours: base colour (times its texture's mean)
@@ -464,15 +493,14 @@ private:
             return c;
         };
         Rgb base = factor(pbr.baseColorFactor, 4, "baseColorFactor");
+        const Rgb tint = base;
         if (pbr.baseColorTexture.index >= 0) {
-            if (const auto mean = texture_mean(pbr.baseColorTexture.index, where)) {
-                base = base * *mean;
-                warn("material '" + name + "': its base colour texture is read as its mean colour " + number((*mean)[0]) +
-                     " " + number((*mean)[1]) + " " + number((*mean)[2]));
-            } else {
+            out.texture = texture(pbr.baseColorTexture.index, where);
+            if (out.texture)
+                base = base * out.texture->mean();
+            else
                 warn("material '" + name + "': its base colour texture is not read (" +
                      texture_why_[pbr.baseColorTexture.index] + "); its factor is the colour");
-            }
         }
         const double metallic = pbr.metallicFactor, roughness = pbr.roughnessFactor;
         if (!(metallic >= 0.0 && metallic <= 1.0)) fail(where, "metallicFactor " + number(metallic) + " is not in 0..1");
@@ -480,12 +508,14 @@ private:
         if (pbr.metallicRoughnessTexture.index >= 0)
             warn("material '" + name + "': its metallic-roughness texture is not read (the factors are)");
         out.albedo = base * (1.0 - metallic);
+        out.tint = tint * (1.0 - metallic);
         const double exponent = roughness > 0.0 ? std::min(2.0 / std::pow(roughness, 4) - 2.0, 1e4) : 1e4;
         if (metallic > 0.0 && exponent > 0.0) {
-            out.specular = base * metallic;
+            out.specular = base * metallic;  // (the texture's mean colour: the lobe is one colour)
             out.exponent = exponent;
         } else {
             out.albedo = base;
+            out.tint = tint;
         }
         Rgb emission = factor(m.emissiveFactor, 3, "emissiveFactor");
         // glTF keeps the factor in 0..1 (KHR_materials_emissive_strength scales it); a
@@ -507,10 +537,10 @@ private:
             }
         }
         if (m.emissiveTexture.index >= 0 && (emission > 0.0).any()) {
-            if (const auto mean = texture_mean(m.emissiveTexture.index, where)) {
-                emission = emission * *mean;
-                warn("material '" + name + "': its emissive texture is read as its mean colour " + number((*mean)[0]) +
-                     " " + number((*mean)[1]) + " " + number((*mean)[2]));
+            if (const auto emitted = texture(m.emissiveTexture.index, where)) {
+                emission = emission * emitted->mean();
+                warn("material '" + name + "': its emissive texture is read as its mean colour " +
+                     number(emitted->mean()[0]) + " " + number(emitted->mean()[1]) + " " + number(emitted->mean()[2]));
             } else {
                 warn("material '" + name + "': its emissive texture is not read (" +
                      texture_why_[m.emissiveTexture.index] + "); its factor is the emission");
@@ -521,8 +551,10 @@ private:
         if (m.alphaMode == "BLEND" || m.alphaMode == "MASK")
             warn("material '" + name + "': alphaMode " + m.alphaMode + " is read as OPAQUE");
         if (const auto sum = keep_energy(out))
-            warn("material '" + name + "': reflects " + number(sum->first) + " of the light it receives: scaled by " +
-                 number(0.99 / sum->first));
+            warn("material '" + name + "': " + (out.texture ? "its base colour texture's brightest texels reflect "
+                                                            : "reflects ") +
+                 number(sum->first) + " of the light " + (out.texture ? "they receive" : "it receives") +
+                 ": scaled by " + number(0.99 / sum->first));
         return out;
     }
 
@@ -739,6 +771,21 @@ private:
         return Vec3(f[0], f[1], f[2]);
     }
 
+    // Texture coordinates: floats, or unsigned bytes or shorts read as 0..1 (glTF allows
+    // only normalized ones).
+    static Uv uv_at(const Elements& e, std::size_t i) {
+        const unsigned char* p = e.base + i * e.stride;
+        if (e.component == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+            float f[2];
+            std::memcpy(f, p, sizeof f);
+            return Uv(f[0], f[1]);
+        }
+        if (e.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return Uv(p[0] / 255.0, p[1] / 255.0);
+        std::uint16_t u[2];
+        std::memcpy(u, p, sizeof u);
+        return Uv(u[0] / 65535.0, u[1] / 65535.0);
+    }
+
     std::vector<std::uint32_t> indices(int index, std::size_t vertices, const std::string& where) const {
         std::vector<std::uint32_t> out;
         if (index < 0) {
@@ -779,6 +826,7 @@ private:
         bool surface = false;
         int material = -1;
         std::vector<Vec3> positions, normals;  // normals: empty, or one per position
+        std::vector<Uv> uvs;                   // its base colour texture's TEXCOORD_n: empty, or one per position
         std::vector<std::array<std::uint32_t, 3>> triangles;
     };
 
@@ -822,6 +870,33 @@ private:
                 fail(at + ": NORMAL", std::to_string(normals->count) + " normals for " +
                                           std::to_string(positions.count) + " positions");
         }
+        out.material = default_material_;
+        if (prim.material >= 0) {
+            if (static_cast<std::size_t>(prim.material) >= model_.materials.size())
+                fail(at, "material " + std::to_string(prim.material) + " out of range");
+            out.material = prim.material;
+        }
+        // The texture coordinates its material's base colour texture reads.
+        std::optional<Elements> uvs;
+        std::string uv_key;
+        if (out.material < default_material_) {
+            const auto& info = model_.materials[static_cast<std::size_t>(out.material)].pbrMetallicRoughness.baseColorTexture;
+            uv_key = "TEXCOORD_" + std::to_string(info.texCoord);
+            if (info.index >= 0)
+                if (const auto u = prim.attributes.find(uv_key); u != prim.attributes.end()) {
+                    uvs = elements(u->second, at, uv_key.c_str());
+                    const bool read = uvs->components == 2 &&
+                                      (uvs->component == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                                       uvs->component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                       uvs->component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+                    if (!read)
+                        fail(at + ": " + uv_key, "expected VEC2 of FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT, got " +
+                                                     accessor_type(u->second));
+                    if (uvs->count != positions.count)
+                        fail(at + ": " + uv_key, std::to_string(uvs->count) + " texture coordinates for " +
+                                                     std::to_string(positions.count) + " positions");
+                }
+        }
         // The vertices the triangles use, in order of first use.
         std::unordered_map<std::uint32_t, std::uint32_t> remap;
         for (auto& t : tris)
@@ -830,16 +905,15 @@ private:
                 if (added) {
                     out.positions.push_back(vec3_at(positions, v));
                     if (normals) out.normals.push_back(vec3_at(*normals, v));
+                    if (uvs) {
+                        const Uv st = uv_at(*uvs, v);
+                        if (!st.allFinite()) fail(at + ": " + uv_key, "texture coordinate " + std::to_string(v) + " is not finite");
+                        out.uvs.push_back(st);
+                    }
                 }
                 v = it->second;
             }
         out.triangles = std::move(tris);
-        out.material = default_material_;
-        if (prim.material >= 0) {
-            if (static_cast<std::size_t>(prim.material) >= model_.materials.size())
-                fail(at, "material " + std::to_string(prim.material) + " out of range");
-            out.material = prim.material;
-        }
         return out;
     }
 
@@ -895,6 +969,11 @@ private:
                     corner[k] = n.allFinite() && n.norm() > 0.0 ? n.normalized() : Vec3::Zero();
                 }
                 out_.normals.push_back(corner);
+                constexpr double none = std::numeric_limits<double>::quiet_NaN();
+                if (prim.uvs.empty())
+                    out_.uvs.push_back({Uv(none, none), Uv(none, none), Uv(none, none)});
+                else
+                    out_.uvs.push_back({prim.uvs[t[0]], prim.uvs[t[1]], prim.uvs[t[2]]});
             }
         }
     }
@@ -991,8 +1070,9 @@ private:
     std::set<int> on_path_;
     std::map<std::pair<int, std::size_t>, Primitive> decoded_;
     std::size_t placements_ = 0;
-    std::map<int, std::optional<Rgb>> texture_means_;  // per texture, decoded once
-    std::map<int, std::string> texture_why_;             // why one is not read
+    std::map<int, std::shared_ptr<const Texture>> textures_;    // per texture, made once (null: not read)
+    std::map<int, std::shared_ptr<const TexelImage>> images_;  // per image, decoded once
+    std::map<int, std::string> texture_why_, image_why_;        // why one is not read
 };
 
 }  // namespace
@@ -1040,6 +1120,8 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     bool any = false;
     for (const auto& n : out.normals) any = any || n[0] != Vec3::Zero() || n[1] != Vec3::Zero() || n[2] != Vec3::Zero();
     if (!any) out.normals.clear();
+    // Nor texture coordinates, where no textured primitive gives them.
+    if (std::none_of(out.uvs.begin(), out.uvs.end(), [](const auto& c) { return c[0].allFinite(); })) out.uvs.clear();
     return out;
 }
 

@@ -2,13 +2,6 @@
 #include "scenes/mesh_file.h"
 #include "scenes/mesh_readers.h"
 
-#include <cstdio>  // before jpeglib.h, which uses FILE and size_t
-
-#include <jpeglib.h>
-#include <png.h>
-
-#include <csetjmp>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -17,8 +10,6 @@
 #include <vector>
 
 namespace raybundle::scenes {
-
-using mesh_detail::png_mean_colour;
 
 namespace {
 
@@ -37,23 +28,33 @@ std::string in_folder(const std::string& folder, const std::string& name) {
     return !name.empty() && name[0] == '/' ? name : folder + name;
 }
 
-// The mean linear colour of a PNG texture file, or nothing for a file that is missing or
-// not a PNG it can read, with why in `why`.
-std::optional<Rgb> texture_mean(const std::string& path, std::string& why) {
+// The texture of an image file (a PNG or JPEG, repeated past its edges), decoded once
+// per file in `decoded`, or nothing for a file that is missing or not an image it can
+// read, with why in `why`.
+using Decoded = std::map<std::string, std::shared_ptr<const Texture>>;
+std::shared_ptr<const Texture> texture_file(const std::string& path, const std::string& shown, Decoded& decoded,
+                                            std::string& why) {
+    if (const auto it = decoded.find(path); it != decoded.end() && it->second) return it->second;
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) {
         why = "no such file";
-        return std::nullopt;
+        return nullptr;
     }
     if (!std::filesystem::is_regular_file(path, ec)) {
         why = "not a regular file";
-        return std::nullopt;
+        return nullptr;
     }
     try {
-        return png_mean_colour(read_input_file(path, path, "texture", kMaxSceneFileBytes), &why);
+        auto image = decode_image(read_input_file(path, path, "texture", kMaxSceneFileBytes), &why);
+        if (!image) return nullptr;
+        auto texture = std::make_shared<Texture>();
+        texture->name = path;
+        texture->shown = shown;
+        texture->image = std::make_shared<const TexelImage>(std::move(*image));
+        return decoded[path] = texture;
     } catch (const SceneError& e) {
         why = e.problem();
-        return std::nullopt;
+        return nullptr;
     }
 }
 
@@ -62,7 +63,7 @@ std::optional<Rgb> texture_mean(const std::string& path, std::string& why) {
 // reaches 1; a lobe of exponent 0 is Lambertian and joins the albedo, and Blender's Ks
 // is no lobe (below). What is read otherwise or not at all is a warning.
 Material from_mtl(const MtlMaterial& m, const std::string& file, const std::string& folder,
-                  std::vector<std::string>& warnings, std::vector<std::string>& files) {
+                  std::vector<std::string>& warnings, std::vector<std::string>& files, Decoded& decoded) {
     Material out;
     out.name = m.name;
     out.albedo = m.kd;
@@ -83,8 +84,9 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
     if (m.illum > 2)
         warnings.push_back(named + ": illum " + std::to_string(m.illum) +
                            " (reflection, refraction or glass) is read as 2 (diffuse and Phong highlights)");
-    // A texture is its mean colour (as a renderer showing it would average it over the
-    // surface; the texture itself, not times Kd, as Blender's importer shows it).
+    // A texture is the albedo, texel by texel where the faces give texture coordinates
+    // (the texture itself, not times Kd, as Blender's importer shows it); `albedo` is its
+    // mean.
     if (!m.map_kd.empty()) {
         // The name as read, else (no such file) the statement's last word.
         std::string map = m.map_kd, why;
@@ -98,11 +100,10 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
             !std::filesystem::exists(in_folder(folder, map), ec) &&
             std::filesystem::exists(in_folder(folder, map.substr(slash + 1)), ec))
             map = map.substr(slash + 1);
-        if (const auto mean = texture_mean(in_folder(folder, map), why)) {
-            out.albedo = *mean;
+        if (auto texture = texture_file(in_folder(folder, map), map, decoded, why)) {
+            out.albedo = texture->mean();
+            out.texture = std::move(texture);
             files.push_back(in_folder(folder, map));
-            warnings.push_back(named + ": its texture " + map + " is read as its mean colour " + number((*mean)[0]) +
-                               " " + number((*mean)[1]) + " " + number((*mean)[2]));
         } else {
             const bool relative = !map.empty() && map[0] != '/';
             warnings.push_back(named + ": its texture " + map + " is not read (" + why +
@@ -111,14 +112,17 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
         }
     }
     if (const auto sum = mesh_detail::keep_energy(out))
-        warnings.push_back(named + ": Kd + Ks = " + number(sum->first) + " in channel " + "rgb"[sum->second] +
+        warnings.push_back(named + (out.texture ? ": its texture's brightest texels + Ks = " : ": Kd + Ks = ") +
+                           number(sum->first) + " in channel " + "rgb"[sum->second] +
                            ": both scaled by " + number(0.99 / sum->first) + " (a surface reflects less than it receives)");
     return out;
 }
 
 bool same_values(const Material& a, const Material& b) {
+    const bool same_texture = a.texture && b.texture ? a.texture->same(*b.texture) && (a.tint == b.tint).all()
+                                                     : !a.texture && !b.texture;
     return (a.albedo == b.albedo).all() && (a.emission == b.emission).all() && (a.specular == b.specular).all() &&
-           a.exponent == b.exponent && a.two_sided == b.two_sided;
+           a.exponent == b.exponent && a.two_sided == b.two_sided && same_texture;
 }
 
 // The scene's index for material m, defined by the mesh `shown`: an earlier mesh's of
@@ -156,128 +160,21 @@ namespace mesh_detail {
 
 std::optional<std::pair<double, int>> keep_energy(Material& m) {
     Eigen::Index channel = 0;
-    const double most = (m.albedo + m.specular).maxCoeff(&channel);
+    double most = (m.albedo + m.specular).maxCoeff(&channel);
+    // A texture's brightest texels count too (the albedo of a patch on them is theirs)
+    // where they reflect more than they receive: a texel of 255, albedo 1, is white
+    // paper in a photograph, and a patch is all of it rarely; a texture all of it is
+    // caught by its mean above.
+    if (m.texture) {
+        Eigen::Index at = 0;
+        const double texel = (m.tint * m.texture->image->brightest + m.specular).maxCoeff(&at);
+        if (texel > 1.0 && texel > most) most = texel, channel = at;
+    }
     if (most < 1.0) return std::nullopt;
     m.albedo *= 0.99 / most;
+    m.tint *= 0.99 / most;
     m.specular *= 0.99 / most;
     return std::pair{most, static_cast<int>(channel)};
-}
-
-namespace {
-
-// sRGB's 8-bit values, decoded to linear.
-struct SrgbTable {
-    double linear[256];
-    SrgbTable() {
-        for (int v = 0; v < 256; ++v) {
-            const double c = v / 255.0;
-            linear[v] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-        }
-    }
-};
-const SrgbTable kSrgb;
-
-// libjpeg's errors end its calls by longjmp (a C library: no exception may cross it).
-struct JpegErrors {
-    jpeg_error_mgr manager;
-    std::jmp_buf jump;
-    char message[JMSG_LENGTH_MAX];
-};
-
-// Why a JPEG's header is refused, or "" (its size: at most 8k x 8k texels, as a PNG).
-std::string jpeg_size_refused(const jpeg_decompress_struct& jpeg) {
-    if (jpeg.image_width > 0 && jpeg.image_height > 0 && jpeg.image_width <= 8192 && jpeg.image_height <= 8192) return "";
-    return "a JPEG of " + std::to_string(jpeg.image_width) + " x " + std::to_string(jpeg.image_height) +
-           " texels, more than 8192 x 8192";
-}
-
-// Decodes a JPEG's texels into `sum` (linear, summed) and `texels`, or says why not in
-// `why`. The setjmp of libjpeg's errors is here, with locals of trivial types only (as
-// libjpeg's own example): what outlives a longjmp is the caller's.
-bool decode_jpeg(std::string_view bytes, std::vector<JSAMPLE>& row, Rgb& sum, double& texels, std::string& why) {
-    jpeg_decompress_struct jpeg{};
-    JpegErrors errors{};
-    jpeg.err = jpeg_std_error(&errors.manager);
-    errors.manager.error_exit = [](j_common_ptr common) {
-        auto* e = reinterpret_cast<JpegErrors*>(common->err);
-        (*common->err->format_message)(common, e->message);
-        std::longjmp(e->jump, 1);
-    };
-    errors.manager.output_message = [](j_common_ptr) {};  // its warnings: counted below
-    if (setjmp(errors.jump)) {
-        jpeg_destroy_decompress(&jpeg);
-        why = std::string("a JPEG libjpeg cannot read: ") + errors.message;
-        return false;
-    }
-    jpeg_create_decompress(&jpeg);
-    jpeg_mem_src(&jpeg, reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<unsigned long>(bytes.size()));
-    jpeg_read_header(&jpeg, TRUE);
-    why = jpeg_size_refused(jpeg);
-    if (!why.empty()) {
-        jpeg_destroy_decompress(&jpeg);
-        return false;
-    }
-    jpeg.out_color_space = JCS_RGB;  // grey and YCbCr alike (CMYK is refused: its message)
-    jpeg_start_decompress(&jpeg);
-    row.resize(static_cast<std::size_t>(jpeg.output_width) * 3);
-    while (jpeg.output_scanline < jpeg.output_height) {
-        JSAMPROW rows[1] = {row.data()};
-        jpeg_read_scanlines(&jpeg, rows, 1);
-        for (std::size_t i = 0; i + 2 < row.size(); i += 3)
-            sum += Rgb(kSrgb.linear[row[i]], kSrgb.linear[row[i + 1]], kSrgb.linear[row[i + 2]]);
-    }
-    texels = static_cast<double>(jpeg.output_width) * jpeg.output_height;
-    jpeg_finish_decompress(&jpeg);
-    // A warning (a file cut short: libjpeg fills the rest with grey) leaves no mean of
-    // the texture's own colours.
-    const long warnings = jpeg.err->num_warnings;
-    jpeg_destroy_decompress(&jpeg);
-    if (warnings > 0) why = "a JPEG libjpeg reads only in part (cut short?)";
-    return warnings == 0;
-}
-
-std::optional<Rgb> jpeg_mean_colour(std::string_view bytes, std::string* why) {
-    std::vector<JSAMPLE> row;
-    Rgb sum = Rgb::Zero();
-    double texels = 0.0;
-    std::string reason;
-    if (!decode_jpeg(bytes, row, sum, texels, reason)) {
-        if (why) *why = reason;
-        return std::nullopt;
-    }
-    return Rgb(sum / texels);
-}
-
-}  // namespace
-
-std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why) {
-    auto fail = [why](std::string reason) {
-        if (why) *why = std::move(reason);
-        return std::nullopt;
-    };
-    auto starts = [bytes](std::string_view magic) { return bytes.substr(0, magic.size()) == magic; };
-    if (starts("\xFF\xD8\xFF")) return jpeg_mean_colour(bytes, why);
-    if (!starts("\x89PNG\r\n\x1A\n")) return fail("not a PNG or JPEG");
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_memory(&image, bytes.data(), bytes.size()))
-        return fail(std::string("a PNG libpng cannot read: ") + image.message);
-    // RGBA, its alpha then left out: libpng's RGB would mix the colour onto black. The
-    // 8-bit sRGB formats are not premultiplied.
-    image.format = PNG_FORMAT_RGBA;
-    // At most 8k x 8k texels (256 MB): a larger header is not a texture to average.
-    if (image.width == 0 || image.height == 0 || image.width > 8192 || image.height > 8192) {
-        const std::string size = std::to_string(image.width) + " x " + std::to_string(image.height);
-        png_image_free(&image);
-        return fail("a PNG of " + size + " texels, more than 8192 x 8192");
-    }
-    std::vector<png_byte> texels(PNG_IMAGE_SIZE(image));
-    if (!png_image_finish_read(&image, nullptr, texels.data(), 0, nullptr))
-        return fail(std::string("a PNG libpng cannot read: ") + image.message);
-    Rgb sum = Rgb::Zero();
-    for (std::size_t i = 0; i + 3 < texels.size(); i += 4)
-        sum += Rgb(kSrgb.linear[texels[i]], kSrgb.linear[texels[i + 1]], kSrgb.linear[texels[i + 2]]);
-    return sum / (static_cast<double>(texels.size()) / 4.0);
 }
 
 }  // namespace mesh_detail
@@ -381,12 +278,13 @@ std::vector<int> mesh_materials(Scene& scene, std::size_t scene_materials, const
         return Defined{m, shown, folder_of(path)};
     };
     std::vector<int> index(data.materials.size());
+    Decoded decoded;  // each texture file once
     std::vector<std::string> nowhere;  // names defined nowhere, as "'name' (line n)"
     std::string first_nowhere;         // its name in the scene
     const auto from_file = [&](const Defined& d) {
         // Read again where an earlier mesh brought the same, its warnings were given then.
         const std::size_t warnings = scene.warnings.size();
-        const Brought b = bring(from_mtl(d.material, d.shown, d.folder, scene.warnings, scene.files));
+        const Brought b = bring(from_mtl(d.material, d.shown, d.folder, scene.warnings, scene.files, decoded));
         if (!b.fresh) scene.warnings.resize(warnings);  // (its texture stays among the files read)
         return b.index;
     };

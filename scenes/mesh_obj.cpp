@@ -1,6 +1,8 @@
 #include "scenes/mesh_readers.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace raybundle::scenes::mesh_detail {
@@ -39,9 +41,9 @@ bool not_finite_words(const std::string& text) {
 
 // ---------------------------------------------------------------------------- OBJ
 // Read here rather than through OpenMesh, which keeps one normal per vertex: `v` and
-// `vn` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
+// `vn` and `vt` lines and faces of corners `v`, `v/vt`, `v//vn`, `v/vt/vn` (1-based, or
 // negative = relative), polygons split into a fan from their first corner; other
-// lines are ignored (`vt` only counted). Every index must name an element defined
+// lines are ignored. Every index must name an element defined
 // before it. A UTF-8 byte order mark before the first line is skipped. `usemtl`, `o`,
 // `g` and `mtllib` are recorded (MeshData): the material and group of each triangle.
 MeshData read_obj(std::istream& in, const std::string& shown) {
@@ -51,7 +53,9 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
     std::vector<std::array<Vec3, 3>> corner_normals;
     std::string line;
     long line_no = 0;
-    long texture_coordinates = 0;
+    std::vector<Uv> texture_coordinates;  // (s, t): t = 1 - v
+    bool any_uvs = false;
+    std::vector<std::array<Uv, 3>> corner_uvs;
     int material = -1, group = -1;
     bool tagged = false;  // a usemtl, o or g seen: every triangle gets its material and group
     // The rest of the line after its tag, without surrounding blanks (names may hold spaces).
@@ -105,7 +109,24 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             }
             normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
         } else if (tag == "vt") {
-            ++texture_coordinates;
+            // "vt u [v [w]]": v 0 where not given, w ignored.
+            std::istringstream ts(line.substr(line.find("vt") + 2));
+            std::vector<double> words;
+            for (std::string w; ts >> w;) {
+                std::size_t used = 0;
+                double x = 0.0;
+                try {
+                    x = std::stod(w, &used);
+                } catch (const std::exception&) {
+                    used = 0;
+                }
+                if (used == 0 || used != w.size() || !std::isfinite(x))
+                    throw SceneError(shown, where, "texture coordinate '" + w + "' is not a finite number");
+                words.push_back(x);
+            }
+            if (words.empty() || words.size() > 3)
+                throw SceneError(shown, where, "vt needs 1 to 3 numbers, got " + std::to_string(words.size()));
+            texture_coordinates.push_back(Uv(words[0], 1.0 - (words.size() > 1 ? words[1] : 0.0)));
         } else if (tag == "usemtl" || tag == "o" || tag == "g") {
             const std::string name = rest(tag);
             if (tag == "usemtl" && name.empty()) throw SceneError(shown, where, "usemtl without a material name");
@@ -139,6 +160,7 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         } else if (tag == "f") {
             std::vector<int> vs;
             std::vector<Vec3> ns;
+            std::vector<Uv> ts;
             std::string corner;
             while (ls >> corner) {
                 // "v", "v/vt", "v//vn" or "v/vt/vn": the first and the third field.
@@ -169,10 +191,11 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 };
                 const long nv = static_cast<long>(data.vertices.size()), nn = static_cast<long>(normals.size());
                 vs.push_back(index(corner.substr(0, slash), nv, "vertex", "vertices"));
-                // The texture coordinate is not used, but is checked like the others.
+                const long nt = static_cast<long>(texture_coordinates.size());
                 if (slash != std::string::npos && slash + 1 < std::min(slash2, corner.size()))
-                    index(corner.substr(slash + 1, std::min(slash2, corner.size()) - slash - 1), texture_coordinates,
-                          "texture coordinate", "texture coordinates");
+                    ts.push_back(texture_coordinates[index(
+                        corner.substr(slash + 1, std::min(slash2, corner.size()) - slash - 1), nt,
+                        "texture coordinate", "texture coordinates")]);
                 if (slash2 != std::string::npos && slash2 + 1 < corner.size())
                     ns.push_back(normals[index(corner.substr(slash2 + 1), nn, "normal", "normals")]);
             }
@@ -181,10 +204,18 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 throw SceneError(shown, where,
                                  "face gives normals at " + std::to_string(ns.size()) + " of its " +
                                      std::to_string(vs.size()) + " corners");
+            if (!ts.empty() && ts.size() != vs.size())
+                throw SceneError(shown, where,
+                                 "face gives texture coordinates at " + std::to_string(ts.size()) + " of its " +
+                                     std::to_string(vs.size()) + " corners");
             any_normals = any_normals || !ns.empty();
+            any_uvs = any_uvs || !ts.empty();
             for (const auto& t : add_polygon(data, vs, shown, where)) {
                 corner_normals.push_back(ns.empty() ? std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}
                                                     : std::array<Vec3, 3>{ns[t[0]], ns[t[1]], ns[t[2]]});
+                constexpr double none = std::numeric_limits<double>::quiet_NaN();
+                corner_uvs.push_back(ts.empty() ? std::array<Uv, 3>{Uv(none, none), Uv(none, none), Uv(none, none)}
+                                                : std::array<Uv, 3>{ts[t[0]], ts[t[1]], ts[t[2]]});
                 if (tagged) {
                     data.triangle_material.push_back(material);
                     data.triangle_group.push_back(group);
@@ -193,6 +224,7 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
         }
     }
     if (any_normals) data.normals = std::move(corner_normals);
+    if (any_uvs) data.uvs = std::move(corner_uvs);
     if (zero_normals > 0)
         data.warnings.push_back(zero_normals_warning(shown, zero_normals, "line " + std::to_string(first_zero),
                                                      broken_normals == 0              ? "of zero length"

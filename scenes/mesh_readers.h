@@ -194,16 +194,12 @@ inline constexpr std::uintmax_t kMaxGltfFileBytes = (std::uintmax_t{1} << 31) - 
 MeshData read_gltf(std::string_view content, bool binary, const std::string& shown,
                    const std::optional<std::string>& folder, std::size_t max_triangles);
 
-// Where albedo + specular reaches 1 in a channel, scales both so that the most is 0.99
-// (a surface reflects less than it receives) and returns the sum it had there and its
-// channel (0, 1, 2), for the caller's warning; nothing when it was below 1
+// Where albedo + specular reaches 1 in a channel, or a texture's brightest texels times
+// its tint plus specular pass 1, scales them (and the tint) so that the most is 0.99 (a
+// surface reflects less than it receives) and returns the sum it had there and its
+// channel (0, 1, 2), for the caller's warning; nothing when neither was
 // (scenes/mesh_materials.cpp).
 std::optional<std::pair<double, int>> keep_energy(Material& m);
 
-// The mean linear colour of a PNG or JPEG image's bytes (sRGB decoded, alpha ignored:
-// the colour as stored, not mixed onto black), or nothing for bytes that are not an
-// image it can read, with why in `why` where given ("not a PNG or JPEG", "a PNG libpng
-// cannot read: ...", "a JPEG libjpeg cannot read: ...") (scenes/mesh_materials.cpp).
-std::optional<Rgb> png_mean_colour(std::string_view bytes, std::string* why = nullptr);
 
 }  // namespace raybundle::scenes::mesh_detail

@@ -20,6 +20,7 @@ Scene::Scene() {
     mesh.add_property(object_handle, "object");
     mesh.add_property(corner_normal_handle, "corner normal");
     mesh.add_property(contact_edge_handle, "contact edge");
+    mesh.add_property(texture_map_handle, "texture map");
 }
 
 namespace {
@@ -39,12 +40,29 @@ bool zero_area(Vec3 a, Vec3 b, Vec3 c) {
     return !(area2 > 1e-12 * scale);
 }
 
+// The affine map from the plane of the triangle (a, b, c) to texture coordinates that
+// gives its corners theirs: (s, t) = uv0 + [uv1 - uv0, uv2 - uv0] (b1, b2), with
+// (b1, b2) the point's barycentric weights of b and c, found from the edges' Gram
+// matrix (a point off the plane goes to its foot on it).
+Scene::TextureMap texture_map(const Vec3& a, const Vec3& b, const Vec3& c, const std::array<Uv, 3>& uv) {
+    const Vec3 e1 = b - a, e2 = c - a;
+    const double g11 = e1.dot(e1), g12 = e1.dot(e2), g22 = e2.dot(e2), det = g11 * g22 - g12 * g12;
+    Eigen::Matrix<double, 2, 3> weights;
+    weights.row(0) = ((g22 * e1 - g12 * e2) / det).transpose();
+    weights.row(1) = ((g11 * e2 - g12 * e1) / det).transpose();
+    Eigen::Matrix2d edges;
+    edges.col(0) = uv[1] - uv[0];
+    edges.col(1) = uv[2] - uv[0];
+    return {edges * weights, a, uv[0]};
+}
+
 }  // namespace
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                       int material, const std::string& object_name, int object,
-                      const std::vector<std::array<Vec3, 3>>& normals) {
-    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), object_name, object, normals);
+                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs) {
+    return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), object_name, object, normals,
+                      uvs);
 }
 
 int Scene::add_material(Material m) {
@@ -60,9 +78,12 @@ int Scene::find_material(const std::string& material_name) const {
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                       const std::vector<int>& triangle_materials, const std::string& object_name, int object,
-                      const std::vector<std::array<Vec3, 3>>& normals) {
+                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs) {
     if (!normals.empty() && normals.size() != triangles.size())
         throw std::invalid_argument("add_object: " + std::to_string(normals.size()) + " corner normal triples for " +
+                                    std::to_string(triangles.size()) + " triangles");
+    if (!uvs.empty() && uvs.size() != triangles.size())
+        throw std::invalid_argument("add_object: " + std::to_string(uvs.size()) + " texture coordinate triples for " +
                                     std::to_string(triangles.size()) + " triangles");
     const bool made = object < 0;  // else the twins of `object` (two-sided materials)
     if (object < 0) {
@@ -133,6 +154,14 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
         }
         mesh.property(material_handle, f) = triangle_materials[k];
         mesh.property(object_handle, f) = object;
+        const auto m = static_cast<std::size_t>(triangle_materials[k]);
+        int map = -1;
+        const bool has_uvs = !uvs.empty() && uvs[k][0].allFinite() && uvs[k][1].allFinite() && uvs[k][2].allFinite();
+        if (has_uvs && m < materials.size() && materials[m].texture) {
+            map = static_cast<int>(texture_maps.size());
+            texture_maps.push_back(texture_map(vertices[t[0]], vertices[t[1]], vertices[t[2]], uvs[k]));
+        }
+        mesh.property(texture_map_handle, f) = map;
         for (auto h : mesh.fh_range(f)) {
             Vec3 n = Vec3::Zero();
             if (!normals.empty())
@@ -435,6 +464,7 @@ void Scene::finalize(int threads) {
     area_sum = 0.0;
     for (const Patch& p : patches) area_sum += p.area;
     if (patches.empty()) throw SceneError(name, "", "the scene has no patches");
+    compute_albedos(threads);
 
     // Bounding sphere of the patches (vertices no patch uses do not count): centre of
     // the bounding box, radius to the farthest patch vertex.
@@ -448,6 +478,91 @@ void Scene::finalize(int threads) {
     radius = 0.0;
     for (const auto& p : patches)
         for (int v : p.v) radius = std::max(radius, (positions[v] - center).norm());
+}
+
+// Per patch of a textured material with texture coordinates, the tint times the
+// texture's mean over it: the texture at N^2 points (the centroids of the N^2 equal
+// sub-triangles), N four times the patch's longest edge in texels (4 to 64), so that
+// some 30 points fall on each texel it covers (up to 4,096 in all); a deterministic
+// sum, the same on any threads.
+void Scene::compute_albedos(int threads) {
+    patch_texture_map.clear();
+    patch_albedo.clear();
+    if (texture_maps.empty()) return;
+    const std::size_t n = patches.size();
+    std::vector<int> maps(n, -1);
+    bool any = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        const int map = mesh.property(texture_map_handle, TriMesh::FaceHandle(static_cast<int>(i)));
+        if (map >= 0 && materials[static_cast<std::size_t>(patches[i].material)].texture) maps[i] = map, any = true;
+    }
+    if (!any) return;
+    patch_texture_map = std::move(maps);
+    patch_albedo.resize(n);
+    parallel_chunks(static_cast<int>(n), threads, [&](int i0, int i1) {
+        for (int i = i0; i < i1; ++i) {
+            const Patch& p = patches[static_cast<std::size_t>(i)];
+            const Material& m = materials[static_cast<std::size_t>(p.material)];
+            const int map = patch_texture_map[static_cast<std::size_t>(i)];
+            if (map < 0) {
+                patch_albedo[static_cast<std::size_t>(i)] = m.albedo;
+                continue;
+            }
+            const TextureMap& to_uv = texture_maps[static_cast<std::size_t>(map)];
+            const Texture& texture = *m.texture;
+            const Vec3 &a = positions[p.v[0]], &b = positions[p.v[1]], &c = positions[p.v[2]];
+            const Eigen::Array2d texels(texture.image->width, texture.image->height);
+            const auto in_texels = [&](const Vec3& x, const Vec3& y) {
+                return ((to_uv(x) - to_uv(y)).array() * texels).matrix().norm();
+            };
+            const double edge = std::max({in_texels(a, b), in_texels(b, c), in_texels(c, a)});
+            const int N = std::isfinite(edge) ? std::clamp(static_cast<int>(std::ceil(4.0 * edge)), 4, 64) : 4;
+            Rgb sum = Rgb::Zero();
+            for (int s = 0; s < N; ++s)
+                for (int t = 0; s + t < N; ++t)
+                    for (int k = 0; k < (s + t < N - 1 ? 2 : 1); ++k) {
+                        const double u = (s + (k + 1) / 3.0) / N, v = (t + (k + 1) / 3.0) / N;
+                        const Uv st = to_uv(a + u * (b - a) + v * (c - a));
+                        sum += texture.at(st.x(), st.y());
+                    }
+            patch_albedo[static_cast<std::size_t>(i)] = m.tint * sum / (static_cast<double>(N) * N);
+        }
+    });
+}
+
+Rgb Scene::albedo_at(std::size_t patch, const Vec3& x) const {
+    if (patch_texture_map.empty()) return material_of(patch).albedo;
+    const int map = patch_texture_map[patch];
+    const Material& m = material_of(patch);
+    if (map < 0) return m.albedo;
+    const Uv st = texture_maps[static_cast<std::size_t>(map)](x);
+    return m.tint * m.texture->at(st.x(), st.y());
+}
+
+namespace {
+
+// m's values in `scratch` (not its name or texture), with another albedo.
+const Material& with_albedo(const Material& m, const Rgb& albedo, Material& scratch) {
+    scratch.albedo = albedo;
+    scratch.emission = m.emission;
+    scratch.specular = m.specular;
+    scratch.exponent = m.exponent;
+    scratch.two_sided = m.two_sided;
+    return scratch;
+}
+
+}  // namespace
+
+const Material& Scene::material_at(std::size_t patch, const Vec3& x, Material& scratch) const {
+    const Material& m = material_of(patch);
+    if (patch_texture_map.empty() || patch_texture_map[patch] < 0) return m;
+    return with_albedo(m, albedo_at(patch, x), scratch);
+}
+
+const Material& Scene::patch_material(std::size_t patch, Material& scratch) const {
+    const Material& m = material_of(patch);
+    if (patch_texture_map.empty() || patch_texture_map[patch] < 0) return m;
+    return with_albedo(m, patch_albedo[patch], scratch);
 }
 
 bool Scene::has_glossy() const {

@@ -2,12 +2,14 @@
 // The scene model: one-sided triangular patches on an OpenMesh TriMesh, their
 // materials, the camera, and flat per-patch arrays derived once for the inner loops.
 #include "scenes/buffer.h"
+#include "scenes/texture.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -17,6 +19,7 @@ namespace raybundle::scenes {
 
 using Vec3 = Eigen::Vector3d;
 using Rgb = Eigen::Array3d;
+using Uv = Eigen::Vector2d;  // texture coordinates (s, t)
 
 struct MeshTraits : public OpenMesh::DefaultTraits {
     using Point = OpenMesh::Vec3d;
@@ -37,6 +40,13 @@ struct Material {
     // material a twin facing the other way, at the same place, and the renderer's rays
     // meet whichever of the two faces them.
     bool two_sided = false;
+    // An asset's texture of the albedo: at a point of a patch with texture coordinates
+    // the albedo is tint times the texture's colour there (Scene::albedo_at), and a
+    // patch's is tint times the texture's mean over the patch (Scene::albedo_of);
+    // `albedo` is tint times the mean over the whole texture (what a patch without
+    // texture coordinates reflects, and what summaries show).
+    std::shared_ptr<const Texture> texture = nullptr;
+    Rgb tint = Rgb::Ones();
 
     bool glossy() const { return (specular > 0.0).any(); }
     bool emissive() const { return (emission > 0.0).any(); }
@@ -172,6 +182,18 @@ public:
     // vertex's patches (smooth shading, the linear basis's nodes) mixes the two sides.
     // Subdivision keeps the mark on both halves of a split edge.
     OpenMesh::EPropHandleT<bool> contact_edge_handle;
+    // Texture coordinates. A textured triangle as added gives its plane's affine map from
+    // a point to (s, t); every patch cut from it (refinement, contact lines: they copy
+    // face properties) keeps the map's index, so that its coordinates are exact at every
+    // point without being carried through the splits. -1: none.
+    struct TextureMap {
+        Eigen::Matrix<double, 2, 3> linear;  // (s, t) = at_origin + linear (x - origin)
+        Vec3 origin;
+        Uv at_origin;
+        Uv operator()(const Vec3& x) const { return at_origin + linear * (x - origin); }
+    };
+    std::vector<TextureMap> texture_maps;
+    OpenMesh::FPropHandleT<int> texture_map_handle;
 
     Scene();
 
@@ -180,13 +202,16 @@ public:
     // counter-clockwise. With `object` >= 0 the triangles join that object instead.
     // `normals`, when not empty, gives every triangle's corner normals (the file's; they
     // are normalised, and a zero vector leaves that corner to finalize()).
+    // `uvs`, when not empty, gives every triangle's corner texture coordinates (s, t: see
+    // Texture::at; NaN where a triangle has none): a triangle of a textured material
+    // keeps them as a TextureMap.
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int material,
                    const std::string& name = "", int object = -1,
-                   const std::vector<std::array<Vec3, 3>>& normals = {});
+                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {});
     // The same with one material per triangle.
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                    const std::vector<int>& materials, const std::string& name = "", int object = -1,
-                   const std::vector<std::array<Vec3, 3>>& normals = {});
+                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {});
     // Adds a material and returns its index.
     int add_material(Material m);
     // The index of the material called name, or -1.
@@ -215,6 +240,22 @@ public:
     // which side is the front.
     Vec3 shading_normal(std::size_t patch, double b1, double b2) const;
     const Material& material_of(std::size_t patch) const { return materials[patches[patch].material]; }
+    // The albedo of a patch: its material's, or for a textured patch the tint times the
+    // texture's mean over it (finalize()). What the solver reflects.
+    const Rgb& albedo_of(std::size_t patch) const {
+        return patch_albedo.empty() ? material_of(patch).albedo : patch_albedo[patch];
+    }
+    // The albedo at the point x of a patch: the texture's there where it is textured,
+    // else albedo_of(patch). What an image shows.
+    Rgb albedo_at(std::size_t patch, const Vec3& x) const;
+    // The material at the point x of a patch: its own, or where it is textured a copy in
+    // `scratch` (its name left out) with albedo_at(patch, x).
+    const Material& material_at(std::size_t patch, const Vec3& x, Material& scratch) const;
+    // The material of a patch as the solver reflects with it: its own, or where it is
+    // textured a copy in `scratch` (its name left out) with albedo_of(patch).
+    const Material& patch_material(std::size_t patch, Material& scratch) const;
+    // Some patch has a texture (albedo_at differs from albedo_of somewhere).
+    bool textured() const { return !patch_albedo.empty(); }
 
     Vec3 bounds_center() const { return center; }
     double bounds_radius() const { return radius; }
@@ -228,11 +269,15 @@ private:
     Buffer<Patch> patches;  // filled on the threads (scenes/buffer.h)
     std::vector<Vec3> positions;
     Buffer<std::array<Vec3, 3>> shading_normals;
+    // Where some patch is textured, per patch: its texture map (-1: none) and albedo.
+    std::vector<int> patch_texture_map;
+    std::vector<Rgb> patch_albedo;
     Vec3 center = Vec3::Zero();
     double radius = 0.0;
     double area_sum = 0.0;
 
     void compute_missing_normals(int threads);
+    void compute_albedos(int threads);
     void drop_degenerate(int object);  // counts one zero-area triangle of `object` dropped
 };
 

@@ -27,12 +27,13 @@ void Transport::init(const FirstShot* shot, const std::vector<Rgb>* direct) {
         inv_area_[i] = 1.0 / patches[i].area;
         normal_[i] = patches[i].normal;
         emission_[i] = m.emission;
-        reflect_[i] = 4.0 * m.albedo;
+        const Rgb& albedo = scene.albedo_of(i);  // (a textured patch's mean over it)
+        reflect_[i] = 4.0 * albedo;
         patch_glossy_[i] = m.glossy();
         // Diffuse reflection of the lights' irradiance E: albedo / pi E.
-        if (shot) shot_diffuse_[i] = m.albedo * shot->irradiance[i] / M_PI;
+        if (shot) shot_diffuse_[i] = albedo * shot->irradiance[i] / M_PI;
         // The diffuse shot: the emission moves no more; its diffuse reflection does.
-        emitted_diffuse_[i] = shot_diffuse_[i] + (direct ? Rgb(m.albedo * (*direct)[i] / M_PI) : emission_[i]);
+        emitted_diffuse_[i] = shot_diffuse_[i] + (direct ? Rgb(albedo * (*direct)[i] / M_PI) : emission_[i]);
     }
     // The field's direct part (RadianceField::direct) must be all the lights' direct
     // light: with area lights that takes the diffuse shot (without it their light moves
@@ -108,7 +109,8 @@ nlohmann::json Transport::decisions() const {
 Rgb Transport::shot_reflected(std::size_t j, const Vec3& out) const {
     if (!patch_glossy_[j] || hits_.empty()) return shot_diffuse_[j];
     Rgb sum = Rgb::Zero();
-    const auto& m = scene_.material_of(j);
+    scenes::Material scratch;
+    const auto& m = scene_.patch_material(j, scratch);
     for (std::uint32_t k = hit_begin_[j]; k < hit_begin_[j + 1]; ++k)
         sum += scenes::brdf(m, normal_[j], hits_[k].direction, out) * hits_[k].irradiance;
     return sum;
@@ -121,7 +123,8 @@ Rgb Transport::emitted_glossy(std::size_t j, const Vec3& out) const {
 
 Rgb Transport::reflected(std::size_t j, const Vec3& in, const Vec3& out, const Rgb& irr) const {
     if (!patch_glossy_[j]) return reflect_[j] * irr;
-    return 4.0 * M_PI * scenes::brdf(scene_.material_of(j), normal_[j], in, out) * irr;
+    scenes::Material scratch;
+    return 4.0 * M_PI * scenes::brdf(scene_.patch_material(j, scratch), normal_[j], in, out) * irr;
 }
 
 std::vector<Vec3> Transport::directions_to_eye() const {
@@ -170,7 +173,7 @@ Rgb Transport::mean_albedo() const {
     double area = 0.0;
     for (std::size_t j = 0; j < n_; ++j) {
         const double a = scene_.patch_list()[j].area;
-        sum += a * scene_.material_of(j).albedo;
+        sum += a * scene_.albedo_of(j);
         area += a;
     }
     return area > 0.0 ? Rgb(sum / area) : Rgb::Zero();
@@ -179,8 +182,7 @@ Rgb Transport::mean_albedo() const {
 double Transport::max_reflectance() const {
     double rho = 0.0;
     for (std::size_t j = 0; j < n_; ++j) {
-        const auto& m = scene_.material_of(j);
-        rho = std::max(rho, (m.albedo + m.specular).maxCoeff());
+        rho = std::max(rho, (scene_.albedo_of(j) + scene_.material_of(j).specular).maxCoeff());
     }
     return rho;
 }

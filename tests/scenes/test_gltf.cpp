@@ -500,8 +500,8 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     CHECK(e.triangles.size() == 1);
     REQUIRE(e.warnings.size() == 1);
     CHECK_THAT(e.warnings[0], Contains("meshes[1] (placed by nodes[2]) has no primitives"));
-    // A base colour texture: its mean linear colour times the factor, the mean in the
-    // warning.
+    // A base colour texture: the albedo is the factor (its tint) times the texture, and
+    // its mean linear colour times the factor where one colour stands for it.
     const unsigned char rgba[8] = {255, 0, 0, 255, 0, 0, 255, 255};
     const std::string png = raybundle::test::png_bytes(2, 1, rgba);
     json textured = asset();
@@ -511,8 +511,10 @@ TEST_CASE("glTF: a warning per primitive, not per placement, unread extensions a
     textured["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
     const MeshData tex = parse(textured);
     CHECK(tex.material_defs[0].albedo.isApprox(Rgb(0.5, 0, 0.25)));
-    REQUIRE(tex.warnings.size() == 1);
-    CHECK(tex.warnings[0] == "a.gltf: material 'paint': its base colour texture is read as its mean colour 0.5 0 0.5");
+    REQUIRE(tex.material_defs[0].texture);
+    CHECK(tex.material_defs[0].tint.isApprox(Rgb(1, 1, 0.5)));
+    CHECK(tex.material_defs[0].texture->shown == "a.gltf: images[0]");
+    CHECK(tex.warnings.empty());
     // A rotation that is not of unit length: its direction, with a warning past the
     // rounding of floats (glTF asks for unit quaternions).
     json twice = asset();

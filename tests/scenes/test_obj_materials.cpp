@@ -461,7 +461,7 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
                                           "defined before it");
 }
 
-TEST_CASE("MTL: a PNG map_Kd is the albedo by its mean linear colour", "[scenes][obj]") {
+TEST_CASE("MTL: a PNG map_Kd on faces without vt is the albedo by its mean linear colour", "[scenes][obj]") {
     TempDir dir;
     raybundle::render::Image texture(4, 4);
     for (int y = 0; y < 4; ++y)
