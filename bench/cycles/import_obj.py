@@ -15,7 +15,12 @@ material keeps its colours as Blender read them: the Principled BSDF's base colo
 becomes a Lambert Diffuse BSDF of that colour (Principled's diffuse is Disney's, with
 retro-reflection, not the Lambert reflector an MTL's Kd means), its emission colour
 times strength the emitted radiance, one-sided as raybundle's surfaces are
-(bench/cycles/import_scene.py: make_material). This bench compares diffuse assets:
+(bench/cycles/import_scene.py: make_material). A textured base colour stays textured:
+where the Principled BSDF's Base Color is linked (an Image Texture, or a Mix node
+multiplying the glTF baseColorFactor by it, as the glTF importer builds them; an Image
+Texture for an MTL's map_Kd), those nodes are copied into the Lambert material and give
+its colour, through the same UV map, interpolation and extension (the image as Blender
+read it: sRGB for a base colour). This bench compares diffuse assets:
 a metallic material is refused, Principled's specular (from Ks) is printed and
 dropped. The camera, the Cycles settings (64
 bounces, no clamping, box filter, no denoising, Standard view) and the uniform scale
@@ -62,18 +67,105 @@ def parse_args():
     return a
 
 
+# The nodes a textured base colour is made of, as Blender's importers build them, with
+# the properties copied besides their inputs' values.
+TEXTURE_NODES = {
+    "TEX_IMAGE": ("image", "interpolation", "projection", "projection_blend", "extension"),
+    "MIX_RGB": ("blend_type", "use_clamp"),
+    "MIX": ("data_type", "blend_type", "clamp_factor", "clamp_result", "factor_mode"),
+    "UVMAP": ("uv_map", "from_instancer"),
+    "MAPPING": ("vector_type",),
+    "TEX_COORD": ("from_instancer",),
+    "SEPARATE_COLOR": ("mode",),
+    "COMBINE_COLOR": ("mode",),
+    "VERTEX_COLOR": ("layer_name",),
+}
+
+
+def upstream(socket, seen=None):
+    """The nodes that feed an output socket, each once, the socket's own first."""
+    seen = [] if seen is None else seen
+    if socket.node not in seen:
+        seen.append(socket.node)
+        for inp in socket.node.inputs:
+            for link in inp.links:
+                upstream(link.from_socket, seen)
+    return seen
+
+
+def copy_upstream(socket, tree, copies):
+    """Copies the nodes feeding `socket` (an output of another material's node) into tree;
+    returns the copy's socket. copies: original node -> copy, shared between calls."""
+    node = socket.node
+    if node.type not in TEXTURE_NODES:
+        raise SystemExit("material %s: its base colour comes through a %s node, which import_obj.py does not copy"
+                         % (node.id_data.name, node.bl_idname))
+    if node not in copies:
+        new = tree.nodes.new(node.bl_idname)
+        new.location = (node.location.x - 600, node.location.y)
+        for prop in TEXTURE_NODES[node.type]:
+            if hasattr(node, prop):
+                setattr(new, prop, getattr(node, prop))
+        for k, inp in enumerate(node.inputs):  # by index: a Mix node has several inputs of a name
+            if hasattr(inp, "default_value"):
+                new.inputs[k].default_value = inp.default_value
+            for link in inp.links:
+                tree.links.new(copy_upstream(link.from_socket, tree, copies), new.inputs[k])
+        copies[node] = new
+    return copies[node].outputs[list(node.outputs).index(socket)]
+
+
+def describe_texture(socket):
+    """What feeds a linked base colour, in words and as JSON-able data."""
+    nodes = upstream(socket)
+    images = [n for n in nodes if n.type == "TEX_IMAGE"]
+    if not images or any(n.image is None for n in images):
+        raise SystemExit("material %s: its base colour is linked but comes from no image" % socket.id_data.name)
+    info = {"image": [n.image.name for n in images],
+            "file": [bpy.path.abspath(n.image.filepath) if n.image.packed_file is None else "(packed)" for n in images],
+            "size": [list(n.image.size) for n in images],
+            "colorspace": [n.image.colorspace_settings.name for n in images],
+            "interpolation": [n.interpolation for n in images], "extension": [n.extension for n in images],
+            "nodes": [n.bl_idname + (" " + n.blend_type if hasattr(n, "blend_type") else "") for n in nodes]}
+    for n in nodes:
+        if n.type in ("MIX", "MIX_RGB"):  # the glTF factor: the Mix's constant colour input
+            info["factor"] = [list(i.default_value) for i in n.inputs
+                              if i.type == "RGBA" and not i.is_linked and i.enabled]
+    return info
+
+
 def diffuse_of(mat):
-    """The raybundle material Blender's import of an MTL material means: albedo, emission."""
+    """The raybundle material Blender's import of an MTL material means: albedo, emission
+    (and a texture, where the base colour is linked: then the albedo printed is unused)."""
     principled = next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
     if principled is None:
         raise SystemExit("material %s: no Principled BSDF after the import" % mat.name)
+    if principled.inputs["Emission"].is_linked or principled.inputs["Emission Strength"].is_linked:
+        raise SystemExit("material %s: an emission texture: not compared" % mat.name)
     base = list(principled.inputs["Base Color"].default_value)[:3]
     strength = principled.inputs["Emission Strength"].default_value
     emission = [strength * c for c in list(principled.inputs["Emission"].default_value)[:3]]
     if principled.inputs["Metallic"].default_value > 0.0:
         raise SystemExit("material %s: metallic: not a diffuse asset" % mat.name)
-    return {"name": mat.name, "albedo": base, "emission": emission, "two_sided": False,
-            "blender_specular": principled.inputs["Specular"].default_value}
+    m = {"name": mat.name, "albedo": base, "emission": emission, "two_sided": False,
+         "blender_specular": principled.inputs["Specular"].default_value}
+    links = principled.inputs["Base Color"].links
+    if links:
+        m["texture"] = describe_texture(links[0].from_socket)
+    return m, (links[0].from_socket if links else None)
+
+
+def keep_texture(mat, socket):
+    """Links the copy of what gives `socket` (the imported material's base colour) to the
+    front Lambert BSDF's Color of mat (import_scene.make_material's; its other Diffuse BSDF,
+    the black back, feeds the second shader of the Backfacing mix)."""
+    tree = mat.node_tree
+    back = {link.from_node for link in tree.links
+            if link.to_node.type == "MIX_SHADER" and link.to_socket == link.to_node.inputs[2]}
+    front = [n for n in tree.nodes if n.type == "BSDF_DIFFUSE" and n not in back]
+    if len(front) != 1:
+        raise SystemExit("material %s: %d front Diffuse BSDFs" % (mat.name, len(front)))
+    tree.links.new(copy_upstream(socket, tree, {}), front[0].inputs["Color"])
 
 
 def remove_duplicate_faces(obj):
@@ -133,8 +225,19 @@ def main():
             o.data.polygons.foreach_set("use_smooth", [False] * len(o.data.polygons))
         for slot in o.material_slots:
             if slot.material and slot.material.name not in materials:
-                m = diffuse_of(slot.material)
-                materials[slot.material.name] = (m, import_scene.make_material(m, True))
+                m, texture = diffuse_of(slot.material)
+                lambert = import_scene.make_material(m, True)
+                if texture is not None:
+                    keep_texture(lambert, texture)
+                    t = m["texture"]
+                    print("material %s: texture kept: image %s (%s, %s, %s, %s), through %s%s" % (
+                        m["name"], ", ".join(t["image"]), " ".join("%dx%d" % tuple(z) for z in t["size"]),
+                        ", ".join(t["colorspace"]), ", ".join(t["interpolation"]), ", ".join(t["extension"]),
+                        " <- ".join(t["nodes"]), ", factor %s" % t["factor"] if "factor" in t else ""), flush=True)
+                else:
+                    print("material %s: no texture, albedo %s" % (m["name"], [round(c, 6) for c in m["albedo"]]),
+                          flush=True)
+                materials[slot.material.name] = (m, lambert)
             if slot.material:
                 slot.material = materials[slot.material.name][1]
     camera = {"eye": [scale * x for x in args.eye], "target": [scale * x for x in args.target], "up": args.up,

@@ -367,4 +367,28 @@ check $? "check CornellBox-Original.obj: exit $rc, $(cat err.txt) $(head -c 600 
   -D camera.height=32 -q -o obj-box.png 2>err.txt && [ -s obj-box.png ]
 check $? "solve CornellBox-Original.obj: $(cat err.txt)"
 
+# A textured OBJ as Blender writes it (map_Kd beside the MTL, vt per corner), seen from
+# under its ceiling: read without a warning, its textures named by check, and the
+# floor's checker in the image (a dark and a light square differ by more than twice).
+"$bin" check "$src/scenes/examples/textured-room/textured-room.obj" -D 'camera.eye=[0,2.4,0]' \
+  -D 'camera.target=[0,0,0]' -D 'camera.up=[0,0,-1]' >out.txt 2>err.txt
+rc=$?
+[ "$rc" -eq 0 ] && grep -q "(texture checker.png)" out.txt && grep -q "(texture cube.png)" out.txt && ! grep -q "warning" out.txt err.txt
+check $? "check textured-room.obj: exit $rc, $(cat err.txt) $(head -c 600 out.txt)"
+"$bin" solve "$src/scenes/examples/textured-room/textured-room.obj" --iterations 200 --gather 4 \
+  -D 'camera.eye=[0,2.4,0]' -D 'camera.target=[0,0,0]' -D 'camera.up=[0,0,-1]' -D camera.fov_y=40 \
+  -D camera.width=64 -D camera.height=64 -q -o floor.pfm 2>err.txt && [ -s floor.pfm ]
+check $? "solve textured-room.obj: $(cat err.txt)"
+python3 - <<'PY'
+import struct, sys
+data = open("floor.pfm", "rb").read()
+parts = data.split(b"\n", 3)
+w, h = map(int, parts[1].split())
+pixels = struct.unpack("<%df" % (3 * w * h), parts[3][:12 * w * h])
+grey = sorted(sum(pixels[3 * i:3 * i + 3]) for i in range(w * h))
+dark, light = grey[len(grey) // 10], grey[9 * len(grey) // 10]
+sys.exit(0 if light > 2 * dark > 0 else 1)
+PY
+check $? "textured-room.obj: the floor's checker is not in the image"
+
 finish cli-outputs

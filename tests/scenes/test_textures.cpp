@@ -64,17 +64,19 @@ Rgb sixteen_at(int i, int j) {
                   static_cast<unsigned char>(200 - 40 * i));
 }
 
-// The patch of `scene` whose triangle holds the point x (on its plane).
-std::size_t patch_at(const Scene& scene, const Vec3& x) {
+// Whether patch i's triangle holds the point x (on its plane).
+bool holds(const Scene& scene, std::size_t i, const Vec3& x) {
     const auto& pos = scene.vertex_positions();
-    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
-        const auto& p = scene.patch_list()[i];
-        const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
-        if (std::abs(p.normal.dot(x - a)) > 1e-9) continue;
-        if (p.normal.dot((b - a).cross(x - a)) >= -1e-12 && p.normal.dot((c - b).cross(x - b)) >= -1e-12 &&
-            p.normal.dot((a - c).cross(x - c)) >= -1e-12)
-            return i;
-    }
+    const auto& p = scene.patch_list()[i];
+    const Vec3 a = pos[p.v[0]], b = pos[p.v[1]], c = pos[p.v[2]];
+    return std::abs(p.normal.dot(x - a)) <= 1e-9 && p.normal.dot((b - a).cross(x - a)) >= -1e-12 &&
+           p.normal.dot((c - b).cross(x - b)) >= -1e-12 && p.normal.dot((a - c).cross(x - c)) >= -1e-12;
+}
+
+// The first patch of `scene` whose triangle holds the point x.
+std::size_t patch_at(const Scene& scene, const Vec3& x) {
+    for (std::size_t i = 0; i < scene.patch_count(); ++i)
+        if (holds(scene, i, x)) return i;
     FAIL("no patch holds the point");
     return 0;
 }
@@ -299,6 +301,24 @@ TEST_CASE("glTF: a baseColorTexture through its TEXCOORD_n, t down from the imag
         for (int i = 0; i < 4; ++i) {
             const Vec3 x((i + 0.5) / 4, 1.0 - (j + 0.5) / 4, 0.0);  // texel (i, j): column i, row j from the top
             CHECK(scene.albedo_at(patch_at(scene, x), x).isApprox(Rgb(1, 0.5, 1) * sixteen_at(i, j), 1e-12));
+        }
+    // Two-sided: the twin facing -z reads the same texels at the same points.
+    json sheet = doc;
+    sheet["materials"][0]["doubleSided"] = true;
+    dir.write("sheet.glb", glb(sheet));
+    const Scene both = parse_scene(R"({"camera": {"eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0]}, "patch_size": 0.3,
+                                       "objects": [{"mesh": "sheet.glb"}]})",
+                                   "s.json", dir.path.string());
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const Vec3 x((i + 0.5) / 4, 1.0 - (j + 0.5) / 4, 0.0);
+            int sides = 0;
+            for (std::size_t p = 0; p < both.patch_count(); ++p)
+                if (holds(both, p, x)) {
+                    ++sides;
+                    CHECK(both.albedo_at(p, x).isApprox(Rgb(1, 0.5, 1) * sixteen_at(i, j), 1e-12));
+                }
+            CHECK(sides >= 2);
         }
     // Refused in one line.
     auto fails = [&](const json& d, const std::string& what) {
