@@ -500,6 +500,23 @@ void apply_override(json& doc, const Override& o, const std::string& shown) {
     *node = value;
 }
 
+// A textured material on triangles without texture coordinates (`uvs` empty, or NaN
+// where a triangle has none): its mean colour there, with a warning.
+void warn_without_uvs(Scene& scene, const std::string& object_name, int material, std::size_t triangles,
+                      const std::vector<std::array<Uv, 3>>& uvs) {
+    const Material& m = scene.materials[static_cast<std::size_t>(material)];
+    if (!m.texture) return;
+    const auto bare = uvs.empty() ? triangles : static_cast<std::size_t>(std::count_if(uvs.begin(), uvs.end(), [](const auto& c) {
+        return !(c[0].allFinite() && c[1].allFinite() && c[2].allFinite());
+    }));
+    if (bare == 0) return;
+    const Rgb mean = m.texture->mean();
+    scene.warnings.push_back(object_name + ": " + std::to_string(bare) + " of " + std::to_string(triangles) +
+                             " triangles give no texture coordinates: there its texture " + m.texture->shown +
+                             " is read as its mean colour " + format_number(mean[0]) + " " + format_number(mean[1]) +
+                             " " + format_number(mean[2]));
+}
+
 // A mesh that brings its materials: one object per material and group (OBJ `o`/`g`),
 // named by the material, or by "group/material" where a material is used in several
 // groups (a group statement may come before or after its faces: material names are the
@@ -552,20 +569,7 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
         std::string part = scene.materials[static_cast<std::size_t>(mat)].name;
         if (groups_of_mat > 1) part = (group < 0 ? std::string("(no group)") : data.groups[static_cast<std::size_t>(group)]) + "/" + part;
         const std::string object_name = given ? name + ": " + part : name + ": " + part + ")";
-        // A texture on faces without texture coordinates: its mean colour there.
-        const Material& m = scene.materials[static_cast<std::size_t>(mat)];
-        if (m.texture) {
-            const auto bare = uvs.empty() ? tris.size() : static_cast<std::size_t>(std::count_if(uvs.begin(), uvs.end(), [](const auto& c) {
-                return !(c[0].allFinite() && c[1].allFinite() && c[2].allFinite());
-            }));
-            if (bare > 0) {
-                const Rgb mean = m.texture->mean();
-                scene.warnings.push_back(object_name + ": " + std::to_string(bare) + " of " + std::to_string(tris.size()) +
-                                         " triangles give no texture coordinates: there its texture " + m.texture->shown +
-                                         " is read as its mean colour " + format_number(mean[0]) + " " +
-                                         format_number(mean[1]) + " " + format_number(mean[2]));
-            }
-        }
+        warn_without_uvs(scene, object_name, mat, tris.size(), uvs);
         const int id = scene.add_object(vertices, tris, mat, object_name, -1, normals, uvs);
         if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals, twin_uvs);
         scene.crease_angles[static_cast<std::size_t>(id)] = crease;
@@ -755,8 +759,17 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         auto texture = m.texture;
         const Rgb tint = m.tint;
         m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
-        // A texture stays unless the settings give the albedo (a colour in its place).
-        if (texture && !(e->second.is_object() && e->second.contains("albedo"))) m.texture = std::move(texture), m.tint = tint;
+        // A texture stays unless the settings give the albedo (a colour in its place); its
+        // brightest texels with the specular set must stay below 1, as an albedo's.
+        if (texture && !(e->second.is_object() && e->second.contains("albedo"))) {
+            const Rgb most = tint * texture->image->brightest + m.specular;
+            Eigen::Index k = 0;
+            if (!(most.maxCoeff(&k) <= 1.0))
+                Node(merged, shown, material_setting(m.name))
+                    .fail("", "its texture's brightest texels + specular = " + format_number(most[k]) + " in channel " +
+                                  "rgb"[k] + " (must be at most 1 so that the light transport contracts)");
+            m.texture = std::move(texture), m.tint = tint;
+        }
         taken.insert(e->first);
         return true;
     };
@@ -864,13 +877,16 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                                 obj_crease);
                 continue;
             }
-            const int id = scene.add_object(data.vertices, data.triangles, mat,
-                                            !given.empty() ? given : obj.path() + " (" + rel + ")", -1, data.normals);
+            const std::string object_name = !given.empty() ? given : obj.path() + " (" + rel + ")";
+            warn_without_uvs(scene, object_name, mat, data.triangles.size(), data.uvs);
+            const int id = scene.add_object(data.vertices, data.triangles, mat, object_name, -1, data.normals, data.uvs);
             // The twin faces the other way: its corners in reverse, its normals negated.
             if (scene.materials[mat].two_sided) {
                 auto twin_normals = data.normals;
                 for (auto& n : twin_normals) n = {-n[0], -n[2], -n[1]};
-                scene.add_object(data.vertices, reversed(data.triangles), mat, "", id, twin_normals);
+                auto twin_uvs = data.uvs;
+                for (auto& c : twin_uvs) std::swap(c[1], c[2]);
+                scene.add_object(data.vertices, reversed(data.triangles), mat, "", id, twin_normals, twin_uvs);
             }
             scene.crease_angles[id] = obj_crease;
         } else {
@@ -911,7 +927,9 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                 if (!((v[1] - v[0]).cross(v[2] - v[0]).norm() > 1e-9 * size * size))
                     obj.fail(key, "is degenerate: its points coincide or lie on one line");
             }
-            const int id = scene.add_object(v, tris, mat, !given.empty() ? given : obj.path() + " (" + key + ")");
+            const std::string object_name = !given.empty() ? given : obj.path() + " (" + key + ")";
+            warn_without_uvs(scene, object_name, mat, tris.size(), {});
+            const int id = scene.add_object(v, tris, mat, object_name);
             if (scene.materials[mat].two_sided) scene.add_object(v, reversed(tris), mat, "", id);
             scene.crease_angles[id] = obj_crease;
         }

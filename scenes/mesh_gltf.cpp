@@ -418,7 +418,8 @@ private:
                 fail("asset.minVersion", "'" + least + "': the file needs a reader of glTF " + least +
                                              ", and raybundle reads glTF 2.0");
         }
-        static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
+        static const std::set<std::string> read = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                                   "KHR_texture_transform"};
         for (const auto& e : model_.extensionsRequired)
             if (!read.count(e)) fail("extensionsRequired", "needs " + e + ", which raybundle does not read");
         for (const auto& e : model_.extensionsUsed)
@@ -771,6 +772,46 @@ private:
         return Vec3(f[0], f[1], f[2]);
     }
 
+    // KHR_texture_transform: (s, t) = offset + R(rotation) (scale * uv), R = [cos sin;
+    // -sin cos] (the extension's matrices, in its order), and its texCoord in place of
+    // the texture's.
+    struct UvTransform {
+        Eigen::Matrix2d linear = Eigen::Matrix2d::Identity();
+        Uv offset = Uv::Zero();
+        int tex_coord = 0;
+    };
+    UvTransform uv_transform(const tinygltf::TextureInfo& info, const std::string& where) const {
+        UvTransform out;
+        out.tex_coord = info.texCoord;
+        const auto it = info.extensions.find("KHR_texture_transform");
+        if (it == info.extensions.end()) return out;
+        const std::string at = where + ": KHR_texture_transform";
+        const tinygltf::Value& t = it->second;
+        if (!t.IsObject()) fail(at, "is not an object");
+        const auto number = [&](const tinygltf::Value& v, const char* key) {
+            if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) fail(at, std::string(key) + " is not a finite number");
+            return v.GetNumberAsDouble();
+        };
+        const auto pair = [&](const char* key, Uv fallback) {
+            if (!t.Has(key)) return fallback;
+            const tinygltf::Value& v = t.Get(key);
+            if (!v.IsArray() || v.ArrayLen() != 2) fail(at, std::string(key) + " is not two numbers");
+            return Uv(number(v.Get(0), key), number(v.Get(1), key));
+        };
+        out.offset = pair("offset", Uv::Zero());
+        const Uv scale = pair("scale", Uv::Ones());
+        const double r = t.Has("rotation") ? number(t.Get("rotation"), "rotation") : 0.0;
+        Eigen::Matrix2d rotation;
+        rotation << std::cos(r), std::sin(r), -std::sin(r), std::cos(r);
+        out.linear = rotation * scale.asDiagonal();
+        if (t.Has("texCoord")) {
+            const tinygltf::Value& c = t.Get("texCoord");
+            if (!c.IsInt() || c.GetNumberAsInt() < 0) fail(at, "texCoord is not a whole number >= 0");
+            out.tex_coord = c.GetNumberAsInt();
+        }
+        return out;
+    }
+
     // Texture coordinates: floats, or unsigned bytes or shorts read as 0..1 (glTF allows
     // only normalized ones).
     static Uv uv_at(const Elements& e, std::size_t i) {
@@ -876,12 +917,15 @@ private:
                 fail(at, "material " + std::to_string(prim.material) + " out of range");
             out.material = prim.material;
         }
-        // The texture coordinates its material's base colour texture reads.
+        // The texture coordinates its material's base colour texture reads (through its
+        // KHR_texture_transform, where it has one).
         std::optional<Elements> uvs;
         std::string uv_key;
+        UvTransform transform;
         if (out.material < default_material_) {
             const auto& info = model_.materials[static_cast<std::size_t>(out.material)].pbrMetallicRoughness.baseColorTexture;
-            uv_key = "TEXCOORD_" + std::to_string(info.texCoord);
+            transform = uv_transform(info, "materials[" + std::to_string(out.material) + "].pbrMetallicRoughness.baseColorTexture");
+            uv_key = "TEXCOORD_" + std::to_string(transform.tex_coord);
             if (info.index >= 0)
                 if (const auto u = prim.attributes.find(uv_key); u != prim.attributes.end()) {
                     uvs = elements(u->second, at, uv_key.c_str());
@@ -906,7 +950,7 @@ private:
                     out.positions.push_back(vec3_at(positions, v));
                     if (normals) out.normals.push_back(vec3_at(*normals, v));
                     if (uvs) {
-                        const Uv st = uv_at(*uvs, v);
+                        const Uv st = transform.offset + transform.linear * uv_at(*uvs, v);
                         if (!st.allFinite()) fail(at + ": " + uv_key, "texture coordinate " + std::to_string(v) + " is not finite");
                         out.uvs.push_back(st);
                     }

@@ -109,9 +109,12 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             }
             normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
         } else if (tag == "vt") {
-            // "vt u [v [w]]": v 0 where not given, w ignored.
-            std::istringstream ts(line.substr(line.find("vt") + 2));
+            // "vt u [v [w]]": v 0 where not given, w ignored. One not finite ("nan", as
+            // exporters write at degenerate faces, like a `vn`): no coordinates there.
+            const std::string text = line.substr(line.find("vt") + 2);
+            std::istringstream ts(text);
             std::vector<double> words;
+            const bool broken = not_finite_words(text);
             for (std::string w; ts >> w;) {
                 std::size_t used = 0;
                 double x = 0.0;
@@ -120,13 +123,15 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 } catch (const std::exception&) {
                     used = 0;
                 }
-                if (used == 0 || used != w.size() || !std::isfinite(x))
-                    throw SceneError(shown, where, "texture coordinate '" + w + "' is not a finite number");
+                if (!broken && (used == 0 || used != w.size() || !std::isfinite(x)))
+                    throw SceneError(shown, where, "texture coordinate '" + w + "' is not a number");
                 words.push_back(x);
             }
             if (words.empty() || words.size() > 3)
                 throw SceneError(shown, where, "vt needs 1 to 3 numbers, got " + std::to_string(words.size()));
-            texture_coordinates.push_back(Uv(words[0], 1.0 - (words.size() > 1 ? words[1] : 0.0)));
+            constexpr double none = std::numeric_limits<double>::quiet_NaN();
+            texture_coordinates.push_back(broken ? Uv(none, none)
+                                                 : Uv(words[0], 1.0 - (words.size() > 1 ? words[1] : 0.0)));
         } else if (tag == "usemtl" || tag == "o" || tag == "g") {
             const std::string name = rest(tag);
             if (tag == "usemtl" && name.empty()) throw SceneError(shown, where, "usemtl without a material name");

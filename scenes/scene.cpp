@@ -25,6 +25,10 @@ Scene::Scene() {
 
 namespace {
 
+// The R2 sequence's steps (1/g, 1/g^2, g the plastic number): points k of the unit
+// square at frac(0.5 + k kR2), spread evenly for every count.
+constexpr double kR2[2] = {0.75487766624669276005, 0.56984029099805326591};
+
 // No area to the precision of its size (finalize()'s and add_object()'s test), the same
 // answer whichever corner comes first: measured from the least corner (a triangle at
 // the threshold is not kept by one and dropped by the other).
@@ -42,14 +46,16 @@ bool zero_area(Vec3 a, Vec3 b, Vec3 c) {
 
 // The affine map from the plane of the triangle (a, b, c) to texture coordinates that
 // gives its corners theirs: (s, t) = uv0 + [uv1 - uv0, uv2 - uv0] (b1, b2), with
-// (b1, b2) the point's barycentric weights of b and c, found from the edges' Gram
-// matrix (a point off the plane goes to its foot on it).
+// (b1, b2) the point's barycentric weights of b and c: with n = e1 x e2, x - a = b1 e1 +
+// b2 e2 gives b1 = (x - a) . (e2 x n) / |n|^2 and b2 = (x - a) . (n x e1) / |n|^2 (a
+// point off the plane goes to its foot on it). Through the cross product, not the
+// edges' Gram determinant, which cancels to noise on the slivers add_object keeps.
 Scene::TextureMap texture_map(const Vec3& a, const Vec3& b, const Vec3& c, const std::array<Uv, 3>& uv) {
-    const Vec3 e1 = b - a, e2 = c - a;
-    const double g11 = e1.dot(e1), g12 = e1.dot(e2), g22 = e2.dot(e2), det = g11 * g22 - g12 * g12;
+    const Vec3 e1 = b - a, e2 = c - a, n = e1.cross(e2);
+    const double nn = n.squaredNorm();
     Eigen::Matrix<double, 2, 3> weights;
-    weights.row(0) = ((g22 * e1 - g12 * e2) / det).transpose();
-    weights.row(1) = ((g11 * e2 - g12 * e1) / det).transpose();
+    weights.row(0) = (e2.cross(n) / nn).transpose();
+    weights.row(1) = (n.cross(e1) / nn).transpose();
     Eigen::Matrix2d edges;
     edges.col(0) = uv[1] - uv[0];
     edges.col(1) = uv[2] - uv[0];
@@ -481,10 +487,14 @@ void Scene::finalize(int threads) {
 }
 
 // Per patch of a textured material with texture coordinates, the tint times the
-// texture's mean over it: the texture at N^2 points (the centroids of the N^2 equal
-// sub-triangles), N four times the patch's longest edge in texels (4 to 64), so that
-// some 30 points fall on each texel it covers (up to 4,096 in all); a deterministic
-// sum, the same on any threads.
+// texture's mean over it: the texture at N^2 points, N four times the patch's longest
+// edge in texels (4 to 64). Up to an edge of 16 texels the points are the centroids of
+// the N^2 equal sub-triangles, a quarter of a texel apart at most: the midpoint rule on
+// the bilinear lookup. A larger patch (or many repeats of a texture) gets 4,096 points
+// of the R2 sequence (Roberts 2018) folded into the triangle, an estimate of its mean:
+// a grid's rows, more than a texel apart, would fall in step with a periodic texture (a
+// tiled checker) and read one of its colours. A deterministic sum, the same on any
+// threads.
 void Scene::compute_albedos(int threads) {
     patch_texture_map.clear();
     patch_albedo.clear();
@@ -516,15 +526,27 @@ void Scene::compute_albedos(int threads) {
                 return ((to_uv(x) - to_uv(y)).array() * texels).matrix().norm();
             };
             const double edge = std::max({in_texels(a, b), in_texels(b, c), in_texels(c, a)});
-            const int N = std::isfinite(edge) ? std::clamp(static_cast<int>(std::ceil(4.0 * edge)), 4, 64) : 4;
+            const double wanted = std::isfinite(edge) ? std::ceil(4.0 * edge) : 65.0;
+            const int N = static_cast<int>(std::clamp(wanted, 4.0, 64.0));
             Rgb sum = Rgb::Zero();
-            for (int s = 0; s < N; ++s)
-                for (int t = 0; s + t < N; ++t)
-                    for (int k = 0; k < (s + t < N - 1 ? 2 : 1); ++k) {
-                        const double u = (s + (k + 1) / 3.0) / N, v = (t + (k + 1) / 3.0) / N;
-                        const Uv st = to_uv(a + u * (b - a) + v * (c - a));
-                        sum += texture.at(st.x(), st.y());
+            const auto add = [&](double u, double v) {
+                const Uv st = to_uv(a + u * (b - a) + v * (c - a));
+                sum += texture.at(st.x(), st.y());
+            };
+            if (wanted <= 64.0) {
+                for (int s = 0; s < N; ++s)
+                    for (int t = 0; s + t < N; ++t) {
+                        add((s + 1.0 / 3.0) / N, (t + 1.0 / 3.0) / N);
+                        if (s + t < N - 1) add((s + 2.0 / 3.0) / N, (t + 2.0 / 3.0) / N);
                     }
+            } else {
+                for (long k = 0; k < static_cast<long>(N) * N; ++k) {
+                    double u = 0.5 + kR2[0] * static_cast<double>(k), v = 0.5 + kR2[1] * static_cast<double>(k);
+                    u -= std::floor(u), v -= std::floor(v);
+                    if (u + v > 1.0) u = 1.0 - u, v = 1.0 - v;
+                    add(u, v);
+                }
+            }
             patch_albedo[static_cast<std::size_t>(i)] = m.tint * sum / (static_cast<double>(N) * N);
         }
     });

@@ -88,17 +88,17 @@ bool decode_jpeg(std::string_view bytes, TexelImage& image, std::string& why) {
 }
 
 // A texel index along one side of `n` texels, wrapped.
-int wrapped(long i, int n, Texture::Wrap wrap) {
+int wrapped(long long i, int n, Texture::Wrap wrap) {
     switch (wrap) {
-        case Texture::Wrap::clamp: return static_cast<int>(std::clamp<long>(i, 0, n - 1));
+        case Texture::Wrap::clamp: return static_cast<int>(std::clamp<long long>(i, 0, n - 1));
         case Texture::Wrap::mirror: {
-            long k = i % (2L * n);
-            if (k < 0) k += 2L * n;
-            return static_cast<int>(k < n ? k : 2L * n - 1 - k);
+            long long k = i % (2LL * n);
+            if (k < 0) k += 2LL * n;
+            return static_cast<int>(k < n ? k : 2LL * n - 1 - k);
         }
         case Texture::Wrap::repeat:
         default: {
-            long k = i % n;
+            long long k = i % n;
             return static_cast<int>(k < 0 ? k + n : k);
         }
     }
@@ -166,7 +166,7 @@ Rgb Texture::at(double s, double t) const {
     const double ax = x - fx, ay = y - fy;
     // Coordinates past 2^40 texels have no position within a texel left: the mean.
     if (std::abs(fx) > 1e12 || std::abs(fy) > 1e12) return im.mean;
-    const long x0 = static_cast<long>(fx), y0 = static_cast<long>(fy);
+    const auto x0 = static_cast<long long>(fx), y0 = static_cast<long long>(fy);
     const int xs[2] = {wrapped(x0, im.width, wrap_s), wrapped(x0 + 1, im.width, wrap_s)};
     const int ys[2] = {wrapped(y0, im.height, wrap_t), wrapped(y0 + 1, im.height, wrap_t)};
     auto texel = [&im](int tx, int ty) {

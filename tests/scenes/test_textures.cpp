@@ -150,8 +150,13 @@ TEST_CASE("OBJ: vt read per face corner, v turned to t down from the image's top
     CHECK_THROWS_WITH(parse_mesh(tri + "vt 0 0\nf 1/1 2/2 3/1\n", "obj", "t.obj"),
                       "t.obj: line 5: face references texture coordinate 2, but only 1 texture coordinate is "
                       "defined before it");
-    CHECK_THROWS_WITH(parse_mesh(tri + "vt 0 nan\n", "obj", "t.obj"),
-                      "t.obj: line 4: texture coordinate 'nan' is not a finite number");
+    CHECK_THROWS_WITH(parse_mesh(tri + "vt 0 x\n", "obj", "t.obj"),
+                      "t.obj: line 4: texture coordinate 'x' is not a number");
+    // One not finite, as exporters write at degenerate faces: no coordinates there.
+    const MeshData nan = parse_mesh(tri + "vt 0 nan\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n", "obj", "t.obj");
+    REQUIRE(nan.uvs.size() == 1);
+    CHECK_FALSE(nan.uvs[0][0].allFinite());
+    CHECK(nan.uvs[0][1] == Uv(1.0, 1.0));
     CHECK_THROWS_WITH(parse_mesh(tri + "vt\n", "obj", "t.obj"), "t.obj: line 4: vt needs 1 to 3 numbers, got 0");
 }
 
@@ -209,9 +214,31 @@ TEST_CASE("OBJ and MTL: a map_Kd through vt is the albedo texel by texel, and ea
                                  "objects": [{"mesh": "t.obj"}]})";
     const Overrides glossy = {{"materials.tiles.specular", "[0.1, 0.1, 0.1]"}, {"materials.tiles.exponent", "20"}};
     CHECK(parse_scene(text, "s.json", dir.path.string(), glossy).textured());
+    // (Its brightest texels, 0.87 in g, and a specular past 0.13 reflect more than 1.)
+    CHECK_THROWS_WITH(parse_scene(text, "s.json", dir.path.string(),
+                                  {{"materials.tiles.specular", "[0.2, 0.2, 0.2]"}, {"materials.tiles.exponent", "20"}}),
+                      Contains("materials.tiles: its texture's brightest texels + specular = 1.07") &&
+                          Contains("in channel g"));
     const Scene grey = parse_scene(text, "s.json", dir.path.string(), {{"materials.tiles.albedo", "[0.3, 0.3, 0.3]"}});
     CHECK_FALSE(grey.textured());
     CHECK(grey.albedo_of(0).isApprox(Rgb::Constant(0.3)));
+    // A mesh naming the material an earlier one brought reads it through its own vt; a
+    // quad naming it has none: its mean, with a warning.
+    const Scene twice = parse_scene(R"({"camera": {"eye": [0.5, 2, 0.5], "target": [0.5, 0, 0.5], "up": [0, 0, -1]},
+                                        "objects": [{"mesh": "t.obj"},
+                                                    {"mesh": "t.obj", "material": "tiles", "translate": [2, 0, 0]},
+                                                    {"quad": [[0, 0, 2], [1, 0, 2], [1, 0, 3], [0, 0, 3]],
+                                                     "material": "tiles"}]})",
+                                    "s.json", dir.path.string());
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const Vec3 x(2.0 + (i + 0.5) / 4, 0.0, (j + 0.5) / 4);
+            CHECK(twice.albedo_at(patch_at(twice, x), x).isApprox(sixteen_at(i, j), 1e-12));
+        }
+    const Vec3 on_quad(0.3, 0.0, 2.4);
+    CHECK(twice.albedo_at(patch_at(twice, on_quad), on_quad).isApprox(twice.materials[0].texture->mean()));
+    REQUIRE(twice.warnings.size() == 1);
+    CHECK_THAT(twice.warnings[0], Contains("objects[2] (quad): 2 of 2 triangles give no texture coordinates"));
     // Faces without vt: the texture's mean there, and a warning that says so.
     dir.write("bare.obj", "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nusemtl tiles\nf 1 4 3 2\n");
     const Scene bare = parse_scene(R"({"camera": {"eye": [0.5, 2, 0.5], "target": [0.5, 0, 0.5], "up": [0, 0, -1]},
@@ -302,6 +329,29 @@ TEST_CASE("glTF: a baseColorTexture through its TEXCOORD_n, t down from the imag
             const Vec3 x((i + 0.5) / 4, 1.0 - (j + 0.5) / 4, 0.0);  // texel (i, j): column i, row j from the top
             CHECK(scene.albedo_at(patch_at(scene, x), x).isApprox(Rgb(1, 0.5, 1) * sixteen_at(i, j), 1e-12));
         }
+    // KHR_texture_transform: (s, t) = offset + R(rotation) (scale * uv), and its texCoord
+    // (here 1, over the texture's 0).
+    json moved = doc;
+    moved["extensionsUsed"] = {"KHR_texture_transform"};
+    moved["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {
+        {"index", 0}, {"texCoord", 0},
+        {"extensions", {{"KHR_texture_transform", {{"offset", {0.25, 0.125}}, {"rotation", 0.5}, {"scale", {2, 3}},
+                                                   {"texCoord", 1}}}}}};
+    dir.write("moved.glb", glb(moved));
+    const Scene turned = parse_scene(R"({"camera": {"eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0]}, "patch_size": 0.3,
+                                         "objects": [{"mesh": "moved.glb"}]})",
+                                     "s.json", dir.path.string());
+    CHECK(turned.warnings.empty());
+    for (const Vec3& x : {Vec3(0.1, 0.2, 0), Vec3(0.7, 0.4, 0), Vec3(0.35, 0.9, 0)}) {
+        const Uv uv(x.x(), 1.0 - x.y());  // TEXCOORD_1 at x
+        Eigen::Matrix2d r;
+        r << std::cos(0.5), std::sin(0.5), -std::sin(0.5), std::cos(0.5);
+        const Uv st = Uv(0.25, 0.125) + r * Uv(2 * uv.x(), 3 * uv.y());
+        CHECK(turned.albedo_at(patch_at(turned, x), x).isApprox(Rgb(1, 0.5, 1) * m.texture->at(st.x(), st.y()), 1e-12));
+    }
+    moved["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"]["scale"] = 2;
+    CHECK_THROWS_WITH(parse_mesh(glb(moved), "glb", "moved.glb"),
+                      Contains("baseColorTexture: KHR_texture_transform") && Contains("scale is not two numbers"));
     // Two-sided: the twin facing -z reads the same texels at the same points.
     json sheet = doc;
     sheet["materials"][0]["doubleSided"] = true;
@@ -422,4 +472,26 @@ TEST_CASE("a textured plane under a sun: each pixel the texture's albedo there t
     INFO(exact << " pixels of one albedo, " << seen.size() << " albedos among them");
     CHECK(exact > 150);  // (196: a third of the plane's pixels)
     CHECK(seen.size() >= 12);  // the blocks' colours are in the image
+}
+
+TEST_CASE("a texture repeated many times over a patch: its mean, not one of its colours", "[scenes][texture]") {
+    // A black and white checker of 2 x 2 texels, repeated 1,000 times along each side
+    // of a square of two patches as modelled: a grid of 64 x 64 points would fall in
+    // step with it.
+    Scene scene;
+    Material m;
+    m.name = "tiles";
+    m.texture = std::make_shared<const Texture>(texture_of(2, 2, {255, 255, 255, 0, 0, 0, 0, 0, 0, 255, 255, 255}));
+    m.albedo = m.texture->mean();
+    m.tint = Rgb::Constant(0.8);
+    const int t = scene.add_material(m);
+    for (const double tiles : {1000.0, 1024.0, 997.5}) {
+        INFO(tiles << " repeats");
+        Scene one = scene;
+        one.add_object({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {{{0, 1, 2}}, {{0, 2, 3}}}, t, "floor", -1, {},
+                       {{Uv(0, tiles), Uv(tiles, tiles), Uv(tiles, 0)}, {Uv(0, tiles), Uv(tiles, 0), Uv(0, 0)}});
+        one.finalize();
+        REQUIRE(one.patch_count() == 2);
+        for (std::size_t i = 0; i < 2; ++i) CHECK(one.albedo_of(i)[0] == Approx(0.4).epsilon(0.03));
+    }
 }
