@@ -758,6 +758,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         merged.merge_patch(e->second);
         auto texture = m.texture;
         const Rgb tint = m.tint;
+        const Eigen::Matrix2d uv_linear = m.uv_linear;
+        const Uv uv_offset = m.uv_offset;
         m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
         // A texture stays unless the settings give the albedo (a colour in its place); its
         // brightest texels with the specular set must stay below 1, as an albedo's.
@@ -767,8 +769,10 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             if (!(most.maxCoeff(&k) <= 1.0))
                 Node(merged, shown, material_setting(m.name))
                     .fail("", "its texture's brightest texels + specular = " + format_number(most[k]) + " in channel " +
-                                  "rgb"[k] + " (must be at most 1 so that the light transport contracts)");
-            m.texture = std::move(texture), m.tint = tint;
+                                  "rgb"[k] + " (must be at most 1 so that the light transport contracts: a specular of " +
+                                  "at most " + format_number(1.0 - (tint * texture->image->brightest)[k]) +
+                                  " there, or an albedo in the texture's place)");
+            m.texture = std::move(texture), m.tint = tint, m.uv_linear = uv_linear, m.uv_offset = uv_offset;
         }
         taken.insert(e->first);
         return true;

@@ -59,6 +59,10 @@ struct MtlMaterial {
     int illum = -1;               // illumination model (-1: not given)
     std::string map_kd;           // the diffuse texture's file, as written (its options passed over)
     std::string map_kd_last;      // the last word of the statement (a name after an unknown option)
+    // map_Kd's -o and -s options (u and v; w ignored): the texture read at offset + scale
+    // * (u, v); -clamp on: clamped at its edges, not repeated.
+    Uv map_kd_offset = Uv::Zero(), map_kd_scale = Uv::Ones();
+    bool map_kd_clamp = false;
     // The file was written by Blender (its first comment says so): Ks is its Principled
     // BSDF's "specular" (0.5 by default), whose reflectance at normal incidence is 0.08 Ks.
     bool blender = false;

@@ -102,7 +102,15 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
             map = map.substr(slash + 1);
         if (auto texture = texture_file(in_folder(folder, map), map, decoded, why)) {
             out.albedo = texture->mean();
+            if (m.map_kd_clamp) {  // the same texels, clamped
+                auto clamped = std::make_shared<Texture>(*texture);
+                clamped->wrap_s = clamped->wrap_t = Texture::Wrap::clamp;
+                texture = std::move(clamped);
+            }
             out.texture = std::move(texture);
+            // -o, -s in (u, v), v up: in (s, t), t = 1 - v, t' = 1 - o_v - s_v (1 - t).
+            out.uv_linear = m.map_kd_scale.asDiagonal();
+            out.uv_offset = Uv(m.map_kd_offset.x(), 1.0 - m.map_kd_offset.y() - m.map_kd_scale.y());
             files.push_back(in_folder(folder, map));
         } else {
             const bool relative = !map.empty() && map[0] != '/';
@@ -119,7 +127,8 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
 }
 
 bool same_values(const Material& a, const Material& b) {
-    const bool same_texture = a.texture && b.texture ? a.texture->same(*b.texture) && (a.tint == b.tint).all()
+    const bool same_texture = a.texture && b.texture ? a.texture->same(*b.texture) && (a.tint == b.tint).all() &&
+                                                           a.uv_linear == b.uv_linear && a.uv_offset == b.uv_offset
                                                      : !a.texture && !b.texture;
     return (a.albedo == b.albedo).all() && (a.emission == b.emission).all() && (a.specular == b.specular).all() &&
            a.exponent == b.exponent && a.two_sided == b.two_sided && same_texture;

@@ -1,9 +1,11 @@
 #include "scenes/mesh_readers.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <map>
 #include <sstream>
+#include <vector>
 
 namespace raybundle::scenes {
 
@@ -14,8 +16,8 @@ namespace {
 // on or off; -imfchan with a channel; -type with a word), each argument only where it
 // is of its kind and not the last word; then the rest of the line, spaces included (as
 // Blender writes a name with spaces), its '\' separators read as '/' (as exporters on
-// Windows write them).
-std::string map_file(const std::string& text) {
+// Windows write them). The arguments of each option, in `given` where asked for.
+std::string map_file(const std::string& text, std::map<std::string, std::vector<std::string>>* given = nullptr) {
     enum Kind { numbers, switch_, channel, word_ };
     struct Option {
         int most;  // arguments at most (fewer where the next word is not of its kind)
@@ -49,13 +51,16 @@ std::string map_file(const std::string& text) {
             break;
         }
         at = end;
+        std::vector<std::string> arguments;
         // The last word is never an argument ("-clamp tex.png" without its on/off is
         // the name).
         for (int k = 0; k < option->second.most; ++k) {
             const auto [a, b] = word(at);
             if (a == b || word(b).first == text.size() || !of_kind(text.substr(a, b - a), option->second.kind)) break;
+            arguments.push_back(text.substr(a, b - a));
             at = b;
         }
+        if (given) (*given)[option->first] = arguments;
     }
     std::string file = text.substr(at);
     std::replace(file.begin(), file.end(), '\\', '/');
@@ -137,8 +142,26 @@ std::vector<MtlMaterial> parse_mtl(std::string_view content, const std::string& 
                 throw SceneError(shown, where, "illum: expected a whole number 0..10, got '" + rest + "'");
             m.illum = static_cast<int>(numbers[0]);
         } else {
-            m.map_kd = map_file(rest);
+            std::map<std::string, std::vector<std::string>> options;
+            m.map_kd = map_file(rest, &options);
             if (m.map_kd.empty()) throw SceneError(shown, where, "map_Kd without a file name");
+            // -o u [v [w]], -s u [v [w]] (v 0 and 1 where not given; w not read), -clamp on.
+            const auto uv = [&](const char* option, double fallback) {
+                Uv values = Uv::Constant(fallback);
+                const auto it = options.find(option);
+                if (it == options.end()) return values;
+                for (std::size_t k = 0; k < 2 && k < it->second.size(); ++k) {
+                    values[static_cast<Eigen::Index>(k)] = std::strtod(it->second[k].c_str(), nullptr);
+                    if (!std::isfinite(values[static_cast<Eigen::Index>(k)]))
+                        throw SceneError(shown, where, std::string("map_Kd ") + option + ": '" + it->second[k] +
+                                                           "' is not a finite number");
+                }
+                return values;
+            };
+            m.map_kd_offset = uv("-o", 0.0);
+            m.map_kd_scale = uv("-s", 1.0);
+            const auto clamp = options.find("-clamp");
+            m.map_kd_clamp = clamp != options.end() && !clamp->second.empty() && clamp->second[0] == "on";
             // An option this reader does not know ("-gamma 2.2 wood.png") would be read
             // as part of the name: the last word is kept to try where that name is no file.
             m.map_kd_last = map_file(rest.substr(rest.find_last_of(" \t") == std::string::npos ? 0

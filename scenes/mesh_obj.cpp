@@ -114,8 +114,13 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
             const std::string text = line.substr(line.find("vt") + 2);
             std::istringstream ts(text);
             std::vector<double> words;
-            const bool broken = not_finite_words(text);
+            bool broken = false;  // u or v not finite (w is not read)
             for (std::string w; ts >> w;) {
+                if (words.size() < 2 && not_finite_words(w)) {
+                    broken = true;
+                    words.push_back(std::numeric_limits<double>::quiet_NaN());
+                    continue;
+                }
                 std::size_t used = 0;
                 double x = 0.0;
                 try {
@@ -123,7 +128,7 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                 } catch (const std::exception&) {
                     used = 0;
                 }
-                if (!broken && (used == 0 || used != w.size() || !std::isfinite(x)))
+                if (words.size() < 2 && (used == 0 || used != w.size() || !std::isfinite(x)))
                     throw SceneError(shown, where, "texture coordinate '" + w + "' is not a number");
                 words.push_back(x);
             }

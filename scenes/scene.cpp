@@ -165,7 +165,10 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
         const bool has_uvs = !uvs.empty() && uvs[k][0].allFinite() && uvs[k][1].allFinite() && uvs[k][2].allFinite();
         if (has_uvs && m < materials.size() && materials[m].texture) {
             map = static_cast<int>(texture_maps.size());
-            texture_maps.push_back(texture_map(vertices[t[0]], vertices[t[1]], vertices[t[2]], uvs[k]));
+            TextureMap to_uv = texture_map(vertices[t[0]], vertices[t[1]], vertices[t[2]], uvs[k]);
+            to_uv.linear = materials[m].uv_linear * to_uv.linear;
+            to_uv.at_origin = materials[m].uv_offset + materials[m].uv_linear * to_uv.at_origin;
+            texture_maps.push_back(to_uv);
         }
         mesh.property(texture_map_handle, f) = map;
         for (auto h : mesh.fh_range(f)) {

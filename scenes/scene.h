@@ -47,6 +47,10 @@ struct Material {
     // texture coordinates reflects, and what summaries show).
     std::shared_ptr<const Texture> texture = nullptr;
     Rgb tint = Rgb::Ones();
+    // The texture coordinates the texture reads: uv_offset + uv_linear (s, t) of the
+    // faces' (an MTL's map_Kd -o and -s).
+    Eigen::Matrix2d uv_linear = Eigen::Matrix2d::Identity();
+    Uv uv_offset = Uv::Zero();
 
     bool glossy() const { return (specular > 0.0).any(); }
     bool emissive() const { return (emission > 0.0).any(); }

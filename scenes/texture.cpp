@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <csetjmp>
+#include <cstring>
 
 namespace raybundle::scenes {
 
@@ -40,7 +41,7 @@ std::string jpeg_size_refused(const jpeg_decompress_struct& jpeg) {
         jpeg.image_height <= kMaxTexels)
         return "";
     return "a JPEG of " + std::to_string(jpeg.image_width) + " x " + std::to_string(jpeg.image_height) +
-           " texels, more than 8192 x 8192";
+           " texels, more than 8192 on a side";
 }
 
 // Decodes a JPEG's texels into `image`, or says why not in `why`. The setjmp of
@@ -87,6 +88,73 @@ bool decode_jpeg(std::string_view bytes, TexelImage& image, std::string& why) {
     return warnings == 0;
 }
 
+// libpng's errors end its calls by longjmp, as libjpeg's.
+struct PngErrors {
+    char message[256];
+};
+
+// Decodes a PNG's texels as stored into `image` (`rows`: the caller's, so that nothing
+// of this frame needs destroying after a longjmp), or says why not in `why`. Through
+// libpng's own reader, not its simplified one: that one reads a 16-bit file without a
+// colour chunk as linear and converts a gAMA chunk's gamma, and glTF (as Blender) reads
+// every texture's values as sRGB whatever the file says. 16-bit samples are rounded to
+// 8 bits, grey and palettes expanded to RGB, alpha left out.
+bool decode_png(std::string_view bytes, TexelImage& image, std::vector<unsigned char*>& rows, std::string& why) {
+    struct Source {
+        const unsigned char* at;
+        std::size_t left;
+    } source{reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()};
+    PngErrors errors{};
+    png_structp png = png_create_read_struct(
+        PNG_LIBPNG_VER_STRING, &errors,
+        [](png_structp p, png_const_charp message) {
+            auto* e = static_cast<PngErrors*>(png_get_error_ptr(p));
+            std::snprintf(e->message, sizeof e->message, "%s", message);
+            png_longjmp(p, 1);
+        },
+        [](png_structp, png_const_charp) {});
+    if (!png) {
+        why = "a PNG libpng cannot read: out of memory";
+        return false;
+    }
+    png_infop info = png_create_info_struct(png);
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        why = std::string("a PNG libpng cannot read: ") + errors.message;
+        return false;
+    }
+    if (!info) png_error(png, "out of memory");
+    png_set_read_fn(png, &source, [](png_structp p, png_bytep out, png_size_t n) {
+        auto* from = static_cast<Source*>(png_get_io_ptr(p));
+        if (n > from->left) png_error(p, "the file ends inside its data (cut short?)");
+        std::memcpy(out, from->at, n);
+        from->at += n, from->left -= n;
+    });
+    png_read_info(png, info);
+    const png_uint_32 width = png_get_image_width(png, info), height = png_get_image_height(png, info);
+    if (width == 0 || height == 0 || width > kMaxTexels || height > kMaxTexels) {
+        why = "a PNG of " + std::to_string(width) + " x " + std::to_string(height) + " texels, more than 8192 on a side";
+        png_destroy_read_struct(&png, &info, nullptr);
+        return false;
+    }
+    png_set_scale_16(png);
+    png_set_expand(png);  // palettes, grey below 8 bits, tRNS
+    png_set_gray_to_rgb(png);
+    png_set_strip_alpha(png);
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    if (png_get_rowbytes(png, info) != static_cast<png_size_t>(width) * 3) png_error(png, "an unexpected row layout");
+    image.width = static_cast<int>(width);
+    image.height = static_cast<int>(height);
+    image.srgb.resize(static_cast<std::size_t>(width) * height * 3);
+    rows.resize(height);
+    for (png_uint_32 y = 0; y < height; ++y) rows[y] = image.srgb.data() + static_cast<std::size_t>(y) * width * 3;
+    png_read_image(png, rows.data());
+    png_read_end(png, nullptr);
+    png_destroy_read_struct(&png, &info, nullptr);
+    return true;
+}
+
 // A texel index along one side of `n` texels, wrapped.
 int wrapped(long long i, int n, Texture::Wrap wrap) {
     switch (wrap) {
@@ -120,26 +188,9 @@ std::optional<TexelImage> decode_image(std::string_view bytes, std::string* why)
         if (!decode_jpeg(bytes, image, reason)) return fail(reason);
     } else {
         if (!starts("\x89PNG\r\n\x1A\n")) return fail("not a PNG or JPEG");
-        png_image png{};
-        png.version = PNG_IMAGE_VERSION;
-        if (!png_image_begin_read_from_memory(&png, bytes.data(), bytes.size()))
-            return fail(std::string("a PNG libpng cannot read: ") + png.message);
-        // RGBA, its alpha then left out: libpng's RGB would mix the colour onto black.
-        // The 8-bit sRGB formats are not premultiplied.
-        png.format = PNG_FORMAT_RGBA;
-        if (png.width == 0 || png.height == 0 || png.width > kMaxTexels || png.height > kMaxTexels) {
-            const std::string size = std::to_string(png.width) + " x " + std::to_string(png.height);
-            png_image_free(&png);
-            return fail("a PNG of " + size + " texels, more than 8192 x 8192");
-        }
-        std::vector<png_byte> rgba(PNG_IMAGE_SIZE(png));
-        if (!png_image_finish_read(&png, nullptr, rgba.data(), 0, nullptr))
-            return fail(std::string("a PNG libpng cannot read: ") + png.message);
-        image.width = static_cast<int>(png.width);
-        image.height = static_cast<int>(png.height);
-        image.srgb.resize(rgba.size() / 4 * 3);
-        for (std::size_t i = 0, j = 0; i + 3 < rgba.size(); i += 4, j += 3)
-            image.srgb[j] = rgba[i], image.srgb[j + 1] = rgba[i + 1], image.srgb[j + 2] = rgba[i + 2];
+        std::vector<unsigned char*> rows;
+        std::string reason;
+        if (!decode_png(bytes, image, rows, reason)) return fail(reason);
     }
     // The mean, row by row (each row's sum exact enough in double, added in order).
     std::uint8_t top[3] = {0, 0, 0};

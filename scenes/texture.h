@@ -23,10 +23,11 @@ struct TexelImage {
     Rgb brightest = Rgb::Zero();   // per channel, the largest linear value
 };
 
-// The image of a PNG or JPEG file's bytes (at most 8192 x 8192 texels; alpha left
-// out: the colours as stored, not mixed onto black), or nothing with why in `why`
-// ("not a PNG or JPEG", "a PNG libpng cannot read: ...", "a JPEG of 9000 x 10 texels,
-// more than 8192 x 8192").
+// The image of a PNG or JPEG file's bytes (at most 8192 texels on a side; alpha left
+// out: the colours as stored, not mixed onto black; 16-bit samples rounded to 8 bits;
+// the values read as sRGB whatever a PNG's gAMA, sRGB or iCCP chunk says, as glTF asks
+// and Blender reads them), or nothing with why in `why` ("not a PNG or JPEG", "a PNG
+// libpng cannot read: ...", "a JPEG of 9000 x 10 texels, more than 8192 on a side").
 std::optional<TexelImage> decode_image(std::string_view bytes, std::string* why = nullptr);
 
 // The linear value of an 8-bit sRGB value.

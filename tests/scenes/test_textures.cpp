@@ -17,6 +17,7 @@
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
+#include <png.h>
 
 #include <array>
 #include <cmath>
@@ -117,6 +118,22 @@ TEST_CASE("Texture: bilinear between texel centres, wrapped as its sampler says"
     const Texture grey = texture_of(1, 1, {128, 64, 0});
     CHECK(grey.at(0.5, 0.5)[0] == Approx(std::pow((128 / 255.0 + 0.055) / 1.055, 2.4)));
     CHECK(texture_of(2, 1, {10, 200, 30, 90, 20, 60}).image->brightest.isApprox(linear(90, 200, 60)));
+    // A 16-bit PNG (libpng's simplified writer tags it linear, gAMA 1): its values read
+    // as sRGB all the same, as glTF asks and Blender reads them, rounded to 8 bits.
+    {
+        const std::uint16_t rgb16[3] = {32896, 16448, 65535};  // 128, 64 and 255 times 257
+        png_image image{};
+        image.version = PNG_IMAGE_VERSION;
+        image.width = image.height = 1;
+        image.format = PNG_FORMAT_LINEAR_RGB;
+        png_alloc_size_t size = 0;
+        REQUIRE(png_image_write_to_memory(&image, nullptr, &size, 0, rgb16, 0, nullptr));
+        std::string bytes(size, '\0');
+        REQUIRE(png_image_write_to_memory(&image, bytes.data(), &size, 0, rgb16, 0, nullptr));
+        const auto wide = decode_image(bytes.substr(0, size));
+        REQUIRE(wide);
+        CHECK(wide->srgb == std::vector<std::uint8_t>{128, 64, 255});
+    }
     std::string why;
     CHECK_FALSE(decode_image("GIF89a", &why));
     CHECK(why == "not a PNG or JPEG");
@@ -218,10 +235,23 @@ TEST_CASE("OBJ and MTL: a map_Kd through vt is the albedo texel by texel, and ea
     CHECK_THROWS_WITH(parse_scene(text, "s.json", dir.path.string(),
                                   {{"materials.tiles.specular", "[0.2, 0.2, 0.2]"}, {"materials.tiles.exponent", "20"}}),
                       Contains("materials.tiles: its texture's brightest texels + specular = 1.07") &&
-                          Contains("in channel g"));
+                          Contains("in channel g") && Contains("a specular of at most 0.128"));
     const Scene grey = parse_scene(text, "s.json", dir.path.string(), {{"materials.tiles.albedo", "[0.3, 0.3, 0.3]"}});
     CHECK_FALSE(grey.textured());
     CHECK(grey.albedo_of(0).isApprox(Rgb::Constant(0.3)));
+    // map_Kd -o and -s (u, v up): the texture at offset + scale (u, v); -clamp on.
+    dir.write("moved.mtl", "newmtl tiles\nmap_Kd -s 2 2 1 -o 0.25 0.125 -clamp on tiles.png\n");
+    dir.write("moved.obj", "mtllib moved.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\n"
+                           "vt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\nusemtl tiles\nf 1/1 4/4 3/3 2/2\n");
+    const Scene moved = parse_scene(R"({"camera": {"eye": [0.5, 2, 0.5], "target": [0.5, 0, 0.5], "up": [0, 0, -1]},
+                                        "objects": [{"mesh": "moved.obj"}]})",
+                                    "s.json", dir.path.string());
+    REQUIRE(moved.materials[0].texture);
+    CHECK(moved.materials[0].texture->wrap_s == Texture::Wrap::clamp);
+    for (const Vec3& x : {Vec3(0.1, 0, 0.2), Vec3(0.3, 0, 0.9), Vec3(0.8, 0, 0.45)}) {
+        const double u = 0.25 + 2 * x.x(), v = 0.125 + 2 * (1 - x.z());  // vt v = 1 - z here
+        CHECK(moved.albedo_at(patch_at(moved, x), x).isApprox(moved.materials[0].texture->at(u, 1 - v), 1e-12));
+    }
     // A mesh naming the material an earlier one brought reads it through its own vt; a
     // quad naming it has none: its mean, with a warning.
     const Scene twice = parse_scene(R"({"camera": {"eye": [0.5, 2, 0.5], "target": [0.5, 0, 0.5], "up": [0, 0, -1]},
