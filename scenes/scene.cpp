@@ -495,8 +495,8 @@ void Scene::finalize(int threads) {
 // the N^2 equal sub-triangles, a quarter of a texel apart at most: the midpoint rule on
 // the bilinear lookup. A larger patch (or many repeats of a texture) gets 4,096 points
 // of the R2 sequence (Roberts 2018) folded into the triangle, an estimate of its mean:
-// a grid's rows, more than a texel apart, would fall in step with a periodic texture (a
-// tiled checker) and read one of its colours. A deterministic sum, the same on any
+// a grid's rows, more than a quarter of a texel apart there, could fall in step with a
+// periodic texture (a tiled checker) and read one of its colours. A deterministic sum, the same on any
 // threads.
 void Scene::compute_albedos(int threads) {
     patch_texture_map.clear();

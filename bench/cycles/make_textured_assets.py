@@ -52,6 +52,9 @@ import bpy
 import numpy
 from mathutils import Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from make_gltf_assets import camera, reset  # noqa: E402  (the other assets' helpers)
+
 # Blender 3.4's glTF exporter uses numpy.bool, an alias that Debian 12's numpy (1.24)
 # no longer has: restored for it.
 if "bool" not in numpy.__dict__:
@@ -115,10 +118,6 @@ def cube_texel(u, v):
     return QUADRANTS[(qu, qv)]
 
 
-def reset():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-
-
 def material(name, colour=(0.7, 0.7, 0.7), image=None, emission=None, strength=0.0):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
@@ -166,19 +165,6 @@ def set_uvs(obj, normal, uv_of):
         if (poly.normal - Vector(normal)).length < 1e-4:
             for li in poly.loop_indices:
                 uv[li].uv = uv_of(mesh.vertices[mesh.loops[li].vertex_index].co)
-
-
-def camera(eye, target, fov_y_deg):
-    data = bpy.data.cameras.new("camera")
-    data.sensor_fit = "VERTICAL"
-    data.angle_y = math.radians(fov_y_deg)
-    cam = bpy.data.objects.new("camera", data)
-    bpy.context.scene.collection.objects.link(cam)
-    cam.location = eye
-    direction = Vector(target) - Vector(eye)
-    cam.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
-    bpy.context.scene.camera = cam
-    bpy.context.scene.render.resolution_x = bpy.context.scene.render.resolution_y = 512
 
 
 def textured_room(examples):

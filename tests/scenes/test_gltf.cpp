@@ -7,6 +7,7 @@
 #include "scenes/mesh_file.h"
 #include "solver/radiance_field.h"
 
+#include "glb_bytes.h"
 #include "png_bytes.h"
 #include "temp_dir.h"
 
@@ -87,22 +88,7 @@ json asset() {
 
 MeshData parse(const json& doc) { return parse_mesh(doc.dump(), "gltf", "a.gltf"); }
 
-// The same document as a GLB, its buffer the binary chunk.
-std::string glb(json doc, const std::string& bin) {
-    doc["buffers"][0].erase("uri");
-    doc["buffers"][0]["byteLength"] = bin.size();
-    std::string text = doc.dump();
-    text.resize((text.size() + 3) / 4 * 4, ' ');
-    std::string padded = bin;
-    padded.resize((padded.size() + 3) / 4 * 4, '\0');
-    std::string out;
-    auto word = [&](std::uint32_t w) { out.append(reinterpret_cast<const char*>(&w), 4); };
-    word(0x46546C67u), word(2), word(static_cast<std::uint32_t>(28 + text.size() + padded.size()));
-    word(static_cast<std::uint32_t>(text.size())), word(0x4E4F534Au);
-    out += text;
-    word(static_cast<std::uint32_t>(padded.size())), word(0x004E4942u);
-    return out + padded;
-}
+using raybundle::test::glb;
 
 std::string decoded_buffer() {
     std::string bin;

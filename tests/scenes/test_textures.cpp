@@ -12,6 +12,7 @@
 #include "scenes/subdivide.h"
 #include "scenes/texture.h"
 
+#include "glb_bytes.h"
 #include "png_bytes.h"
 #include "temp_dir.h"
 
@@ -328,19 +329,7 @@ TEST_CASE("glTF: a baseColorTexture through its TEXCOORD_n, t down from the imag
           {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
           {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
           {{"bufferView", 3}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}}};
-    auto glb = [&bin](const json& d) {
-        std::string text = d.dump();
-        text.resize((text.size() + 3) / 4 * 4, ' ');
-        std::string padded = bin;
-        padded.resize((padded.size() + 3) / 4 * 4, '\0');
-        std::string out;
-        auto word = [&](std::uint32_t w) { out.append(reinterpret_cast<const char*>(&w), 4); };
-        word(0x46546C67u), word(2), word(static_cast<std::uint32_t>(28 + text.size() + padded.size()));
-        word(static_cast<std::uint32_t>(text.size())), word(0x4E4F534Au);
-        out += text;
-        word(static_cast<std::uint32_t>(padded.size())), word(0x004E4942u);
-        return out + padded;
-    };
+    auto glb = [&bin](const json& d) { return raybundle::test::glb(d, bin); };
     TempDir dir;
     dir.write("tiles.glb", glb(doc));
     const std::string scene_text = R"({"camera": {"eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0]}, "patch_size": 0.3,
