@@ -762,7 +762,7 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         const Uv uv_offset = m.uv_offset;
         m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
         // A texture stays unless the settings give the albedo (a colour in its place); its
-        // brightest texels with the specular set must stay below 1, as an albedo's.
+        // brightest texels with the specular set may reach 1 at most.
         if (texture && !(e->second.is_object() && e->second.contains("albedo"))) {
             const Rgb most = tint * texture->image->brightest + m.specular;
             Eigen::Index k = 0;
