@@ -102,8 +102,8 @@ def lamp_room(out_dir):
     shade = material("lampshade", (0.85, 0.85, 0.80))
     room = box("room", (-2.0, -1.5, 0.0), (2.0, 1.5, 2.6), wall, inward=True)
     room.data.materials.append(floor)
-    for poly in room.data.polygons:  # the floor, its own material
-        if poly.center.z < 1e-6:
+    for poly in room.data.polygons:  # the floor, its own material (its centre at z = 0 in the world)
+        if (room.matrix_world @ poly.center).z < 1e-6:
             poly.material_index = 1
     box("table top", (-0.6, -0.4, 0.72), (0.6, 0.4, 0.76), wood)
     for i, (x, y) in enumerate([(-0.55, -0.35), (0.55, -0.35), (-0.55, 0.35), (0.55, 0.35)]):
