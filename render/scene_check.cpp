@@ -355,9 +355,14 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     print("contacts    %s\n", contacts_line(scene).c_str());
     print("bounds      %s .. %s\n", vec3(s.lo).c_str(), vec3(s.hi).c_str());
     print("materials   %zu:", scene.materials.size());
-    for (const auto& m : scene.materials)
-        print(" %s%s%s%s%s", m.name.c_str(), m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "",
-              m.two_sided ? " (two-sided)" : "", m.texture ? (" (texture " + m.texture->shown + ")").c_str() : "");
+    for (std::size_t k = 0; k < scene.materials.size(); ++k) {
+        const auto& m = scene.materials[k];
+        // Comma-separated, a name with a space or a comma quoted: imported names have them.
+        const bool quote = m.name.find_first_of(" ,") != std::string::npos;
+        print("%s %s%s%s%s%s%s%s", k > 0 ? "," : "", quote ? "\"" : "", m.name.c_str(), quote ? "\"" : "",
+              m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "", m.two_sided ? " (two-sided)" : "",
+              m.texture ? (" (texture " + m.texture->shown + ")").c_str() : "");
+    }
     print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
     const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
                                      [](const scenes::PointLight& l) { return l.spot(); });
@@ -373,8 +378,8 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
     print("sky         %s\n", !scene.sky                                            ? "none"
                                     : scene.sky->model == scenes::Sky::Model::constant ? "constant"
                                                                                           : "CIE overcast");
-    print("camera      eye %s, target %s, fov_y %g, %d x %d\n", vec3(cam.eye).c_str(), vec3(cam.target).c_str(),
-                cam.fov_y, cam.width, cam.height);
+    print("camera      eye %s, target %s, up %s, fov_y %g, %d x %d\n", vec3(cam.eye).c_str(),
+          vec3(cam.target).c_str(), vec3(cam.up).c_str(), cam.fov_y, cam.width, cam.height);
     print("            %zu patches face the camera (%.1f %%), %zu are seen through a pixel centre\n",
                 s.facing_camera, percent(s.facing_camera, s.patches), s.seen_by_camera);
     if (scene.sky)

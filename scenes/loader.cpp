@@ -683,9 +683,36 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
 
     if (limits.on_step) limits.on_step("reading");
     const json materials_before = doc.is_object() && doc.contains("materials") ? doc["materials"] : json();
+    // -D materials.X.albedo[0]=v where the file defines no X: an element of values a mesh
+    // brings, which the document does not hold. Kept (its key below the material) and
+    // applied to the brought values (apply_edits).
+    std::map<std::string, Overrides> element_edits;
+    const auto element_edit = [&](const Override& o) {
+        std::string name, rest;
+        if (o.key.rfind("materials.", 0) == 0) {
+            const std::size_t end = o.key.find_first_of(".[", 10);
+            if (end == std::string::npos) return false;
+            name = o.key.substr(10, end - 10), rest = o.key.substr(o.key[end] == '.' ? end + 1 : end);
+        } else if (o.key.rfind("materials[\"", 0) == 0) {
+            const std::size_t close = o.key.find("\"]", 11);
+            if (close == std::string::npos) return false;
+            name = o.key.substr(11, close - 11), rest = o.key.substr(close + 2);
+            if (!rest.empty() && rest[0] == '.') rest.erase(0, 1);
+        } else {
+            return false;
+        }
+        if (name.empty() || rest.find('[') == std::string::npos) return false;
+        if (materials_before.is_object() && materials_before.contains(name)) return false;
+        if (std::any_of(overrides.begin(), overrides.end(), [&](const Override& w) {
+                return w.key == "materials." + name || w.key == "materials[\"" + name + "\"]";
+            }))
+            return false;  // the whole material given: its elements are in the document
+        element_edits[name].push_back({rest, o.value, o.given.empty() ? "-D " + o.key + "=" + o.value : o.given});
+        return true;
+    };
     // The image's sides last: the other side follows the camera as the rest made it.
     for (const Override& o : overrides)
-        if (!image_side(o)) apply_override(doc, o, shown);
+        if (!image_side(o) && !element_edit(o)) apply_override(doc, o, shown);
     const json camera_before = doc.is_object() && doc.contains("camera") && doc["camera"].is_object() ? doc["camera"] : json();
     for (const Override& o : overrides)
         if (image_side(o)) apply_override(doc, o, shown);
@@ -735,6 +762,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             scene.add_material(parse_material(Node(it.value(), shown, "materials." + it.key()), it.key()));
         }
     }
+    for (const auto& [name, list] : element_edits)
+        if (!edits.count(name)) edits[name] = json::object();
     // An edit as a material of its own (an object names it before a mesh brings it, or
     // none does), which needs its albedo.
     const auto new_material = [&](const std::string& name, const std::string& why) {
@@ -756,6 +785,17 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         json merged = {{"albedo", rgb(m.albedo)}, {"emission", rgb(m.emission)}, {"two_sided", m.two_sided}};
         if (m.glossy()) merged["specular"] = rgb(m.specular), merged["exponent"] = m.exponent;
         merged.merge_patch(e->second);
+        if (const auto elements = element_edits.find(m.name); elements != element_edits.end())
+            for (const Override& o : elements->second) {
+                try {
+                    apply_override(merged, o, shown);
+                } catch (const SceneError& error) {
+                    const std::string& problem = error.problem();
+                    throw SceneError(shown, material_setting(m.name) + "." + o.key,
+                                     problem.substr(0, problem.find(" (-D ")) + " in the values the mesh brings (" +
+                                         o.given + ")");
+                }
+            }
         auto texture = m.texture;
         const Rgb tint = m.tint;
         const Eigen::Matrix2d uv_linear = m.uv_linear;
@@ -1075,7 +1115,18 @@ Scene load_model(const std::string& path, const Overrides& overrides, const Load
         const double side = facing_up < 0.0 ? -1.0 : 1.0, away = 0.6 * size / std::tan(0.5 * fov * M_PI / 180.0);
         camera["eye"] = {centre.x(), centre.y() + side * away * M_SQRT1_2, centre.z() + away * M_SQRT1_2};
     }
-    if (data.camera) camera = camera_json(*data.camera);
+    if (data.camera) {
+        camera = camera_json(*data.camera);
+        // The node's up belongs to its own view, rolled with it. Moved by -D (another eye
+        // or target, no up), the camera stands level, +y up, as a scene file's camera
+        // without "up": else a tilted node's up would roll the new view.
+        const auto given = [&](const std::string& key) {
+            return std::any_of(overrides.begin(), overrides.end(), [&](const Override& o) {
+                return o.key == key || o.key.rfind(key + "[", 0) == 0;
+            });
+        };
+        if ((given("camera.eye") || given("camera.target")) && !given("camera.up")) camera.erase("up");
+    }
     // Its parts named "room.obj: Floor", as in a scene file's object named "room.obj".
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}, {"name", name}}})}};
     Scene scene = [&] {  // made in place: a Scene copied costs milliseconds

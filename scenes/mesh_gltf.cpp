@@ -308,26 +308,38 @@ void check_ids(const nlohmann::json& doc, const std::string& shown) {
 // tinygltf reads them: one missing or outside the asset's folder is named with its
 // object (tinygltf says "File not found" of both, and of no object). Images are left to
 // tinygltf: one it cannot read is a warning there, and its material keeps its factor.
+// A URI as tinygltf's urldecode reads it: '+' and %XX.
+std::string uri_decoded(const std::string& uri) {
+    const auto digit = [](char c) {
+        return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : 0;
+    };
+    std::string out;
+    for (std::size_t i = 0; i < uri.size(); ++i) {
+        if (uri[i] == '+') {
+            out += ' ';
+        } else if (uri[i] == '%' && uri.size() > i + 2) {
+            out += static_cast<char>(digit(uri[i + 1]) << 4 | digit(uri[i + 2]));
+            i += 2;
+        } else {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
+// Why an image file the asset names gave no bytes (tinygltf says only "File not found").
+std::string unread_image_why(const Files& files, const std::string& uri) {
+    if (!files.folder) return "'" + uri + "' is another file, and this glTF was read from memory";
+    const std::string path = (std::filesystem::path(*files.folder) / uri_decoded(uri)).string();
+    std::error_code ec;
+    if (!inside_folder(files, path)) return "'" + uri + "' lies outside the asset's folder (not read)";
+    if (!std::filesystem::is_regular_file(path, ec)) return "'" + uri + "': no such file beside the asset";
+    return "'" + uri + "' is empty or unreadable";
+}
+
 void check_resources(const nlohmann::json& doc, const std::string& shown, const Files& files) {
     if (!files.folder) return;
     if (!doc.is_object()) return;  // tinygltf says what is wrong with it
-    const auto decoded = [](const std::string& uri) {  // as tinygltf's urldecode: '+' and %XX
-        const auto digit = [](char c) {
-            return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : 0;
-        };
-        std::string out;
-        for (std::size_t i = 0; i < uri.size(); ++i) {
-            if (uri[i] == '+') {
-                out += ' ';
-            } else if (uri[i] == '%' && uri.size() > i + 2) {
-                out += static_cast<char>(digit(uri[i + 1]) << 4 | digit(uri[i + 2]));
-                i += 2;
-            } else {
-                out += uri[i];
-            }
-        }
-        return out;
-    };
     for (const char* kind : {"buffers"}) {
         const auto list = doc.find(kind);
         if (list == doc.end() || !list->is_array()) continue;
@@ -337,7 +349,7 @@ void check_resources(const nlohmann::json& doc, const std::string& shown, const 
             const std::string uri = item["uri"].get<std::string>();
             if (uri.rfind("data:", 0) == 0) continue;
             const std::string where = std::string(kind) + "[" + std::to_string(i) + "].uri";
-            const std::string path = (std::filesystem::path(*files.folder) / decoded(uri)).string();
+            const std::string path = (std::filesystem::path(*files.folder) / uri_decoded(uri)).string();
             std::error_code ec;
             if (!inside_folder(files, path))
                 throw SceneError(shown, where, "'" + uri + "' lies outside the asset's folder (refused)");
@@ -365,8 +377,9 @@ struct Elements {
 
 class Reader {
 public:
-    Reader(const tinygltf::Model& model, const std::string& shown, std::size_t max_triangles, MeshData& out)
-        : model_(model), shown_(shown), max_triangles_(max_triangles), out_(out) {}
+    Reader(const tinygltf::Model& model, const std::string& shown, const Files& files, std::size_t max_triangles,
+           MeshData& out)
+        : model_(model), shown_(shown), files_(files), max_triangles_(max_triangles), out_(out) {}
 
     void read() {
         check_extensions();
@@ -449,7 +462,7 @@ private:
                 const auto view = buffer_view(im.bufferView, where + ": image");
                 decoded = decode_image(std::string_view(reinterpret_cast<const char*>(view.first), view.second), &why);
             } else {
-                why = im.uri.empty() ? "its image has no data" : "'" + im.uri + "' is missing or empty";
+                why = im.uri.empty() ? "its image has no data" : unread_image_why(files_, im.uri);
             }
             if (decoded) image = std::make_shared<const TexelImage>(std::move(*decoded));
         }
@@ -1107,6 +1120,7 @@ private:
 
     const tinygltf::Model& model_;
     const std::string& shown_;
+    const Files& files_;  // the asset's folder: why an image file gave nothing
     std::size_t max_triangles_;
     MeshData& out_;
     int default_material_ = -1;
@@ -1158,7 +1172,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     }
     if (!ok) throw SceneError(shown, "", "not a valid glTF 2.0 file: " + first_line(err.empty() ? warn : err));
     out.warnings = std::move(unknown);
-    Reader(model, shown, max_triangles, out).read();
+    Reader(model, shown, files, max_triangles, out).read();
     out.resources = std::move(files.read);
     // No file gives normals at every corner: the computed ones serve.
     bool any = false;

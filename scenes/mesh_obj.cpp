@@ -220,7 +220,20 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                                      std::to_string(vs.size()) + " corners");
             any_normals = any_normals || !ns.empty();
             any_uvs = any_uvs || !ts.empty();
-            for (const auto& t : add_polygon(data, vs, shown, where)) {
+            // A polygon that is not one flat, simple face: named with its object (o or g),
+            // and the way out, as a modeller's quads off their plane are common (a
+            // subdivided surface exported as quads).
+            const auto polygon = [&] {
+                try {
+                    return add_polygon(data, vs, shown, where);
+                } catch (const SceneError& e) {
+                    const std::string object = group >= 0 ? " (object " + data.groups[static_cast<std::size_t>(group)] + ")" : "";
+                    throw SceneError(shown, where + object,
+                                     e.problem() + "; export the model triangulated (Blender: the OBJ exporter's "
+                                                   "Triangulated Mesh), or split the face into flat ones");
+                }
+            }();
+            for (const auto& t : polygon) {
                 corner_normals.push_back(ns.empty() ? std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()}
                                                     : std::array<Vec3, 3>{ns[t[0]], ns[t[1]], ns[t[2]]});
                 constexpr double none = std::numeric_limits<double>::quiet_NaN();

@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -531,6 +532,17 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     // -D overrides the generated document, the camera too.
     const Scene moved = load_scene(path, {{"camera.eye", "[0.5, 0.5, 20]"}});
     CHECK(moved.camera.eye.isApprox(Vec3(0.5, 0.5, 20)));
+    // A camera rolled 30 degrees about its view keeps its roll with its own view; moved
+    // to another, it stands level (+y up) unless camera.up is given.
+    json rolled = doc;
+    rolled["nodes"][2]["rotation"] = {0, 0, std::sin(M_PI / 12), std::cos(M_PI / 12)};
+    const std::string rolled_path = dir.write("rolled.gltf", rolled.dump());
+    const Vec3 roll(-0.5, std::sqrt(0.75), 0);
+    CHECK(load_scene(rolled_path).camera.up.isApprox(roll));
+    CHECK(load_scene(rolled_path, {{"camera.width", "64"}}).camera.up.isApprox(roll));
+    CHECK(load_scene(rolled_path, {{"camera.eye", "[0.5, 3, 9]"}}).camera.up == Vec3(0, 1, 0));
+    CHECK(load_scene(rolled_path, {{"camera.target[0]", "1"}}).camera.up == Vec3(0, 1, 0));
+    CHECK(load_scene(rolled_path, {{"camera.eye", "[0.5, 3, 9]"}, {"camera.up", "[1, 1, 0]"}}).camera.up == Vec3(1, 1, 0));
     // One value of its material: that value, the rest as the file has it.
     const Scene lit = load_scene(path, {{"materials.paint.emission", "[2, 2, 2]"}});
     CHECK(lit.materials[lit.find_material("paint")].albedo.isApprox(Rgb(0.5, 0.4, 0.3)));
@@ -647,6 +659,19 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     textured["textures"] = {{{"source", 0}}};
     textured["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
     CHECK(load_scene(dir.write("textured.gltf", textured.dump())).patch_count() > 0);
+    // The warning says why: no such file, or one outside the asset's folder.
+    const auto texture_warning = [](const MeshData& d) {
+        const auto w = std::find_if(d.warnings.begin(), d.warnings.end(),
+                                    [](const std::string& line) { return line.find("texture") != std::string::npos; });
+        return w == d.warnings.end() ? std::string() : *w;
+    };
+    CHECK_THAT(texture_warning(read_mesh_file(dir.write("textured.gltf", textured.dump()), "textured.gltf")),
+               Contains("'no-such.png': no such file beside the asset"));
+    dir.write("outside.png", "not read");
+    textured["images"][0]["uri"] = "../outside.png";
+    std::filesystem::copy_file(dir.path / "my tri-1.bin", dir.path / "sub" / "my tri-1.bin");
+    CHECK_THAT(texture_warning(read_mesh_file(dir.write("sub/outside.gltf", textured.dump()), "outside.gltf")),
+               Contains("'../outside.png' lies outside the asset's folder (not read)"));
 }
 
 TEST_CASE("baked glb: the patches with their radiance, COLOR_0 after the exposure", "[render][gltf]") {

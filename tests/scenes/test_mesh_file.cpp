@@ -424,6 +424,11 @@ TEST_CASE("polygons: convex fanned, concave cut into ears, bent or crossing ones
                    "face 0: a polygon of 5 corners crosses or touches itself");
         fails_with("twisted.obj", "v 0 0 0\nv 1 0 0\nv 1 1 1\nv 0 1 0\nf 1 2 3 4\n",
                    "line 5: a polygon of 4 corners is not planar: corner");
+        // In a named object: the object, and the way out.
+        fails_with("monkey.obj", "o Suzanne\nv 0 0 0\nv 1 0 0\nv 1 1 1\nv 0 1 0\nf 1 2 3 4\n",
+                   "line 6 (object Suzanne): a polygon of 4 corners is not planar");
+        fails_with("monkey.obj", "o Suzanne\nv 0 0 0\nv 1 0 0\nv 1 1 1\nv 0 1 0\nf 1 2 3 4\n",
+                   "; export the model triangulated");
     }
 }
 

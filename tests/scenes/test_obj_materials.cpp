@@ -431,6 +431,16 @@ TEST_CASE("an OBJ file alone is a scene: framed from +z, its patch size from its
     CHECK(material(brighter, "red").albedo.isApprox(Rgb(0.5, 0, 0)));
     CHECK(material(brighter, "green").specular.isApprox(Rgb::Constant(0.2)));
     CHECK(brighter.materials.size() == scene.materials.size());
+    // One element of a brought value: the value's other elements as the MTL has them.
+    const Scene redder = load_scene(path, {{"materials.red.albedo[1]", "0.25"}, {"materials[\"lamp\"].emission[0]", "7"}});
+    CHECK(material(redder, "red").albedo[1] == 0.25);
+    CHECK(material(redder, "red").albedo[0] == material(scene, "red").albedo[0]);
+    CHECK(material(redder, "red").albedo[2] == material(scene, "red").albedo[2]);
+    CHECK(material(redder, "lamp").emission[0] == 7.0);
+    CHECK(material(redder, "lamp").emission[1] == material(scene, "lamp").emission[1]);
+    CHECK_THROWS_WITH(load_scene(path, {{"materials.red.albedo[3]", "0.5"}}),
+                      Contains("materials.red.albedo[3]: no such element in the values the mesh brings "
+                               "(-D materials.red.albedo[3]=0.5)"));
     // A value that leaves it out of range is refused, naming the setting.
     CHECK_THROWS_WITH(load_scene(path, {{"materials.green.albedo", "[0.9, 0.9, 0.9]"}}),
                       Contains("materials.green: albedo + specular = 1.1 in channel r") &&
