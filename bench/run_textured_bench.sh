@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The textured asset against Blender Cycles (docs/bench-assets-textured.md):
 # scenes/examples/gltf/textured-room.glb at 128 x 128 from its own camera, one thread
-# per timed image.
+# per timed image. ASSET=painted-room: the vertex-coloured asset instead
+# (scenes/examples/gltf/painted-room.glb, docs/bench-assets-painted.md; it has no OBJ
+# version: those rows are left out).
 #
 # Cycles renders the file as Blender imports it (bench/cycles/import_obj.py) twice at
 # REF_SPP samples, seeds 2 and 3: reference A, and reference B, whose difference from A
@@ -17,8 +19,8 @@
 # relative L1 of 4x4-pixel block means, the worst 16x16 block (build/bench/image_error)
 # and the image's mean. Prints the table in Markdown and writes it to OUT.md.
 #
-# Usage: [REF_SPP=8192] [PT_SPP=2048] [CYCLES_SPP="64 256 1024"] [BUDGETS="20 60"]
-#        bench/run_textured_bench.sh [OUT.md]
+# Usage: [ASSET=textured-room|painted-room] [REF_SPP=8192] [PT_SPP=2048] [CYCLES_SPP="64 256 1024"]
+#        [BUDGETS="20 60"] bench/run_textured_bench.sh [OUT.md]
 # (default: a table file in a temporary folder, printed; build/ first: scripts/build.sh;
 # Blender and python3-numpy: bench/run_asset_bench.sh installs them).
 set -euo pipefail
@@ -28,8 +30,15 @@ REF_SPP=${REF_SPP:-8192}
 PT_SPP=${PT_SPP:-2048}
 read -r -a CYCLES_SPP <<<"${CYCLES_SPP:-64 256 1024}"
 read -r -a BUDGETS <<<"${BUDGETS:-20 60}"
-glb=scenes/examples/gltf/textured-room.glb
+ASSET=${ASSET:-textured-room}
+glb=scenes/examples/gltf/$ASSET.glb
 obj=scenes/examples/textured-room/textured-room.obj
+# The asset's camera node (raybundle reads it from the file; Cycles is given it).
+case $ASSET in
+  textured-room) view=(--eye -0.3 1.45 1.9 --target 0.2 0.8 -1.0 --fov-y 70 --size 128) ;;
+  painted-room) view=(--eye 0 1.3 1.9 --target 0 0.45 -0.5 --fov-y 60 --size 128) ;;
+  *) echo "run_textured_bench: ASSET=$ASSET: textured-room or painted-room" >&2; exit 2 ;;
+esac
 raybundle=build/apps/raybundle
 for f in "$raybundle" build/bench/image_error; do
   [ -x "$f" ] || { echo "run_textured_bench: $f missing (scripts/build.sh first)" >&2; exit 1; }
@@ -39,8 +48,6 @@ work=$(mktemp -d "${TMPDIR:-/tmp}/raybundle-textured.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 [ -n "$out" ] || out=$work/table.md
 
-# The asset's camera node (raybundle reads it from the file; Cycles is given it).
-view=(--eye -0.3 1.45 1.9 --target 0.2 0.8 -1.0 --fov-y 70 --size 128)
 cycles() {  # cycles SEED SPP OUT.exr: prints the seconds
   local start
   start=$(date +%s.%N)
@@ -95,9 +102,11 @@ obj_camera=(-D "camera.eye=[-0.3,1.45,1.9]" -D "camera.target=[0.2,0.8,-1.0]" -D
   done
   t=$(timed "$work/pt.exr" "$raybundle" solve "$glb" --width 128 --height 128 --threads 2 --method pathtrace --spp "$PT_SPP")
   row "raybundle path tracer, $PT_SPP spp (2 threads)" "$t" "$work/pt.exr"
-  t=$(timed "$work/obj.exr" "$raybundle" solve "$obj" "${obj_camera[@]}" --width 128 --height 128 --threads 1)
-  row "the OBJ version, defaults" "$t" "$work/obj.exr"
-  t=$(timed "$work/means.exr" "$raybundle" solve "$means/textured-room.obj" "${obj_camera[@]}" --width 128 --height 128 \
-        --threads 1 2>/dev/null)
-  row "textures read as their mean colour (the OBJ without its \`vt\`)" "$t" "$work/means.exr"
+  if [ "$ASSET" = textured-room ]; then
+    t=$(timed "$work/obj.exr" "$raybundle" solve "$obj" "${obj_camera[@]}" --width 128 --height 128 --threads 1)
+    row "the OBJ version, defaults" "$t" "$work/obj.exr"
+    t=$(timed "$work/means.exr" "$raybundle" solve "$means/textured-room.obj" "${obj_camera[@]}" --width 128 \
+          --height 128 --threads 1 2>/dev/null)
+    row "textures read as their mean colour (the OBJ without its \`vt\`)" "$t" "$work/means.exr"
+  fi
 } | tee "$out"

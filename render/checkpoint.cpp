@@ -97,6 +97,10 @@ std::string scene_hash(const scenes::Scene& scene) {
             f.bytes(map.linear.data(), sizeof(double) * 6);
             f.vec(map.origin);
             f.bytes(map.at_origin.data(), sizeof(double) * 2);
+            if (map.has_colour()) {  // (textures alone hash as before)
+                f.bytes(map.colour_linear.data(), sizeof(double) * 9);
+                f.rgb(map.colour_at_origin);
+            }
         }
     }
     const auto& c = scene.camera;

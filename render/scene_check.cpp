@@ -187,6 +187,7 @@ SceneSummary summarize(const scenes::Scene& scene, const scenes::RayCaster& cast
         if (m.emissive()) ++s.emissive_patches, s.emissive_area += p.area, object.emissive = true;
         if (m.glossy()) ++s.glossy_patches;
         if (m.two_sided) ++s.two_sided_patches;
+        if (scene.coloured(i)) ++s.coloured_patches;
         if (p.normal.dot(scene.camera.eye - p.centroid) > 0.0) ++s.facing_camera;
         if (seen[i]) ++s.seen_by_camera;
         if (front[i] == covered_front) {
@@ -363,7 +364,9 @@ std::string describe(const scenes::Scene& scene, const SceneSummary& s) {
               m.emissive() ? " (emissive)" : "", m.glossy() ? " (glossy)" : "", m.two_sided ? " (two-sided)" : "",
               m.texture ? (" (texture " + m.texture->shown + ")").c_str() : "");
     }
-    print("\n            %zu glossy patches, %zu two-sided\n", s.glossy_patches, s.two_sided_patches);
+    print("\n            %zu glossy patches, %zu two-sided", s.glossy_patches, s.two_sided_patches);
+    if (s.coloured_patches > 0) print(", %zu with vertex colours (times the albedo)", s.coloured_patches);
+    out += "\n";
     const auto spots = std::count_if(scene.point_lights.begin(), scene.point_lights.end(),
                                      [](const scenes::PointLight& l) { return l.spot(); });
     print("lights      %zu emissive patches (area %.6g), %zu point lights%s", s.emissive_patches, s.emissive_area,

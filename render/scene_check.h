@@ -28,7 +28,7 @@ struct SceneSummary {
     std::size_t patches = 0, vertices = 0;
     scenes::Vec3 lo = scenes::Vec3::Zero(), hi = scenes::Vec3::Zero();  // bounding box
     double area = 0.0;
-    std::size_t emissive_patches = 0, glossy_patches = 0, two_sided_patches = 0;
+    std::size_t emissive_patches = 0, glossy_patches = 0, two_sided_patches = 0, coloured_patches = 0;
     double emissive_area = 0.0;
     std::size_t facing_camera = 0;   // patches whose front faces the eye
     std::size_t seen_by_camera = 0;  // patches whose front some camera ray meets first

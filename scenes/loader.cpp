@@ -235,6 +235,7 @@ void place_mesh(const Node& obj, MeshData& data) {
         for (auto& t : data.triangles) std::swap(t[1], t[2]);
         for (auto& corners : data.normals) std::swap(corners[1], corners[2]);
         for (auto& corners : data.uvs) std::swap(corners[1], corners[2]);
+        for (auto& corners : data.colours) std::swap(corners[1], corners[2]);
     }
 }
 
@@ -543,6 +544,7 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
         std::vector<std::array<int, 3>> tris, twins;
         std::vector<std::array<Vec3, 3>> normals, twin_normals;
         std::vector<std::array<Uv, 3>> uvs, twin_uvs;
+        std::vector<std::array<Rgb, 3>> colours, twin_colours;
         std::vector<Vec3> vertices;
         for (const std::size_t t : members[p]) {
             std::array<int, 3> tri{};
@@ -558,11 +560,14 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
             tris.push_back(tri);
             if (!data.normals.empty()) normals.push_back(data.normals[t]);
             if (!data.uvs.empty()) uvs.push_back(data.uvs[t]);
+            if (!data.colours.empty()) colours.push_back(data.colours[t]);
             if (scene.materials[static_cast<std::size_t>(mat)].two_sided) {
                 twins.push_back({tri[0], tri[2], tri[1]});
                 if (!data.normals.empty())
                     twin_normals.push_back({-data.normals[t][0], -data.normals[t][2], -data.normals[t][1]});
                 if (!data.uvs.empty()) twin_uvs.push_back({data.uvs[t][0], data.uvs[t][2], data.uvs[t][1]});
+                if (!data.colours.empty())
+                    twin_colours.push_back({data.colours[t][0], data.colours[t][2], data.colours[t][1]});
             }
         }
         const auto groups_of_mat = std::count_if(parts.begin(), parts.end(), [m = mat](const auto& other) { return other.first == m; });
@@ -570,8 +575,8 @@ void add_mesh_groups(Scene& scene, const MeshData& data, const std::vector<int>&
         if (groups_of_mat > 1) part = (group < 0 ? std::string("(no group)") : data.groups[static_cast<std::size_t>(group)]) + "/" + part;
         const std::string object_name = given ? name + ": " + part : name + ": " + part + ")";
         warn_without_uvs(scene, object_name, mat, tris.size(), uvs);
-        const int id = scene.add_object(vertices, tris, mat, object_name, -1, normals, uvs);
-        if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals, twin_uvs);
+        const int id = scene.add_object(vertices, tris, mat, object_name, -1, normals, uvs, colours);
+        if (!twins.empty()) scene.add_object(vertices, twins, mat, "", id, twin_normals, twin_uvs, twin_colours);
         scene.crease_angles[static_cast<std::size_t>(id)] = crease;
     }
 }
@@ -923,14 +928,18 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
             }
             const std::string object_name = !given.empty() ? given : obj.path() + " (" + rel + ")";
             warn_without_uvs(scene, object_name, mat, data.triangles.size(), data.uvs);
-            const int id = scene.add_object(data.vertices, data.triangles, mat, object_name, -1, data.normals, data.uvs);
+            const int id = scene.add_object(data.vertices, data.triangles, mat, object_name, -1, data.normals, data.uvs,
+                                            data.colours);
             // The twin faces the other way: its corners in reverse, its normals negated.
             if (scene.materials[mat].two_sided) {
                 auto twin_normals = data.normals;
                 for (auto& n : twin_normals) n = {-n[0], -n[2], -n[1]};
                 auto twin_uvs = data.uvs;
                 for (auto& c : twin_uvs) std::swap(c[1], c[2]);
-                scene.add_object(data.vertices, reversed(data.triangles), mat, "", id, twin_normals, twin_uvs);
+                auto twin_colours = data.colours;
+                for (auto& c : twin_colours) std::swap(c[1], c[2]);
+                scene.add_object(data.vertices, reversed(data.triangles), mat, "", id, twin_normals, twin_uvs,
+                                 twin_colours);
             }
             scene.crease_angles[id] = obj_crease;
         } else {

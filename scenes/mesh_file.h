@@ -26,6 +26,10 @@ struct MeshData {
     // from the image's top (an OBJ's vt v is 1 - t), or empty when it has none (a
     // triangle without them in a file with some: NaN).
     std::vector<std::array<Uv, 3>> uvs;
+    // The file's vertex colours at every triangle's corners (linear, in [0, 1]: they
+    // multiply the albedo), or empty when it has none (a triangle without them in a file
+    // with some: NaN). glTF's COLOR_0; a PLY's red, green, blue.
+    std::vector<std::array<Rgb, 3>> colours;
     // OBJ only (empty for PLY and OFF, and for an OBJ without `usemtl`, `o` or `g`):
     // each triangle's material, an index into `materials` (the names `usemtl` gives, in
     // order of first use; -1 before the first), and its group, an index into `groups`

@@ -392,12 +392,24 @@ public:
         std::vector<int> used(out_.materials.size(), -1);
         std::vector<std::string> names;
         std::vector<Material> defs;
+        // Per material, the brightest of its triangles' vertex colours, where all have
+        // them (1 where one has none): what its albedo is multiplied by at most, which
+        // the energy check counts (a base colour factor of 1 times colours below 1, as
+        // exporters write COLOR_0, reflects less than it receives).
+        std::vector<Rgb> brightest(out_.materials.size(), Rgb::Zero());
+        for (std::size_t t = 0; t < out_.triangle_material.size(); ++t) {
+            Rgb& most = brightest[static_cast<std::size_t>(out_.triangle_material[t])];
+            if (out_.colours.empty() || !out_.colours[t][0].allFinite())
+                most = Rgb::Ones();
+            else
+                for (const Rgb& c : out_.colours[t]) most = most.max(c);
+        }
         for (int& m : out_.triangle_material) {
             auto& u = used[static_cast<std::size_t>(m)];
             if (u < 0) {
                 u = static_cast<int>(names.size());
                 names.push_back(out_.materials[static_cast<std::size_t>(m)]);
-                defs.push_back(material_def(m));
+                defs.push_back(material_def(m, brightest[static_cast<std::size_t>(m)]));
             }
             m = u;
         }
@@ -495,8 +507,10 @@ private:
     // split into a diffuse part (1 - metallic) and a Phong lobe (metallic) whose
     // exponent follows the roughness (n = 2 / roughness^4 - 2: the Phong lobe of the
     // GGX width alpha = roughness^2); a lobe of exponent 0 is diffuse and joins it. The
-    // emission is emissiveFactor times KHR_materials_emissive_strength.
-    Material material(const tinygltf::Material& m, const std::string& name, const std::string& where) {
+    // emission is emissiveFactor times KHR_materials_emissive_strength. brightest_colour:
+    // the vertex colours' most, per channel, on the triangles that use it.
+    Material material(const tinygltf::Material& m, const std::string& name, const std::string& where,
+                      const Rgb& brightest_colour) {
         Material out;
         out.name = name;
         const auto& pbr = m.pbrMetallicRoughness;
@@ -564,7 +578,7 @@ private:
         out.two_sided = m.doubleSided;
         if (m.alphaMode == "BLEND" || m.alphaMode == "MASK")
             warn("material '" + name + "': alphaMode " + m.alphaMode + " is read as OPAQUE");
-        if (const auto sum = keep_energy(out))
+        if (const auto sum = keep_energy(out, brightest_colour))
             warn("material '" + name + "': " + (out.texture ? "its base colour texture's brightest texels reflect "
                                                             : "reflects ") +
                  number(sum->first) + " of the light " + (out.texture ? "they receive" : "it receives") +
@@ -593,16 +607,16 @@ private:
         out_.materials.push_back(unique("(" + file + " default)"));
     }
 
-    Material material_def(int index) {
+    Material material_def(int index, const Rgb& brightest_colour) {
         const std::string& name = out_.materials[static_cast<std::size_t>(index)];
         if (index < default_material_)
             return material(model_.materials[static_cast<std::size_t>(index)], name,
-                            "materials[" + std::to_string(index) + "]");
+                            "materials[" + std::to_string(index) + "]", brightest_colour);
         tinygltf::Material fallback;  // glTF's defaults: white, metallic 1, roughness 1
         fallback.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
         fallback.emissiveFactor = {0.0, 0.0, 0.0};
         fallback.pbrMetallicRoughness.metallicFactor = fallback.pbrMetallicRoughness.roughnessFactor = 1.0;
-        return material(fallback, name, "a primitive without material");
+        return material(fallback, name, "a primitive without material", brightest_colour);
     }
 
     // ------------------------------------------------------------------ node tree
@@ -840,6 +854,19 @@ private:
         return Uv(u[0] / 65535.0, u[1] / 65535.0);
     }
 
+    static Rgb colour_at(const Elements& e, std::size_t i) {
+        const unsigned char* p = e.base + i * e.stride;
+        if (e.component == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+            float f[3];
+            std::memcpy(f, p, sizeof f);
+            return Rgb(f[0], f[1], f[2]);
+        }
+        if (e.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return Rgb(p[0], p[1], p[2]) / 255.0;
+        std::uint16_t u[3];
+        std::memcpy(u, p, sizeof u);
+        return Rgb(u[0], u[1], u[2]) / 65535.0;
+    }
+
     std::vector<std::uint32_t> indices(int index, std::size_t vertices, const std::string& where) const {
         std::vector<std::uint32_t> out;
         if (index < 0) {
@@ -881,6 +908,7 @@ private:
         int material = -1;
         std::vector<Vec3> positions, normals;  // normals: empty, or one per position
         std::vector<Uv> uvs;                   // its base colour texture's TEXCOORD_n: empty, or one per position
+        std::vector<Rgb> colours;              // COLOR_0 (linear, clamped to [0, 1]): empty, or one per position
         std::vector<std::array<std::uint32_t, 3>> triangles;
     };
 
@@ -954,6 +982,23 @@ private:
                                                      std::to_string(positions.count) + " positions");
                 }
         }
+        // COLOR_0, which multiplies the base colour (glTF 2.0, 3.7.2.1: VEC3 or VEC4 of
+        // FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT; linear, alpha unread).
+        std::optional<Elements> colours;
+        if (const auto c = prim.attributes.find("COLOR_0"); c != prim.attributes.end()) {
+            colours = elements(c->second, at, "COLOR_0");
+            const bool read = (colours->components == 3 || colours->components == 4) &&
+                              (colours->component == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                               colours->component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                               colours->component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+            if (!read)
+                fail(at + ": COLOR_0", "expected VEC3 or VEC4 of FLOAT, UNSIGNED_BYTE or UNSIGNED_SHORT, got " +
+                                           accessor_type(c->second));
+            if (colours->count != positions.count)
+                fail(at + ": COLOR_0", std::to_string(colours->count) + " colours for " +
+                                           std::to_string(positions.count) + " positions");
+        }
+        bool clamped = false;
         // The vertices the triangles use, in order of first use.
         std::unordered_map<std::uint32_t, std::uint32_t> remap;
         for (auto& t : tris)
@@ -967,9 +1012,16 @@ private:
                         if (!st.allFinite()) fail(at + ": " + uv_key, "texture coordinate " + std::to_string(v) + " is not finite");
                         out.uvs.push_back(st);
                     }
+                    if (colours) {
+                        const Rgb c = colour_at(*colours, v);
+                        if (!c.allFinite()) fail(at + ": COLOR_0", "colour " + std::to_string(v) + " is not finite");
+                        clamped = clamped || (c < 0.0).any() || (c > 1.0).any();
+                        out.colours.push_back(c.max(0.0).min(1.0));
+                    }
                 }
                 v = it->second;
             }
+        if (clamped) warn(at + ": COLOR_0 has values outside [0, 1] (glTF asks for 0 to 1): clamped");
         out.triangles = std::move(tris);
         return out;
     }
@@ -1031,6 +1083,10 @@ private:
                     out_.uvs.push_back({Uv(none, none), Uv(none, none), Uv(none, none)});
                 else
                     out_.uvs.push_back({prim.uvs[t[0]], prim.uvs[t[1]], prim.uvs[t[2]]});
+                if (prim.colours.empty())
+                    out_.colours.push_back({Rgb::Constant(none), Rgb::Constant(none), Rgb::Constant(none)});
+                else
+                    out_.colours.push_back({prim.colours[t[0]], prim.colours[t[1]], prim.colours[t[2]]});
             }
         }
     }
@@ -1180,6 +1236,9 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
     if (!any) out.normals.clear();
     // Nor texture coordinates, where no textured primitive gives them.
     if (std::none_of(out.uvs.begin(), out.uvs.end(), [](const auto& c) { return c[0].allFinite(); })) out.uvs.clear();
+    // Nor vertex colours, where no primitive gives them.
+    if (std::none_of(out.colours.begin(), out.colours.end(), [](const auto& c) { return c[0].allFinite(); }))
+        out.colours.clear();
     return out;
 }
 

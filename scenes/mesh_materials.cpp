@@ -167,16 +167,16 @@ int add_brought(Scene& scene, std::size_t scene_materials, Material m, const std
 
 namespace mesh_detail {
 
-std::optional<std::pair<double, int>> keep_energy(Material& m) {
+std::optional<std::pair<double, int>> keep_energy(Material& m, const Rgb& brightest_colour) {
     Eigen::Index channel = 0;
-    double most = (m.albedo + m.specular).maxCoeff(&channel);
+    double most = (m.albedo * brightest_colour + m.specular).maxCoeff(&channel);
     // A texture's brightest texels count too (the albedo of a patch on them is theirs)
     // where they reflect more than they receive: a texel of 255, albedo 1, is white
     // paper in a photograph, and a patch is all of it rarely; a texture all of it is
     // caught by its mean above.
     if (m.texture) {
         Eigen::Index at = 0;
-        const double texel = (m.tint * m.texture->image->brightest + m.specular).maxCoeff(&at);
+        const double texel = (m.tint * m.texture->image->brightest * brightest_colour + m.specular).maxCoeff(&at);
         if (texel > 1.0 && texel > most) most = texel, channel = at;
     }
     if (most < 1.0) return std::nullopt;

@@ -6,9 +6,21 @@ namespace raybundle::scenes::mesh_detail {
 
 // ---------------------------------------------------------------------------- PLY
 // ASCII, binary little- and big-endian. The vertex element gives x, y, z and,
-// optionally, all of nx, ny, nz; the face element a list named vertex_indices (or
-// vertex_index); other elements and properties are read past. Every count is checked
-// against the bytes left before anything is allocated for it.
+// optionally, all of nx, ny, nz and all of red, green, blue (or diffuse_red, ...); the
+// face element a list named vertex_indices (or vertex_index); other elements and
+// properties are read past. Every count is checked against the bytes left before
+// anything is allocated for it.
+
+namespace {
+
+// A PLY colour value as linear: 8- and 16-bit integers over their maximum, floats as
+// they are, each then read as sRGB (as scanners write them and Blender's importer reads them).
+double ply_colour(double value, const PlyType& type) {
+    const double c = std::clamp(type.real ? value : value / (type.bytes == 1 ? 255.0 : 65535.0), 0.0, 1.0);
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+}  // namespace
 
 struct PlyProperty {
     std::string name;
@@ -125,6 +137,32 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     const bool has_normals = nxyz[0] >= 0 && nxyz[1] >= 0 && nxyz[2] >= 0;
     if (!found_normals.empty() && !has_normals)
         throw SceneError(shown, "header", "vertex normals need all of nx, ny, nz (found " + found_normals + ")");
+    // Vertex colours: red, green, blue (or MeshLab's diffuse_red, ...), scalars of at
+    // most 16 bits or floats.
+    int rgb[3];
+    std::string found_colours;
+    for (const std::string prefix : {"", "diffuse_"}) {
+        found_colours.clear();
+        for (int k = 0; k < 3; ++k) {
+            const std::string name = prefix + std::array{"red", "green", "blue"}[k];
+            rgb[k] = find(*vertex, name);
+            if (rgb[k] >= 0) found_colours += (found_colours.empty() ? "" : ", ") + name;
+        }
+        if (!found_colours.empty()) break;
+    }
+    const bool has_colours = rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0;
+    std::vector<std::string> header_warnings;
+    if (!found_colours.empty() && !has_colours)
+        header_warnings.push_back(shown + ": header: vertex colours need all of red, green, blue (found " +
+                                  found_colours + "): not read");
+    if (has_colours)
+        for (const int k : rgb) {
+            const PlyProperty& p = vertex->properties[static_cast<std::size_t>(k)];
+            if (p.list() || (!p.type.real && p.type.bytes > 2))
+                throw SceneError(shown, "header", "vertex colour " + p.name + " is " +
+                                                      (p.list() ? "a list" : "an integer of more than 16 bits") +
+                                                      " (a PLY colour is uchar, ushort or float)");
+        }
     int indices = -1;
     if (face) {
         indices = find(*face, "vertex_indices");
@@ -138,6 +176,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     PlyValues values(std::string_view(content).substr(std::min(pos, content.size())), format, shown);
     MeshData data;
     std::vector<Vec3> normals;
+    std::vector<Rgb> colours;
     long zero_normals = 0;
     std::string first_zero;
     std::vector<std::vector<int>> faces;
@@ -150,6 +189,7 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
         if (is_vertex) {
             data.vertices.reserve(static_cast<std::size_t>(e.count));
             if (has_normals) normals.reserve(static_cast<std::size_t>(e.count));
+            if (has_colours) colours.reserve(static_cast<std::size_t>(e.count));
         }
         if (is_face) faces.reserve(static_cast<std::size_t>(e.count));
         if (e.properties.empty()) continue;
@@ -204,6 +244,15 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                     if (!(n.norm() > 0.0) && zero_normals++ == 0) first_zero = where();
                     normals.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
                 }
+                if (has_colours) {
+                    Rgb c;
+                    for (int k = 0; k < 3; ++k) {
+                        const double v = row[static_cast<std::size_t>(rgb[k])];
+                        if (!std::isfinite(v)) throw SceneError(shown, where(), "colour value " + std::to_string(v) + " is not finite");
+                        c[k] = ply_colour(v, vertex->properties[static_cast<std::size_t>(rgb[k])].type);
+                    }
+                    colours.push_back(c);
+                }
             }
         }
     }
@@ -213,8 +262,12 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
         if (has_normals)
             for (const auto& t : local)
                 data.normals.push_back({normals[corners[t[0]]], normals[corners[t[1]]], normals[corners[t[2]]]});
+        if (has_colours)
+            for (const auto& t : local)
+                data.colours.push_back({colours[corners[t[0]]], colours[corners[t[1]]], colours[corners[t[2]]]});
     }
     if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, first_zero, "of zero length"));
+    data.warnings.insert(data.warnings.end(), header_warnings.begin(), header_warnings.end());
     return data;
 }
 

@@ -195,11 +195,12 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
                    const std::optional<std::string>& folder, std::size_t max_triangles);
 
 // Where albedo + specular reaches 1 in a channel, or a texture's brightest texels times
-// its tint plus specular pass 1, scales them (and the tint) so that the most is 0.99 (a
+// its tint plus specular pass 1 (the albedo and the texels times brightest_colour, the
+// most the vertex colours of its triangles multiply them by), scales them (and the tint) so that the most is 0.99 (a
 // surface reflects less than it receives) and returns the sum it had there and its
 // channel (0, 1, 2), for the caller's warning; nothing when neither was
 // (scenes/mesh_materials.cpp).
-std::optional<std::pair<double, int>> keep_energy(Material& m);
+std::optional<std::pair<double, int>> keep_energy(Material& m, const Rgb& brightest_colour = Rgb::Ones());
 
 
 }  // namespace raybundle::scenes::mesh_detail

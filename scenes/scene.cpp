@@ -50,25 +50,40 @@ bool zero_area(Vec3 a, Vec3 b, Vec3 c) {
 // b2 e2 gives b1 = (x - a) . (e2 x n) / |n|^2 and b2 = (x - a) . (n x e1) / |n|^2 (a
 // point off the plane goes to its foot on it). Through the cross product, not the
 // edges' Gram determinant, which cancels to noise on the slivers add_object keeps.
-Scene::TextureMap texture_map(const Vec3& a, const Vec3& b, const Vec3& c, const std::array<Uv, 3>& uv) {
+// The same weights give the vertex colours' map.
+Eigen::Matrix<double, 2, 3> barycentric_weights(const Vec3& a, const Vec3& b, const Vec3& c) {
     const Vec3 e1 = b - a, e2 = c - a, n = e1.cross(e2);
     const double nn = n.squaredNorm();
     Eigen::Matrix<double, 2, 3> weights;
     weights.row(0) = (e2.cross(n) / nn).transpose();
     weights.row(1) = (n.cross(e1) / nn).transpose();
+    return weights;
+}
+
+void map_uvs(Scene::TextureMap& map, const Eigen::Matrix<double, 2, 3>& weights, const std::array<Uv, 3>& uv) {
     Eigen::Matrix2d edges;
     edges.col(0) = uv[1] - uv[0];
     edges.col(1) = uv[2] - uv[0];
-    return {edges * weights, a, uv[0]};
+    map.linear = edges * weights;
+    map.at_origin = uv[0];
+}
+
+void map_colours(Scene::TextureMap& map, const Eigen::Matrix<double, 2, 3>& weights, const std::array<Rgb, 3>& colour) {
+    Eigen::Matrix<double, 3, 2> edges;
+    edges.col(0) = (colour[1] - colour[0]).matrix();
+    edges.col(1) = (colour[2] - colour[0]).matrix();
+    map.colour_linear = edges * weights;
+    map.colour_at_origin = colour[0];
 }
 
 }  // namespace
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                       int material, const std::string& object_name, int object,
-                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs) {
+                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs,
+                      const std::vector<std::array<Rgb, 3>>& colours) {
     return add_object(vertices, triangles, std::vector<int>(triangles.size(), material), object_name, object, normals,
-                      uvs);
+                      uvs, colours);
 }
 
 int Scene::add_material(Material m) {
@@ -84,12 +99,16 @@ int Scene::find_material(const std::string& material_name) const {
 
 int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                       const std::vector<int>& triangle_materials, const std::string& object_name, int object,
-                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs) {
+                      const std::vector<std::array<Vec3, 3>>& normals, const std::vector<std::array<Uv, 3>>& uvs,
+                      const std::vector<std::array<Rgb, 3>>& colours) {
     if (!normals.empty() && normals.size() != triangles.size())
         throw std::invalid_argument("add_object: " + std::to_string(normals.size()) + " corner normal triples for " +
                                     std::to_string(triangles.size()) + " triangles");
     if (!uvs.empty() && uvs.size() != triangles.size())
         throw std::invalid_argument("add_object: " + std::to_string(uvs.size()) + " texture coordinate triples for " +
+                                    std::to_string(triangles.size()) + " triangles");
+    if (!colours.empty() && colours.size() != triangles.size())
+        throw std::invalid_argument("add_object: " + std::to_string(colours.size()) + " vertex colour triples for " +
                                     std::to_string(triangles.size()) + " triangles");
     const bool made = object < 0;  // else the twins of `object` (two-sided materials)
     if (object < 0) {
@@ -162,13 +181,24 @@ int Scene::add_object(const std::vector<Vec3>& vertices, const std::vector<std::
         mesh.property(object_handle, f) = object;
         const auto m = static_cast<std::size_t>(triangle_materials[k]);
         int map = -1;
-        const bool has_uvs = !uvs.empty() && uvs[k][0].allFinite() && uvs[k][1].allFinite() && uvs[k][2].allFinite();
-        if (has_uvs && m < materials.size() && materials[m].texture) {
+        const bool has_uvs = !uvs.empty() && uvs[k][0].allFinite() && uvs[k][1].allFinite() && uvs[k][2].allFinite() &&
+                             m < materials.size() && materials[m].texture;
+        const bool has_colours = !colours.empty() && colours[k][0].allFinite() && colours[k][1].allFinite() &&
+                                 colours[k][2].allFinite();
+        if (has_uvs || has_colours) {
             map = static_cast<int>(texture_maps.size());
-            TextureMap to_uv = texture_map(vertices[t[0]], vertices[t[1]], vertices[t[2]], uvs[k]);
-            to_uv.linear = materials[m].uv_linear * to_uv.linear;
-            to_uv.at_origin = materials[m].uv_offset + materials[m].uv_linear * to_uv.at_origin;
-            texture_maps.push_back(to_uv);
+            TextureMap maps;
+            maps.origin = vertices[t[0]];
+            const auto weights = barycentric_weights(vertices[t[0]], vertices[t[1]], vertices[t[2]]);
+            if (has_uvs) {
+                map_uvs(maps, weights, uvs[k]);
+                maps.linear = materials[m].uv_linear * maps.linear;
+                maps.at_origin = materials[m].uv_offset + materials[m].uv_linear * maps.at_origin;
+            }
+            if (has_colours)
+                map_colours(maps, weights,
+                            {colours[k][0].max(0.0).min(1.0), colours[k][1].max(0.0).min(1.0), colours[k][2].max(0.0).min(1.0)});
+            texture_maps.push_back(maps);
         }
         mesh.property(texture_map_handle, f) = map;
         for (auto h : mesh.fh_range(f)) {
@@ -497,7 +527,8 @@ void Scene::finalize(int threads) {
 // of the R2 sequence (Roberts 2018) folded into the triangle, an estimate of its mean:
 // a grid's rows, more than a quarter of a texel apart there, could fall in step with a
 // periodic texture (a tiled checker) and read one of its colours. A deterministic sum, the same on any
-// threads.
+// threads. Vertex colours multiply each point's texel; without a texture the patch's
+// albedo is its material's times the colour at its centroid (the mean of an affine map).
 void Scene::compute_albedos(int threads) {
     patch_texture_map.clear();
     patch_albedo.clear();
@@ -507,7 +538,10 @@ void Scene::compute_albedos(int threads) {
     bool any = false;
     for (std::size_t i = 0; i < n; ++i) {
         const int map = mesh.property(texture_map_handle, TriMesh::FaceHandle(static_cast<int>(i)));
-        if (map >= 0 && materials[static_cast<std::size_t>(patches[i].material)].texture) maps[i] = map, any = true;
+        if (map < 0) continue;
+        const TextureMap& maps_of = texture_maps[static_cast<std::size_t>(map)];
+        if (maps_of.has_colour() || (maps_of.has_uv() && materials[static_cast<std::size_t>(patches[i].material)].texture))
+            maps[i] = map, any = true;
     }
     if (!any) return;
     patch_texture_map = std::move(maps);
@@ -522,8 +556,12 @@ void Scene::compute_albedos(int threads) {
                 continue;
             }
             const TextureMap& to_uv = texture_maps[static_cast<std::size_t>(map)];
-            const Texture& texture = *m.texture;
             const Vec3 &a = positions[p.v[0]], &b = positions[p.v[1]], &c = positions[p.v[2]];
+            if (!(m.texture && to_uv.has_uv())) {  // vertex colours alone: an affine map's mean is its centroid's value
+                patch_albedo[static_cast<std::size_t>(i)] = m.albedo * to_uv.colour((a + b + c) / 3.0);
+                continue;
+            }
+            const Texture& texture = *m.texture;
             const Eigen::Array2d texels(texture.image->width, texture.image->height);
             const auto in_texels = [&](const Vec3& x, const Vec3& y) {
                 return ((to_uv(x) - to_uv(y)).array() * texels).matrix().norm();
@@ -532,9 +570,11 @@ void Scene::compute_albedos(int threads) {
             const double wanted = std::isfinite(edge) ? std::ceil(4.0 * edge) : 65.0;
             const int N = static_cast<int>(std::clamp(wanted, 4.0, 64.0));
             Rgb sum = Rgb::Zero();
+            const bool coloured = to_uv.has_colour();
             const auto add = [&](double u, double v) {
-                const Uv st = to_uv(a + u * (b - a) + v * (c - a));
-                sum += texture.at(st.x(), st.y());
+                const Vec3 x = a + u * (b - a) + v * (c - a);
+                const Uv st = to_uv(x);
+                sum += coloured ? texture.at(st.x(), st.y()) * to_uv.colour(x) : texture.at(st.x(), st.y());
             };
             if (wanted <= 64.0) {
                 for (int s = 0; s < N; ++s)
@@ -560,8 +600,13 @@ Rgb Scene::albedo_at(std::size_t patch, const Vec3& x) const {
     const int map = patch_texture_map[patch];
     const Material& m = material_of(patch);
     if (map < 0) return m.albedo;
-    const Uv st = texture_maps[static_cast<std::size_t>(map)](x);
-    return m.tint * m.texture->at(st.x(), st.y());
+    const TextureMap& maps = texture_maps[static_cast<std::size_t>(map)];
+    Rgb albedo = m.albedo;
+    if (m.texture && maps.has_uv()) {
+        const Uv st = maps(x);
+        albedo = m.tint * m.texture->at(st.x(), st.y());
+    }
+    return maps.has_colour() ? albedo * maps.colour(x) : albedo;
 }
 
 namespace {

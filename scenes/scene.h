@@ -9,6 +9,7 @@
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 
 #include <array>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -186,15 +187,28 @@ public:
     // vertex's patches (smooth shading, the linear basis's nodes) mixes the two sides.
     // Subdivision keeps the mark on both halves of a split edge.
     OpenMesh::EPropHandleT<bool> contact_edge_handle;
-    // Texture coordinates. A textured triangle as added gives its plane's affine map from
-    // a point to (s, t); every patch cut from it (refinement, contact lines: they copy
-    // face properties) keeps the map's index, so that its coordinates are exact at every
-    // point without being carried through the splits. -1: none.
+    // Texture coordinates and vertex colours. A textured triangle as added (or one with
+    // vertex colours) gives its plane's affine maps from a point to (s, t) and to the
+    // colour; every patch cut from it (refinement, contact lines: they copy face
+    // properties) keeps the maps' index, so that its coordinates and colour are exact at
+    // every point without being carried through the splits. -1: none.
     struct TextureMap {
-        Eigen::Matrix<double, 2, 3> linear;  // (s, t) = at_origin + linear (x - origin)
-        Vec3 origin;
-        Uv at_origin;
+        Vec3 origin = Vec3::Zero();
+        // (s, t) = at_origin + linear (x - origin); NaN at_origin: no coordinates.
+        Eigen::Matrix<double, 2, 3> linear = Eigen::Matrix<double, 2, 3>::Zero();
+        Uv at_origin = Uv::Constant(std::numeric_limits<double>::quiet_NaN());
+        // The vertex colour (linear, in [0, 1]: what multiplies the albedo) =
+        // colour_at_origin + colour_linear (x - origin); NaN colour_at_origin: none.
+        Eigen::Matrix3d colour_linear = Eigen::Matrix3d::Zero();
+        Rgb colour_at_origin = Rgb::Constant(std::numeric_limits<double>::quiet_NaN());
+
+        bool has_uv() const { return at_origin.allFinite(); }
+        bool has_colour() const { return colour_at_origin.allFinite(); }
         Uv operator()(const Vec3& x) const { return at_origin + linear * (x - origin); }
+        // Clamped: a point off the triangle (a pixel's point a rounding outside) stays in range.
+        Rgb colour(const Vec3& x) const {
+            return (colour_at_origin + (colour_linear * (x - origin)).array()).max(0.0).min(1.0);
+        }
     };
     std::vector<TextureMap> texture_maps;
     OpenMesh::FPropHandleT<int> texture_map_handle;
@@ -208,14 +222,18 @@ public:
     // are normalised, and a zero vector leaves that corner to finalize()).
     // `uvs`, when not empty, gives every triangle's corner texture coordinates (s, t: see
     // Texture::at; NaN where a triangle has none): a triangle of a textured material
-    // keeps them as a TextureMap.
+    // keeps them as a TextureMap. `colours`, when not empty, gives every triangle's
+    // corner vertex colours (linear, clamped to [0, 1]; NaN where a triangle has none),
+    // which multiply its albedo: kept as a TextureMap too.
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int material,
                    const std::string& name = "", int object = -1,
-                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {});
+                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {},
+                   const std::vector<std::array<Rgb, 3>>& colours = {});
     // The same with one material per triangle.
     int add_object(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
                    const std::vector<int>& materials, const std::string& name = "", int object = -1,
-                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {});
+                   const std::vector<std::array<Vec3, 3>>& normals = {}, const std::vector<std::array<Uv, 3>>& uvs = {},
+                   const std::vector<std::array<Rgb, 3>>& colours = {});
     // Adds a material and returns its index.
     int add_material(Material m);
     // The index of the material called name, or -1.
@@ -245,12 +263,14 @@ public:
     Vec3 shading_normal(std::size_t patch, double b1, double b2) const;
     const Material& material_of(std::size_t patch) const { return materials[patches[patch].material]; }
     // The albedo of a patch: its material's, or for a textured patch the tint times the
-    // texture's mean over it (finalize()). What the solver reflects.
+    // texture's mean over it (finalize()), times its vertex colours' where it has them.
+    // What the solver reflects.
     const Rgb& albedo_of(std::size_t patch) const {
         return patch_albedo.empty() ? material_of(patch).albedo : patch_albedo[patch];
     }
     // The albedo at the point x of a patch: the texture's there where it is textured,
-    // else albedo_of(patch). What an image shows.
+    // else its material's, times the vertex colour there where it has them. What an
+    // image shows.
     Rgb albedo_at(std::size_t patch, const Vec3& x) const;
     // The material at the point x of a patch: its own, or where it is textured a copy in
     // `scratch` (its name left out) with albedo_at(patch, x).
@@ -258,8 +278,13 @@ public:
     // The material of a patch as the solver reflects with it: its own, or where it is
     // textured a copy in `scratch` (its name left out) with albedo_of(patch).
     const Material& patch_material(std::size_t patch, Material& scratch) const;
-    // Some patch has a texture (albedo_at differs from albedo_of somewhere).
+    // Some patch has a texture or vertex colours (albedo_at differs from albedo_of somewhere).
     bool textured() const { return !patch_albedo.empty(); }
+    // The patch has vertex colours.
+    bool coloured(std::size_t patch) const {
+        return !patch_texture_map.empty() && patch_texture_map[patch] >= 0 &&
+               texture_maps[static_cast<std::size_t>(patch_texture_map[patch])].has_colour();
+    }
 
     Vec3 bounds_center() const { return center; }
     double bounds_radius() const { return radius; }
@@ -273,7 +298,7 @@ private:
     Buffer<Patch> patches;  // filled on the threads (scenes/buffer.h)
     std::vector<Vec3> positions;
     Buffer<std::array<Vec3, 3>> shading_normals;
-    // Where some patch is textured, per patch: its texture map (-1: none) and albedo.
+    // Where some patch is textured or coloured, per patch: its texture map (-1: none) and albedo.
     std::vector<int> patch_texture_map;
     std::vector<Rgb> patch_albedo;
     Vec3 center = Vec3::Zero();

@@ -18,7 +18,8 @@ times strength the emitted radiance, one-sided as raybundle's surfaces are
 (bench/cycles/import_scene.py: make_material). A textured base colour stays textured:
 where the Principled BSDF's Base Color is linked (an Image Texture, or a Mix node
 multiplying the glTF baseColorFactor by it, as the glTF importer builds them; an Image
-Texture for an MTL's map_Kd), those nodes are copied into the Lambert material and give
+Texture for an MTL's map_Kd; a Color Attribute node for a glTF COLOR_0), those nodes are
+copied into the Lambert material and give
 its colour, through the same UV map, interpolation and extension (an 8-bit sRGB image
 decoded to linear floats first, so that Cycles interpolates the texels as the glTF
 specification and raybundle do: see decoded()). This bench compares diffuse assets:
@@ -158,9 +159,11 @@ def describe_texture(socket):
     """What feeds a linked base colour, in words and as JSON-able data."""
     nodes = upstream(socket)
     images = [n for n in nodes if n.type == "TEX_IMAGE"]
-    if not images or any(n.image is None for n in images):
-        raise SystemExit("material %s: its base colour is linked but comes from no image" % socket.id_data.name)
-    info = {"image": [n.image.name for n in images],
+    colours = [n for n in nodes if n.type == "VERTEX_COLOR"]
+    if (not images and not colours) or any(n.image is None for n in images):
+        raise SystemExit("material %s: its base colour is linked but comes from no image and no colour attribute"
+                         % socket.id_data.name)
+    info = {"image": [n.image.name for n in images], "vertex_colours": [n.layer_name or "(active)" for n in colours],
             "file": [bpy.path.abspath(n.image.filepath) if n.image.packed_file is None else "(packed)" for n in images],
             "size": [list(n.image.size) for n in images],
             "colorspace": [n.image.colorspace_settings.name for n in images],
@@ -269,10 +272,11 @@ def main():
                 if texture is not None:
                     keep_texture(lambert, texture)
                     t = m["texture"]
-                    print("material %s: texture kept: image %s (%s, %s, %s, %s), through %s%s" % (
-                        m["name"], ", ".join(t["image"]), " ".join("%dx%d" % tuple(z) for z in t["size"]),
+                    print("material %s: texture kept: image %s (%s, %s, %s, %s), vertex colours %s, through %s%s" % (
+                        m["name"], ", ".join(t["image"]) or "none", " ".join("%dx%d" % tuple(z) for z in t["size"]),
                         ", ".join(t["colorspace"]), ", ".join(t["interpolation"]), ", ".join(t["extension"]),
-                        " <- ".join(t["nodes"]), ", factor %s" % t["factor"] if "factor" in t else ""), flush=True)
+                        ", ".join(t["vertex_colours"]) or "none", " <- ".join(t["nodes"]),
+                        ", factor %s" % t["factor"] if "factor" in t else ""), flush=True)
                 else:
                     print("material %s: no texture, albedo %s" % (m["name"], [round(c, 6) for c in m["albedo"]]),
                           flush=True)

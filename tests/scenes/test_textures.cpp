@@ -514,3 +514,178 @@ TEST_CASE("a texture repeated many times over a patch: its mean, not one of its 
         for (std::size_t i = 0; i < 2; ++i) CHECK(one.albedo_of(i)[0] == Approx(0.4).epsilon(0.03));
     }
 }
+
+// ------------------------------------------------------------------ vertex colours
+
+namespace {
+
+// The colour at x of the triangle (a, b, c) whose corners have the colours ca, cb, cc:
+// barycentric weights from areas.
+Rgb interpolated(const Vec3& a, const Vec3& b, const Vec3& c, const Rgb& ca, const Rgb& cb, const Rgb& cc,
+                 const Vec3& x) {
+    const double whole = (b - a).cross(c - a).norm();
+    const double wa = (b - x).cross(c - x).norm() / whole, wb = (c - x).cross(a - x).norm() / whole;
+    return wa * ca + wb * cb + (1.0 - wa - wb) * cc;
+}
+
+}  // namespace
+
+TEST_CASE("glTF: COLOR_0 multiplies the base colour, interpolated across each triangle, exact after refinement",
+          "[scenes][texture][colour][gltf]") {
+    using nlohmann::json;
+    // A unit quad facing +z (two triangles 0 1 2, 0 2 3), COLOR_0 as normalized bytes
+    // with alpha (VEC4: its alpha unread).
+    std::string bin;
+    const std::vector<float> positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    const std::vector<unsigned char> bytes = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 0, 255, 255, 255, 255};
+    const std::vector<std::uint16_t> indices = {0, 1, 2, 0, 2, 3};
+    bin.append(reinterpret_cast<const char*>(positions.data()), 48);
+    bin.append(reinterpret_cast<const char*>(bytes.data()), 16);
+    bin.append(reinterpret_cast<const char*>(indices.data()), 12);
+    json doc = {
+        {"asset", {{"version", "2.0"}}},
+        {"scene", 0},
+        {"scenes", {{{"nodes", {0}}}}},
+        {"nodes", {{{"mesh", 0}}}},
+        {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"COLOR_0", 1}}}, {"indices", 2}, {"material", 0}}}}}}},
+        {"materials",
+         {{{"name", "paint"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.6, 0.4, 1}}, {"metallicFactor", 0.0}}}}}},
+        {"buffers", {{{"byteLength", bin.size()}}}},
+        {"bufferViews",
+         {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
+          {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 16}},
+          {{"buffer", 0}, {"byteOffset", 64}, {"byteLength", 12}}}},
+        {"accessors",
+         {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}, {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+          {{"bufferView", 1}, {"componentType", 5121}, {"normalized", true}, {"count", 4}, {"type", "VEC4"}},
+          {{"bufferView", 2}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}}};
+    TempDir dir;
+    dir.write("colours.glb", raybundle::test::glb(doc, bin));
+    const auto scene_of = [&](const std::string& mesh, double patch_size) {
+        return parse_scene(R"({"camera": {"eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0]}, "patch_size": )" +
+                               std::to_string(patch_size) + R"(, "objects": [{"mesh": ")" + mesh + R"("}]})",
+                           "s.json", dir.path.string());
+    };
+    const Scene scene = scene_of("colours.glb", 0.1);
+    CHECK(scene.warnings.empty());
+    REQUIRE(scene.textured());
+    const Rgb base(0.8, 0.6, 0.4);
+    const Vec3 p0(0, 0, 0), p1(1, 0, 0), p2(1, 1, 0), p3(0, 1, 0);
+    const Rgb c0(1, 0, 0), c1(0, 1, 0), c2(0, 0, 1), c3(1, 1, 1);
+    for (const Vec3& x : {Vec3(0.9, 0.05, 0), Vec3(0.7, 0.3, 0), Vec3(0.99, 0.98, 0)})  // in triangle 0 1 2
+        CHECK(scene.albedo_at(patch_at(scene, x), x).isApprox(base * interpolated(p0, p1, p2, c0, c1, c2, x), 1e-12));
+    for (const Vec3& x : {Vec3(0.05, 0.9, 0), Vec3(0.3, 0.7, 0), Vec3(0.01, 0.02, 0)})  // in triangle 0 2 3
+        CHECK(scene.albedo_at(patch_at(scene, x), x).isApprox(base * interpolated(p0, p2, p3, c0, c2, c3, x), 1e-12));
+    // Each patch reflects its mean: the colour at its centroid. Over the quad, the
+    // area-weighted sum is each triangle's area times its corners' mean.
+    Rgb sum = Rgb::Zero();
+    std::size_t coloured = 0;
+    for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+        const auto& p = scene.patch_list()[i];
+        CHECK(scene.albedo_of(i).isApprox(scene.albedo_at(i, p.centroid), 1e-12));
+        sum += p.area * scene.albedo_of(i);
+        coloured += scene.coloured(i);
+    }
+    CHECK(scene.patch_count() > 100);
+    CHECK(coloured == scene.patch_count());
+    const Rgb exact = base * (0.5 * (c0 + c1 + c2) / 3.0 + 0.5 * (c0 + c2 + c3) / 3.0);
+    CHECK(sum.isApprox(exact, 1e-12));
+    // Two-sided: the twin facing -z has the same colour at the same point.
+    json two = doc;
+    two["materials"][0]["doubleSided"] = true;
+    dir.write("two.glb", raybundle::test::glb(two, bin));
+    const Scene both = scene_of("two.glb", 0.25);
+    const Vec3 x(0.713, 0.271, 0);  // inside a patch, on no edge
+    int sides = 0;
+    for (std::size_t i = 0; i < both.patch_count(); ++i)
+        if (holds(both, i, x)) {
+            ++sides;
+            CHECK(both.albedo_at(i, x).isApprox(base * interpolated(p0, p1, p2, c0, c1, c2, x), 1e-12));
+        }
+    CHECK(sides == 2);
+    // FLOAT colours past 1 are clamped, with a warning; another type is refused.
+    std::string floats = bin.substr(0, 48);
+    const std::vector<float> rgb = {1.5, 0, 0, 0, 1, 0, 0, 0, 1, 0.5, 0.5, 0.5};
+    floats.append(reinterpret_cast<const char*>(rgb.data()), 48);
+    floats.append(bin.substr(64, 12));
+    json bright = doc;
+    bright["bufferViews"][1]["byteLength"] = 48;
+    bright["bufferViews"][2]["byteOffset"] = 96;
+    bright["accessors"][1] = {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}};
+    dir.write("bright.glb", raybundle::test::glb(bright, floats));
+    const Scene clamped = scene_of("bright.glb", 0.25);
+    CHECK(clamped.albedo_at(patch_at(clamped, Vec3(0, 0, 0)), Vec3(0, 0, 0)).isApprox(base * c0, 1e-12));
+    REQUIRE(clamped.warnings.size() == 1);
+    CHECK_THAT(clamped.warnings[0], Contains("COLOR_0 has values outside [0, 1]") && Contains("clamped"));
+    // A base colour factor of 1 with colours below 1 (as Blender exports a colour
+    // attribute on the base colour) reflects less than it receives: kept, no warning.
+    std::string dimmer = bin;
+    for (std::size_t k = 48; k < 64; ++k)
+        if (k % 4 != 3) dimmer[k] = static_cast<char>(static_cast<unsigned char>(dimmer[k]) * 200 / 255);
+    json white = doc;
+    white["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {1, 1, 1, 1};
+    dir.write("white.glb", raybundle::test::glb(white, dimmer));
+    const Scene kept = scene_of("white.glb", 0.25);
+    CHECK(kept.warnings.empty());
+    CHECK(kept.albedo_at(patch_at(kept, p1), p1).isApprox(Rgb(0, 200.0 / 255, 0), 1e-12));
+    json vec2 = doc;
+    vec2["accessors"][1]["type"] = "VEC2";
+    dir.write("vec2.glb", raybundle::test::glb(vec2, bin));
+    CHECK_THROWS_WITH(scene_of("vec2.glb", 0.25),
+                      Contains("meshes[0].primitives[0]: COLOR_0: expected VEC3 or VEC4 of FLOAT, UNSIGNED_BYTE or "
+                               "UNSIGNED_SHORT"));
+}
+
+TEST_CASE("PLY: red, green, blue per vertex (sRGB) times the object's albedo; a texture times the colour",
+          "[scenes][texture][colour]") {
+    TempDir dir;
+    dir.write("scan.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+              "property list uchar int vertex_indices\nend_header\n"
+              "0 0 0 255 128 0\n1 0 0 0 255 64\n0 1 0 10 20 30\n3 0 1 2\n");
+    const Scene scene = parse_scene(R"({"camera": {"eye": [0.3, 0.3, 2], "target": [0.3, 0.3, 0]}, "patch_size": 0.2,
+        "materials": {"clay": {"albedo": [0.5, 0.5, 0.5]}}, "objects": [{"mesh": "scan.ply", "material": "clay"}]})",
+                                    "s.json", dir.path.string());
+    const Rgb c0 = linear(255, 128, 0), c1 = linear(0, 255, 64), c2 = linear(10, 20, 30);
+    for (const Vec3& x : {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0.2, 0.3, 0)})
+        CHECK(scene.albedo_at(patch_at(scene, x), x)
+                  .isApprox(0.5 * interpolated(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), c0, c1, c2, x), 1e-12));
+    dir.write("half.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+              "0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2\n");
+    const MeshData half = read_mesh_file((dir.path / "half.ply").string(), "half.ply");
+    CHECK(half.colours.empty());
+    REQUIRE(half.warnings.size() == 1);
+    CHECK_THAT(half.warnings[0], Contains("half.ply: header: vertex colours need all of red, green, blue (found red): "
+                                          "not read"));
+    // A texture and vertex colours: the texel times the colour, and a patch's mean of
+    // that product.
+    Scene both;
+    Material tiles;
+    tiles.name = "tiles";
+    tiles.texture = std::make_shared<const Texture>(texture_of(4, 4, sixteen()));
+    tiles.tint = Rgb(1, 0.5, 1);
+    tiles.albedo = tiles.tint * tiles.texture->mean();
+    const int t = both.add_material(tiles);
+    const Rgb k0(1, 0.5, 0.25), k1(0.5, 1, 0.5), k2(0.25, 0.5, 1);
+    both.add_object({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}}, {{{0, 1, 2}}}, t, "quad", -1, {}, {{Uv(0, 1), Uv(1, 1), Uv(1, 0)}},
+                    {{k0, k1, k2}});
+    both.finalize();
+    const Vec3 in_texel((2 + 0.5) / 4, 1.0 - (3 + 0.5) / 4, 0.0);  // texel (2, 3)'s centre
+    CHECK(both.albedo_at(0, in_texel)
+              .isApprox(tiles.tint * sixteen_at(2, 3) *
+                            interpolated(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), k0, k1, k2, in_texel),
+                        1e-12));
+    Rgb mean = Rgb::Zero();
+    const int n = 200;
+    int inside = 0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const Vec3 y((i + 0.5) / n, (j + 0.5) / n, 0.0);
+            if (y.y() > y.x()) continue;
+            mean += both.albedo_at(0, y), ++inside;
+        }
+    CHECK(both.albedo_of(0).isApprox(mean / inside, 0.01));
+}
