@@ -985,7 +985,13 @@ private:
         // COLOR_0, which multiplies the base colour (glTF 2.0, 3.7.2.1: VEC3 or VEC4 of
         // FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT; linear, alpha unread).
         std::optional<Elements> colours;
-        if (const auto c = prim.attributes.find("COLOR_0"); c != prim.attributes.end()) {
+        // An unlit material's colours are what it looks like, not what it reflects (a
+        // baked .glb's radiance): read as a white surface, as its base colour is.
+        const bool unlit = out.material < default_material_ &&
+                           model_.materials[static_cast<std::size_t>(out.material)].extensions.count("KHR_materials_unlit");
+        if (const auto c = prim.attributes.find("COLOR_0"); c != prim.attributes.end() && unlit) {
+            warn(at + ": COLOR_0 of an unlit material (KHR_materials_unlit) is its look, not its albedo: not read");
+        } else if (c != prim.attributes.end()) {
             colours = elements(c->second, at, "COLOR_0");
             const bool read = (colours->components == 3 || colours->components == 4) &&
                               (colours->component == TINYGLTF_COMPONENT_TYPE_FLOAT ||

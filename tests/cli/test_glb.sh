@@ -27,7 +27,7 @@ node "$src/tests/cli/validate_gltf.js" "$validator" "$src"/scenes/examples/gltf/
   || fail "an example asset does not validate"
 
 # Each solves and renders (small and short: what is checked is that they load and run).
-for asset in cornell-box.glb lamp-room.gltf suzanne.glb textured-room.glb; do
+for asset in cornell-box.glb lamp-room.gltf suzanne.glb textured-room.glb painted-room.glb; do
   if ! "$bin" solve "$src/scenes/examples/gltf/$asset" --patch-size 0.25 --iterations 100 --width 48 --height 48 \
        -o "${asset%%.*}.png" -q 2>err.txt; then
     fail "$asset does not solve: $(cat err.txt)"

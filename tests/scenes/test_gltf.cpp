@@ -688,6 +688,11 @@ TEST_CASE("baked glb: the patches with their radiance, COLOR_0 after the exposur
     // The reader reads it back: one triangle per patch, where the patches are.
     const MeshData back = parse_mesh(bytes, "glb", "lit.glb");
     CHECK(back.triangles.size() == scene.patch_count());
+    // Its COLOR_0 (its look: the material is unlit) is not read as an albedo.
+    CHECK(back.colours.empty());
+    CHECK(std::any_of(back.warnings.begin(), back.warnings.end(), [](const std::string& w) {
+        return w.find("COLOR_0 of an unlit material (KHR_materials_unlit) is its look, not its albedo") != std::string::npos;
+    }));
     REQUIRE(bytes.size() > 20);
     std::uint32_t json_length = 0;
     std::memcpy(&json_length, bytes.data() + 12, 4);
