@@ -15,7 +15,7 @@ The room (Blender: x, y in [-2, 2], z in [0, 2.5]; glTF: x, z in [-2, 2], y up) 
 inward box of a plain 0.7 grey (its floor 0.6). A 0.8 m box, turned 25 degrees about the
 vertical, stands on the floor, each of its eight corners a colour of its own (the faces'
 colours blend from corner to corner); Blender's monkey, subdivided twice and smooth
-(about 7,900 triangles), sits on the floor beside it, its colour a hue that turns
+(15,744 triangles), sits on the floor beside it, its colour a hue that turns
 around the vertical and brightens upwards. Both materials' base colour is the colour
 attribute: the exporter writes COLOR_0 (linear floats) with a base colour factor of 1,
 and glTF multiplies the two. A 1.2 m square panel 5 cm under the ceiling faces
