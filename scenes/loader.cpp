@@ -706,7 +706,8 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
         } else {
             return false;
         }
-        if (name.empty() || rest.find('[') == std::string::npos) return false;
+        // (materials.X[0]: X is no array; left to the document, which says so)
+        if (name.empty() || rest.empty() || rest[0] == '[' || rest.find('[') == std::string::npos) return false;
         if (materials_before.is_object() && materials_before.contains(name)) return false;
         if (std::any_of(overrides.begin(), overrides.end(), [&](const Override& w) {
                 return w.key == "materials." + name || w.key == "materials[\"" + name + "\"]";
@@ -772,7 +773,9 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     // An edit as a material of its own (an object names it before a mesh brings it, or
     // none does), which needs its albedo.
     const auto new_material = [&](const std::string& name, const std::string& why) {
-        const json& values = edits.at(name);
+        json values = edits.at(name);
+        if (const auto elements = element_edits.find(name); elements != element_edits.end())
+            for (const Override& o : elements->second) apply_override(values, o, shown);
         if (!values.contains("albedo"))
             throw SceneError(shown, material_setting(name),
                              "no material '" + name + "' for -D to change a value of: " + why +
@@ -801,21 +804,42 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
                                          o.given + ")");
                 }
             }
+        // Whether the settings give this value (whole, or one of its elements).
+        const auto touches = [&](const std::string& key) {
+            if (e->second.is_object() && e->second.contains(key)) return true;
+            const auto elements = element_edits.find(m.name);
+            return elements != element_edits.end() &&
+                   std::any_of(elements->second.begin(), elements->second.end(),
+                               [&](const Override& o) { return o.key.rfind(key + "[", 0) == 0; });
+        };
+        // The contraction check counts the albedo times the vertex colours' bound (a
+        // base colour of 1 that colours below 1 dim reflects less than it receives); the
+        // material keeps the albedo as set.
+        const Rgb bound = m.colour_bound;
+        json checked = merged;
+        std::optional<Rgb> albedo;
+        if (const json& a = merged["albedo"]; (bound < 1.0).any() && a.is_array() && a.size() == 3 &&
+                                               std::all_of(a.begin(), a.end(), [](const json& v) { return v.is_number(); })) {
+            albedo = Rgb(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+            checked["albedo"] = rgb(*albedo * bound);
+        }
         auto texture = m.texture;
         const Rgb tint = m.tint;
         const Eigen::Matrix2d uv_linear = m.uv_linear;
         const Uv uv_offset = m.uv_offset;
-        m = parse_material(Node(merged, shown, material_setting(m.name)), m.name);
+        m = parse_material(Node(checked, shown, material_setting(m.name)), m.name);
+        if (albedo) m.albedo = *albedo;
+        m.colour_bound = bound;
         // A texture stays unless the settings give the albedo (a colour in its place); its
         // brightest texels with the specular set may reach 1 at most.
-        if (texture && !(e->second.is_object() && e->second.contains("albedo"))) {
-            const Rgb most = tint * texture->image->brightest + m.specular;
+        if (texture && !touches("albedo")) {
+            const Rgb most = tint * texture->image->brightest * bound + m.specular;
             Eigen::Index k = 0;
             if (!(most.maxCoeff(&k) <= 1.0))
                 Node(merged, shown, material_setting(m.name))
                     .fail("", "its texture's brightest texels + specular = " + format_number(most[k]) + " in channel " +
                                   "rgb"[k] + " (must be at most 1 so that the light transport contracts: a specular of " +
-                                  "at most " + format_number(1.0 - (tint * texture->image->brightest)[k]) +
+                                  "at most " + format_number(1.0 - (tint * texture->image->brightest * bound)[k]) +
                                   " there, or an albedo in the texture's place)");
             m.texture = std::move(texture), m.tint = tint, m.uv_linear = uv_linear, m.uv_offset = uv_offset;
         }
@@ -1022,6 +1046,20 @@ Scene parse_document(const std::string& text, const std::string& shown, const st
     if (scene.mesh.n_faces() == 0) throw SceneError(shown, "objects", "the scene has no patches");
     if (limits.on_step) limits.on_step("normals");
     scene.finalize(limits.threads);
+    // A material kept at an albedo of 1 because vertex colours dim it (colour_bound) on
+    // a patch without colours would reflect all it receives.
+    if (std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) { return (m.colour_bound < 1.0).any(); }))
+        for (std::size_t i = 0; i < scene.patch_count(); ++i) {
+            const Material& m = scene.material_of(i);
+            Eigen::Index k = 0;
+            const double most = (scene.albedo_of(i) + m.specular).maxCoeff(&k);
+            if (most < 1.0) continue;
+            throw SceneError(shown, material_setting(m.name),
+                             "albedo + specular = " + format_number(most) + " in channel " + "rgb"[k] + " on " +
+                                 scene.object_names[static_cast<std::size_t>(scene.patch_list()[i].object)] +
+                                 ", which has no vertex colours to dim it (the mesh that brings it has them): give that "
+                                 "object a material of its own, or -D " + material_setting(m.name) + ".albedo=[r, g, b]");
+        }
     const bool cuts = !root.has("cut_contacts") || root.boolean("cut_contacts");
     refine(scene, root, shown, limits, cuts ? Finish::leave_mesh : Finish::finalize);  // the cuts finalize
     if (cuts) {
@@ -1134,7 +1172,25 @@ Scene load_model(const std::string& path, const Overrides& overrides, const Load
                 return o.key == key || o.key.rfind(key + "[", 0) == 0;
             });
         };
-        if ((given("camera.eye") || given("camera.target")) && !given("camera.up")) camera.erase("up");
+        if ((given("camera.eye") || given("camera.target")) && !given("camera.up")) {
+            // (unless the new view runs along y, where +y cannot be up: the node's up stays)
+            json probe = {{"camera", camera}};
+            bool along_y = false;
+            try {
+                for (const Override& o : overrides)
+                    if (o.key.rfind("camera.", 0) == 0) apply_override(probe, o, path);
+                const auto point = [](const json& v) {
+                    return v.is_array() && v.size() == 3 && v[0].is_number() && v[1].is_number() && v[2].is_number()
+                               ? Vec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>())
+                               : Vec3::Zero();
+                };
+                const Vec3 view = point(probe["camera"]["target"]) - point(probe["camera"]["eye"]);
+                along_y = view.norm() > 0.0 && Vec3::UnitY().cross(view).norm() <= 1e-9 * view.norm();
+            } catch (const SceneError&) {
+                // (the document's own parse says what is wrong)
+            }
+            if (!along_y) camera.erase("up");
+        }
     }
     // Its parts named "room.obj: Floor", as in a scene file's object named "room.obj".
     const json doc = {{"camera", camera}, {"objects", json::array({{{"mesh", name}, {"name", name}}})}};

@@ -329,6 +329,7 @@ std::string uri_decoded(const std::string& uri) {
 
 // Why an image file the asset names gave no bytes (tinygltf says only "File not found").
 std::string unread_image_why(const Files& files, const std::string& uri) {
+    if (uri.rfind("data:", 0) == 0) return "its data URI holds no image";
     if (!files.folder) return "'" + uri + "' is another file, and this glTF was read from memory";
     const std::string path = (std::filesystem::path(*files.folder) / uri_decoded(uri)).string();
     std::error_code ec;
@@ -578,6 +579,7 @@ private:
         out.two_sided = m.doubleSided;
         if (m.alphaMode == "BLEND" || m.alphaMode == "MASK")
             warn("material '" + name + "': alphaMode " + m.alphaMode + " is read as OPAQUE");
+        out.colour_bound = brightest_colour;
         if (const auto sum = keep_energy(out, brightest_colour))
             warn("material '" + name + "': " + (out.texture ? "its base colour texture's brightest texels reflect "
                                                             : "reflects ") +

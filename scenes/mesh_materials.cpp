@@ -119,7 +119,7 @@ Material from_mtl(const MtlMaterial& m, const std::string& file, const std::stri
                                number(m.kd[0]) + " " + number(m.kd[1]) + " " + number(m.kd[2]) + " is the colour");
         }
     }
-    if (const auto sum = mesh_detail::keep_energy(out))
+    if (const auto sum = mesh_detail::keep_energy(out, Rgb::Ones()))
         warnings.push_back(named + (out.texture ? ": its texture's brightest texels + Ks = " : ": Kd + Ks = ") +
                            number(sum->first) + " in channel " + "rgb"[sum->second] +
                            ": both scaled by " + number(0.99 / sum->first) + " (a surface reflects less than it receives)");
@@ -131,7 +131,8 @@ bool same_values(const Material& a, const Material& b) {
                                                            a.uv_linear == b.uv_linear && a.uv_offset == b.uv_offset
                                                      : !a.texture && !b.texture;
     return (a.albedo == b.albedo).all() && (a.emission == b.emission).all() && (a.specular == b.specular).all() &&
-           a.exponent == b.exponent && a.two_sided == b.two_sided && same_texture;
+           a.exponent == b.exponent && a.two_sided == b.two_sided && (a.colour_bound == b.colour_bound).all() &&
+           same_texture;
 }
 
 // The scene's index for material m, defined by the mesh `shown`: an earlier mesh's of

@@ -228,9 +228,11 @@ MeshData read_obj(std::istream& in, const std::string& shown) {
                     return add_polygon(data, vs, shown, where);
                 } catch (const SceneError& e) {
                     const std::string object = group >= 0 ? " (object " + data.groups[static_cast<std::size_t>(group)] + ")" : "";
+                    const bool advised = e.problem().find("triangulate") != std::string::npos;
                     throw SceneError(shown, where + object,
-                                     e.problem() + "; export the model triangulated (Blender: the OBJ exporter's "
-                                                   "Triangulated Mesh), or split the face into flat ones");
+                                     e.problem() + (advised ? "" : "; export the model triangulated (Blender: the OBJ "
+                                                                   "exporter's Triangulated Mesh), or split the face "
+                                                                   "into flat ones"));
                 }
             }();
             for (const auto& t : polygon) {

@@ -158,10 +158,12 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     if (has_colours)
         for (const int k : rgb) {
             const PlyProperty& p = vertex->properties[static_cast<std::size_t>(k)];
-            if (p.list() || (!p.type.real && p.type.bytes > 2))
+            if (p.list() || (!p.type.real && (p.type.bytes > 2 || p.type.is_signed)))
                 throw SceneError(shown, "header", "vertex colour " + p.name + " is " +
-                                                      (p.list() ? "a list" : "an integer of more than 16 bits") +
-                                                      " (a PLY colour is uchar, ushort or float)");
+                                                      (p.list()           ? "a list"
+                                                       : p.type.is_signed ? "a signed integer"
+                                                                          : "an integer of more than 16 bits") +
+                                                      " (a PLY colour is uchar, ushort, float or double)");
         }
     int indices = -1;
     if (face) {
@@ -177,6 +179,8 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     MeshData data;
     std::vector<Vec3> normals;
     std::vector<Rgb> colours;
+    long clamped_colours = 0;
+    std::string first_clamped;
     long zero_normals = 0;
     std::string first_zero;
     std::vector<std::vector<int>> faces;
@@ -249,7 +253,9 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
                     for (int k = 0; k < 3; ++k) {
                         const double v = row[static_cast<std::size_t>(rgb[k])];
                         if (!std::isfinite(v)) throw SceneError(shown, where(), "colour value " + std::to_string(v) + " is not finite");
-                        c[k] = ply_colour(v, vertex->properties[static_cast<std::size_t>(rgb[k])].type);
+                        const PlyType& type = vertex->properties[static_cast<std::size_t>(rgb[k])].type;
+                        if (type.real && !(v >= 0.0 && v <= 1.0) && clamped_colours++ == 0) first_clamped = where();
+                        c[k] = ply_colour(v, type);
                     }
                     colours.push_back(c);
                 }
@@ -268,6 +274,10 @@ MeshData read_ply(std::string_view content, const std::string& shown) {
     }
     if (zero_normals > 0) data.warnings.push_back(zero_normals_warning(shown, zero_normals, first_zero, "of zero length"));
     data.warnings.insert(data.warnings.end(), header_warnings.begin(), header_warnings.end());
+    if (clamped_colours > 0)
+        data.warnings.push_back(shown + ": " + std::to_string(clamped_colours) + " float colour value" +
+                                (clamped_colours == 1 ? "" : "s") + " outside 0..1 (the first at " + first_clamped +
+                                ") clamped");
     return data;
 }
 

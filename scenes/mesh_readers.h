@@ -200,7 +200,7 @@ MeshData read_gltf(std::string_view content, bool binary, const std::string& sho
 // surface reflects less than it receives) and returns the sum it had there and its
 // channel (0, 1, 2), for the caller's warning; nothing when neither was
 // (scenes/mesh_materials.cpp).
-std::optional<std::pair<double, int>> keep_energy(Material& m, const Rgb& brightest_colour = Rgb::Ones());
+std::optional<std::pair<double, int>> keep_energy(Material& m, const Rgb& brightest_colour);
 
 
 }  // namespace raybundle::scenes::mesh_detail

@@ -52,6 +52,11 @@ struct Material {
     // faces' (an MTL's map_Kd -o and -s).
     Eigen::Matrix2d uv_linear = Eigen::Matrix2d::Identity();
     Uv uv_offset = Uv::Zero();
+    // The most the vertex colours of its triangles multiply the albedo by (a glTF
+    // material whose every triangle has COLOR_0): what the energy checks count, so that
+    // a base colour of 1 dimmed by colours below 1 is kept. 1: no such bound (the loader
+    // refuses a patch without colours that would then reflect all it receives).
+    Rgb colour_bound = Rgb::Ones();
 
     bool glossy() const { return (specular > 0.0).any(); }
     bool emissive() const { return (emission > 0.0).any(); }

@@ -543,6 +543,8 @@ TEST_CASE("glTF: a file alone is a scene, its buffers beside it, in a scene file
     CHECK(load_scene(rolled_path, {{"camera.eye", "[0.5, 3, 9]"}}).camera.up == Vec3(0, 1, 0));
     CHECK(load_scene(rolled_path, {{"camera.target[0]", "1"}}).camera.up == Vec3(0, 1, 0));
     CHECK(load_scene(rolled_path, {{"camera.eye", "[0.5, 3, 9]"}, {"camera.up", "[1, 1, 0]"}}).camera.up == Vec3(1, 1, 0));
+    // Moved to look straight down, where +y cannot be up: the node's up stays.
+    CHECK(load_scene(rolled_path, {{"camera.eye", "[0.5, 9, 0]"}, {"camera.target", "[0.5, 0, 0]"}}).camera.up.isApprox(roll));
     // One value of its material: that value, the rest as the file has it.
     const Scene lit = load_scene(path, {{"materials.paint.emission", "[2, 2, 2]"}});
     CHECK(lit.materials[lit.find_material("paint")].albedo.isApprox(Rgb(0.5, 0.4, 0.3)));

@@ -628,6 +628,34 @@ TEST_CASE("glTF: COLOR_0 multiplies the base colour, interpolated across each tr
     const Scene kept = scene_of("white.glb", 0.25);
     CHECK(kept.warnings.empty());
     CHECK(kept.albedo_at(patch_at(kept, p1), p1).isApprox(Rgb(0, 200.0 / 255, 0), 1e-12));
+    // -D settings that change neither albedo nor specular keep that base colour of 1.
+    const Scene glowing = load_scene((dir.path / "white.glb").string(), {{"materials.paint.emission", "[0.5, 0.5, 0.5]"}});
+    const Material& paint = glowing.materials[static_cast<std::size_t>(glowing.find_material("paint"))];
+    CHECK(paint.albedo.isApprox(Rgb::Ones()));
+    CHECK(paint.emission.isApprox(Rgb::Constant(0.5)));
+    CHECK(glowing.albedo_at(patch_at(glowing, p1), p1).isApprox(Rgb(0, 200.0 / 255, 0), 1e-12));
+    // The contraction check counts the colours' bound (200/255 here): an albedo of 1.2
+    // reflects at most 0.94 and is taken, element by element too.
+    const Scene lifted = load_scene((dir.path / "white.glb").string(), {{"materials.paint.albedo[1]", "1.2"}});
+    CHECK(lifted.albedo_at(patch_at(lifted, p1), p1).isApprox(Rgb(0, 1.2 * 200.0 / 255, 0), 1e-12));
+    CHECK_THROWS_WITH(load_scene((dir.path / "white.glb").string(), {{"materials.paint.albedo[1]", "1.3"}}),
+                      Contains("albedo + specular = 1.019") && Contains("in channel g"));
+    // Named by an object without colours, such a material would reflect all it receives.
+    CHECK_THROWS_WITH(parse_scene(R"({"camera": {"eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0]},
+                                      "objects": [{"mesh": "white.glb"},
+                                                  {"triangle": [[0, 0, -1], [1, 0, -1], [0, 1, -1]], "material": "paint"}]})",
+                                  "s.json", dir.path.string()),
+                      Contains("s.json: materials.paint: albedo + specular = 1 in channel r on objects[1]") &&
+                          Contains("which has no vertex colours to dim it"));
+    // Mirrored (a negative scale turns the triangles round): the same colour at the
+    // mirrored point.
+    const Scene mirrored = parse_scene(R"({"camera": {"eye": [-0.5, 0.5, 2], "target": [-0.5, 0.5, 0]}, "patch_size": 0.25,
+                                           "objects": [{"mesh": "colours.glb", "scale": [-1, 1, 1]}]})",
+                                       "s.json", dir.path.string());
+    for (const Vec3& y : {Vec3(0.9, 0.05, 0), Vec3(0.3, 0.7, 0)}) {
+        const Vec3 image(-y.x(), y.y(), 0.0);
+        CHECK(mirrored.albedo_at(patch_at(mirrored, image), image).isApprox(scene.albedo_at(patch_at(scene, y), y), 1e-12));
+    }
     json vec2 = doc;
     vec2["accessors"][1]["type"] = "VEC2";
     dir.write("vec2.glb", raybundle::test::glb(vec2, bin));
@@ -636,7 +664,7 @@ TEST_CASE("glTF: COLOR_0 multiplies the base colour, interpolated across each tr
                                "UNSIGNED_SHORT"));
 }
 
-TEST_CASE("PLY: red, green, blue per vertex (sRGB) times the object's albedo; a texture times the colour",
+TEST_CASE("PLY: red, green, blue per vertex (sRGB) times the object's albedo, and a texture times the colour",
           "[scenes][texture][colour]") {
     TempDir dir;
     dir.write("scan.ply",
@@ -655,6 +683,12 @@ TEST_CASE("PLY: red, green, blue per vertex (sRGB) times the object's albedo; a 
               "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
               "property uchar red\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
               "0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2\n");
+    dir.write("signed.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+              "property char red\nproperty char green\nproperty char blue\nelement face 1\n"
+              "property list uchar int vertex_indices\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n");
+    CHECK_THROWS_WITH(read_mesh_file((dir.path / "signed.ply").string(), "signed.ply"),
+                      Contains("signed.ply: header: vertex colour red is a signed integer"));
     const MeshData half = read_mesh_file((dir.path / "half.ply").string(), "half.ply");
     CHECK(half.colours.empty());
     REQUIRE(half.warnings.size() == 1);
